@@ -1,0 +1,377 @@
+"""The acrobot swing-up task as a Gymnasium environment stepping MuJoCo."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from acrobot_mj.assets import load_model
+from acrobot_mj.params import AcrobotParams
+
+_REPORT = AcrobotParams()
+#: Velocity limits [rad/s] (the report, after Sutton and Barto), applied after every physics step.
+MAX_VEL1 = _REPORT.max_vel1
+MAX_VEL2 = _REPORT.max_vel2
+#: Torque [N m] of each discrete action.
+TORQUES = (-1.0, 0.0, 1.0)
+INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
+RESET_OPTIONS = ("start_noise",)
+
+_TWO_PI = 2.0 * math.pi
+_INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
+_TORQUE_OF = {i: t for i, t in enumerate(TORQUES)}
+_BAD_STATE_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+)
+
+
+def wrap_angle(angle: float) -> float:
+    """Wrap an angle [rad] into ``[-pi, pi)``."""
+    wrapped = (angle + math.pi) % _TWO_PI - math.pi
+    return wrapped - _TWO_PI if wrapped >= math.pi else wrapped
+
+
+def _check_int(name: str, value: Any, minimum: int, maximum: int | None = None) -> int:
+    if not isinstance(value, _INT_TYPES) or isinstance(value, bool):
+        raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
+    if value < minimum or (maximum is not None and value > maximum):
+        bound = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
+        raise ValueError(f"{name} must be {bound}, got {value}")
+    return int(value)
+
+
+def _check_float(
+    name: str, value: Any, minimum: float = -math.inf, maximum: float = math.inf
+) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value}")
+    if not minimum <= value <= maximum:
+        raise ValueError(f"{name} must be in [{minimum:g}, {maximum:g}], got {value:g}")
+    return value
+
+
+class AcrobotEnv(gym.Env[np.ndarray, Any]):
+    r"""The acrobot swing-up of the IND E 599 report, simulated by MuJoCo.
+
+    Two links hang from a passive shoulder on a bar; a motor at the elbow (the gymnast's hips)
+    applies a torque. The agent must swing the tip of link 2 above a line one link length over the
+    bar (Sutton and Barto's height goal). Physics and conventions: ``models/acrobot.xml`` and
+    ``DESIGN.md``; parameters: :class:`acrobot_mj.params.AcrobotParams` (l1 = l2 = 1 m,
+    lc1 = lc2 = 0.5 m, m1 = m2 = 1 kg, I1 = I2 = 1 kg m^2 about each centre of mass, g = 9.8).
+
+    ## Action Space
+    ``Discrete(3)``: the elbow torque, held for ``frame_skip`` physics steps.
+
+    | Num | Action                 | Unit |
+    |-----|------------------------|------|
+    | 0   | torque -1 on the elbow | N m  |
+    | 1   | torque 0               | N m  |
+    | 2   | torque +1 on the elbow | N m  |
+
+    With ``continuous=True`` it is ``Box(-1, 1, (1,), float32)``: the torque in N m. Actions
+    outside the space (3, -1, 1.5, NaN, a wrong type or shape) raise an error; nothing is clipped.
+
+    ## Observation Space
+    ``Box((4,), float64)``: angles in the report's convention (from the horizontal,
+    counter-clockwise positive, q2 relative to link 1), wrapped into [-pi, pi).
+
+    | Num | Observation                        | Min    | Max    | Unit  |
+    |-----|------------------------------------|--------|--------|-------|
+    | 0   | q1, angle of link 1 from +x        | -pi    | pi     | rad   |
+    | 1   | q2, angle of link 2 from link 1    | -pi    | pi     | rad   |
+    | 2   | dq1, shoulder angular velocity     | -4 pi  | 4 pi   | rad/s |
+    | 3   | dq2, elbow angular velocity        | -9 pi  | 9 pi   | rad/s |
+
+    Velocities are clipped to these limits after every physics step (the report's task).
+    Gymnasium's ``Acrobot-v1`` uses ``theta1 = q1 + pi/2``, ``theta2 = q2`` and the same torque
+    sign, and observes cos and sin of the angles instead.
+
+    ## Rewards
+    ``step_reward`` (-1) on every step and ``goal_reward`` (+100) instead on the step that reaches
+    the goal (the report).
+
+    ## Starting State
+    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)`` (the ``hanging`` keyframe). With
+    ``start_noise = s > 0`` each angle and velocity gets ``U(-s, s)`` added (from ``np_random``).
+
+    ## Episode End
+    - Termination: the tip is more than ``goal_height`` above the pivot, ``l1 sin(q1) +
+      l2 sin(q1 + q2) > goal_height`` (checked after each action's last physics step).
+    - Truncation: 1000 actions, by the ``TimeLimit`` that ``gymnasium.make`` adds.
+
+    ``info`` holds ``tip_height`` [m above the pivot] and ``is_success`` (the goal was reached).
+
+    ## Arguments
+    | Argument      | Default   | Meaning                                                         |
+    |---------------|-----------|-----------------------------------------------------------------|
+    | frame_skip    | 1         | physics steps (0.05 s each) per action; 4 gives 0.2 s decisions  |
+    | integrator    | "euler"   | MuJoCo's semi-implicit ``"euler"`` or ``"rk4"``                 |
+    | step_reward   | -1.0      | reward of a step that does not reach the goal                   |
+    | goal_reward   | 100.0     | reward of the step that reaches the goal                        |
+    | goal_height   | 1.0       | tip height above the pivot that ends the episode [m], < l1 + l2 |
+    | start_noise   | 0.0       | half-width of the uniform start noise [rad, rad/s], in [0, 1]   |
+    | continuous    | False     | ``Box(-1, 1, (1,))`` torques instead of ``Discrete(3)``         |
+    | render_mode   | None      | ``"rgb_array"`` (not available yet: it raises)                  |
+    | width, height | 480, 480  | frame size [pixels], at most the model's offscreen buffer       |
+    | camera        | "side"    | name of a camera in the model (``"side"`` or ``"wide"``)        |
+    | model_path    | None      | an MJCF file to use instead of the packaged ``scene.xml``       |
+
+    ``reset(options={"start_noise": s})`` overrides ``start_noise`` for that episode only.
+    ``env.unwrapped.model`` and ``env.unwrapped.data`` are the live ``MjModel`` and ``MjData``.
+    ``render_fps`` in ``metadata`` is ``1 / (timestep * frame_skip)``, real time.
+
+    ## Example
+    Golden values: ten +1 N m steps from rest, computed independently by the analytic model
+    (``acrobot_mj.integrators.simulate`` with semi-implicit Euler), rounded to 1e-9:
+
+    >>> import gymnasium as gym
+    >>> import acrobot_mj
+    >>> env = gym.make("acrobot_mj/Acrobot-v0")
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.tolist(), info
+    ([-1.5707963267948966, 0.0, 0.0, 0.0], {'tip_height': -2.0, 'is_success': False})
+    >>> for _ in range(10):
+    ...     obs, reward, terminated, truncated, info = env.step(2)
+    >>> [round(x, 9) for x in obs.tolist()], reward, terminated, truncated
+    ([-1.862426049, 0.752226807, -1.167922149, 3.220809609], -1.0, False, False)
+
+    ## Version History
+    - v0: first version: the report's task on MuJoCo (semi-implicit Euler, 0.05 s steps).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+
+    def __init__(
+        self,
+        frame_skip: int = 1,
+        integrator: str = "euler",
+        step_reward: float = -1.0,
+        goal_reward: float = 100.0,
+        goal_height: float = 1.0,
+        start_noise: float = 0.0,
+        continuous: bool = False,
+        render_mode: str | None = None,
+        width: int = 480,
+        height: int = 480,
+        camera: str = "side",
+        model_path: str | Path | None = None,
+    ) -> None:
+        self.frame_skip = _check_int("frame_skip", frame_skip, 1)
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+        self.integrator = integrator
+        self.step_reward = _check_float("step_reward", step_reward)
+        self.goal_reward = _check_float("goal_reward", goal_reward)
+        self.start_noise = _check_float("start_noise", start_noise, 0.0, 1.0)
+        if not isinstance(continuous, bool):
+            raise TypeError(f"continuous must be True or False, got {continuous!r}")
+        self.continuous = continuous
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+
+        self.model = load_model(model_path)
+        self.model.opt.integrator = INTEGRATORS[integrator]
+        self.data = mujoco.MjData(self.model)
+        self._ids()
+        self._l1, self._l2 = self._link_lengths()
+        self.goal_height = _check_float(
+            "goal_height", goal_height, -(self._l1 + self._l2), self._l1 + self._l2
+        )
+
+        offwidth, offheight = self.model.vis.global_.offwidth, self.model.vis.global_.offheight
+        self.width = _check_int("width", width, 1, offwidth)
+        self.height = _check_int("height", height, 1, offheight)
+        if (
+            not isinstance(camera, str)
+            or mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0
+        ):
+            names = [self.model.camera(i).name for i in range(self.model.ncam)]
+            raise ValueError(
+                f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
+            )
+        self.camera = camera
+        if render_mode is not None:
+            raise NotImplementedError(
+                f"render_mode={render_mode!r} is not available yet: offscreen rendering "
+                "(acrobot_mj/render.py, EGL or OSMesa) lands with the rendering issue; "
+                "use render_mode=None"
+            )
+        self.render_mode = render_mode
+
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
+        if continuous:
+            self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        else:
+            self.action_space = spaces.Discrete(len(TORQUES))
+        high = np.array([math.pi, math.pi, MAX_VEL1, MAX_VEL2])
+        self.observation_space = spaces.Box(-high, high, dtype=np.float64)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._hanging)
+
+    # -- set-up ----------------------------------------------------------------------------
+
+    def _ids(self) -> None:
+        """Resolve names to ids and cache views into ``data`` (redone after unpickling)."""
+        m, d = self.model, self.data
+        self._hanging = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "hanging")
+        joints = [m.joint(name) for name in ("shoulder", "elbow")]
+        qadr = [int(j.qposadr[0]) for j in joints]
+        dadr = [int(j.dofadr[0]) for j in joints]
+        if qadr != [0, 1] or dadr != [0, 1]:
+            raise ValueError(f"expected joints shoulder, elbow at qpos 0, 1; got {qadr}")
+        self._qpos, self._qvel = d.qpos, d.qvel
+        self._ctrl = d.ctrl[m.actuator("elbow_motor").id : m.actuator("elbow_motor").id + 1]
+        self._warnings = [d.warning[w] for w in _BAD_STATE_WARNINGS]
+
+    def _link_lengths(self) -> tuple[float, float]:
+        """l1, l2 [m] measured on the model: shoulder to elbow, elbow to the ``tip`` site."""
+        m = self.model
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        shoulder, elbow = d.xanchor[m.joint("shoulder").id], d.xanchor[m.joint("elbow").id]
+        tip = d.site_xpos[m.site("tip").id]
+        return float(np.linalg.norm(elbow - shoulder)), float(np.linalg.norm(tip - elbow))
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for key in ("_qpos", "_qvel", "_ctrl", "_warnings"):
+            state.pop(key)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._ids()
+
+    # -- the task --------------------------------------------------------------------------
+
+    @property
+    def dt(self) -> float:
+        """Time between actions [s]: ``timestep * frame_skip``."""
+        return self.model.opt.timestep * self.frame_skip
+
+    @property
+    def state(self) -> np.ndarray:
+        """The unwrapped state ``(q1, q2, dq1, dq2)`` [rad, rad/s], a copy."""
+        return np.concatenate([self._qpos, self._qvel])
+
+    def set_state(self, q: Any, dq: Any = (0.0, 0.0)) -> None:
+        """Put the acrobot at angles ``q`` [rad] with velocities ``dq`` [rad/s] (validated)."""
+        q, dq = np.asarray(q, dtype=np.float64), np.asarray(dq, dtype=np.float64)
+        if q.shape != (2,) or dq.shape != (2,):
+            raise ValueError(f"q and dq must have shape (2,), got {q.shape} and {dq.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+            raise ValueError(f"state must be finite, got q={q}, dq={dq}")
+        if abs(dq[0]) > MAX_VEL1 or abs(dq[1]) > MAX_VEL2:
+            raise ValueError(
+                f"dq={dq} exceeds the velocity limits ({MAX_VEL1:.4g}, {MAX_VEL2:.4g}) rad/s"
+            )
+        self._qpos[:] = q
+        self._qvel[:] = dq
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        noise = self.start_noise
+        if options:
+            unknown = sorted(set(options) - set(RESET_OPTIONS))
+            if unknown:
+                raise ValueError(f"unknown reset options {unknown}; known: {list(RESET_OPTIONS)}")
+            if "start_noise" in options:
+                noise = _check_float("start_noise", options["start_noise"], 0.0, 1.0)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._hanging)
+        if noise > 0.0:
+            self._qpos += self.np_random.uniform(-noise, noise, 2)
+            self._qvel += self.np_random.uniform(-noise, noise, 2)
+        obs, tip, _ = self._observe()
+        return obs, {"tip_height": tip, "is_success": False}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self._ctrl[0] = self._torque(action)
+        m, d, qvel = self.model, self.data, self._qvel
+        for _ in range(self.frame_skip):
+            mujoco.mj_step(m, d)
+            # Velocity limits of the task, after every physics step.
+            v1, v2 = qvel.tolist()
+            if v1 > MAX_VEL1 or v1 < -MAX_VEL1:
+                qvel[0] = MAX_VEL1 if v1 > 0 else -MAX_VEL1
+            if v2 > MAX_VEL2 or v2 < -MAX_VEL2:
+                qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
+        obs, tip, finite = self._observe()
+        bad_qpos, bad_qvel, bad_qacc = self._warnings
+        if not finite or bad_qpos.number or bad_qvel.number or bad_qacc.number:
+            self._raise_bad_state()
+        terminated = tip > self.goal_height
+        reward = self.goal_reward if terminated else self.step_reward
+        return obs, reward, terminated, False, {"tip_height": tip, "is_success": terminated}
+
+    def _observe(self) -> tuple[np.ndarray, float, bool]:
+        q1, q2 = self._qpos.tolist()
+        v1, v2 = self._qvel.tolist()
+        tip = self._l1 * math.sin(q1) + self._l2 * math.sin(q1 + q2)
+        # Wrap angles into [-pi, pi) (inline wrap_angle: this is the hot path).
+        w1 = (q1 + math.pi) % _TWO_PI - math.pi
+        w2 = (q2 + math.pi) % _TWO_PI - math.pi
+        if w1 >= math.pi or w2 >= math.pi:
+            w1, w2 = wrap_angle(q1), wrap_angle(q2)
+        obs = np.array((w1, w2, v1, v2))
+        return obs, tip, math.isfinite(q1 + q2 + v1 + v2)
+
+    def _raise_bad_state(self) -> None:
+        reported = [
+            f"{w.name.removeprefix('mjWARN_')} (last at index {self.data.warning[w].lastinfo})"
+            for w in _BAD_STATE_WARNINGS
+            if self.data.warning[w].number
+        ]
+        raise RuntimeError(
+            "the simulation reached a non-finite or huge state"
+            + (f"; MuJoCo reported {', '.join(reported)} and reset its data" if reported else "")
+            + f"; state now {self.state.tolist()}. Call reset() before stepping again."
+        )
+
+    def _torque(self, action: Any) -> float:
+        """The elbow torque [N m] of ``action``; raises on anything outside the action space."""
+        if not self.continuous:
+            if action.__class__ in _INT_TYPES:
+                torque = _TORQUE_OF.get(action)
+                if torque is not None:
+                    return torque
+                raise ValueError(
+                    f"action {action} is outside Discrete(3): use 0 (-1 N m), "
+                    "1 (0 N m) or 2 (+1 N m)"
+                )
+            if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu":
+                return self._torque(action.item())
+            raise TypeError(
+                f"action must be an integer 0, 1 or 2, got {action!r} ({type(action).__name__})"
+            )
+        try:
+            array = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise TypeError(
+                f"action must be a float array of shape (1,), got {action!r}"
+            ) from error
+        if array.shape != (1,):
+            raise ValueError(f"action must have shape (1,), got shape {array.shape}: {action!r}")
+        torque = float(array[0])
+        if not -1.0 <= torque <= 1.0:  # also refuses NaN
+            raise ValueError(f"action {torque} N m is outside the torque range [-1, 1] N m")
+        return torque
+
+    def render(self) -> None:
+        """No frames yet: ``render_mode=None`` is the only mode available (Gymnasium's no-op)."""
+        gym.logger.warn("render() called with render_mode=None: nothing is rendered")
+        return None

@@ -1,0 +1,60 @@
+"""Physical parameters of the acrobot, in the report's symbols.
+
+Every field carries its unit and its source in ``dataclasses.fields(AcrobotParams)[i].metadata``
+(keys ``"unit"`` and ``"source"``). The defaults are the report's table (IND E 599, "Reinforcement
+Learning for Swing-Up Control of Acrobot", itself from Sutton and Barto); ``models/acrobot.xml``
+holds the same numbers and ``tests/test_model.py`` ties the two together.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+_REPORT = "report, parameter table"
+_SUTTON_BARTO = "Sutton and Barto (1998/2018), acrobot; Gymnasium Acrobot-v1"
+
+
+def _param(default: float, unit: str, source: str, doc: str) -> float:
+    return field(default=default, metadata={"unit": unit, "source": source, "doc": doc})
+
+
+@dataclass(frozen=True)
+class AcrobotParams:
+    """The acrobot's physical and task constants (SI units; see each field's metadata)."""
+
+    l1: float = _param(1.0, "m", _REPORT, "length of link 1 (shoulder to elbow)")
+    l2: float = _param(1.0, "m", _REPORT, "length of link 2 (elbow to tip)")
+    lc1: float = _param(0.5, "m", _REPORT, "shoulder to centre of mass of link 1")
+    lc2: float = _param(0.5, "m", _REPORT, "elbow to centre of mass of link 2")
+    m1: float = _param(1.0, "kg", _REPORT, "mass of link 1")
+    m2: float = _param(1.0, "kg", _REPORT, "mass of link 2")
+    I1: float = _param(1.0, "kg m^2", _REPORT, "inertia of link 1 about its centre of mass")
+    I2: float = _param(1.0, "kg m^2", _REPORT, "inertia of link 2 about its centre of mass")
+    g: float = _param(9.8, "m/s^2", _SUTTON_BARTO, "gravitational acceleration")
+    max_torque: float = _param(1.0, "N m", _REPORT, "elbow torque limit, |tau| <= max_torque")
+    max_vel1: float = _param(4 * math.pi, "rad/s", _REPORT, "shoulder speed limit |dq1|")
+    max_vel2: float = _param(9 * math.pi, "rad/s", _REPORT, "elbow speed limit |dq2|")
+    dt: float = _param(0.05, "s", _REPORT, "physics time step")
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise TypeError(f"AcrobotParams.{f.name} must be a number, got {value!r}")
+            if not math.isfinite(value) or value <= 0:
+                raise ValueError(
+                    f"AcrobotParams.{f.name} must be finite and > 0 [{f.metadata['unit']}], "
+                    f"got {value!r}"
+                )
+
+
+def describe(params: AcrobotParams | None = None) -> str:
+    """A table of the parameters with units and sources, one line per field."""
+    params = params or AcrobotParams()
+    rows = [
+        f"{f.name:<10} {getattr(params, f.name):<10.6g} {f.metadata['unit']:<7} "
+        f"{f.metadata['doc']} ({f.metadata['source']})"
+        for f in fields(params)
+    ]
+    return "\n".join(rows)
