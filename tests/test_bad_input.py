@@ -1,0 +1,160 @@
+"""Bad input gets a clear error that names the problem; nothing is silently clipped."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import acrobot_mj
+from acrobot_mj.assets import load_model
+from acrobot_mj.env import AcrobotEnv
+
+
+@pytest.fixture
+def env() -> AcrobotEnv:
+    env = AcrobotEnv()
+    env.reset(seed=0)
+    return env
+
+
+@pytest.mark.parametrize(
+    ("action", "error", "match"),
+    [
+        (3, ValueError, "outside Discrete"),
+        (-1, ValueError, "outside Discrete"),
+        (np.int64(7), ValueError, "outside Discrete"),
+        (1.5, TypeError, "must be an integer"),
+        (1.0, TypeError, "must be an integer"),
+        (math.nan, TypeError, "must be an integer"),
+        (True, TypeError, "must be an integer"),
+        ("1", TypeError, "must be an integer"),
+        (None, TypeError, "must be an integer"),
+        (np.array([1]), TypeError, "must be an integer"),
+        (np.array(1.0), TypeError, "must be an integer"),
+    ],
+)
+def test_discrete_actions_outside_the_space(env, action, error, match) -> None:
+    before = env.state
+    with pytest.raises(error, match=match):
+        env.step(action)
+    np.testing.assert_array_equal(env.state, before)  # nothing was stepped
+
+
+@pytest.mark.parametrize("action", [0, 1, 2, np.int64(2), np.int32(0), np.array(1)])
+def test_discrete_actions_inside_the_space(env, action) -> None:
+    env.step(action)
+
+
+@pytest.mark.parametrize(
+    ("action", "error", "match"),
+    [
+        (np.array([1.5]), ValueError, "outside the torque range"),
+        (np.array([-1.0001]), ValueError, "outside the torque range"),
+        (np.array([np.nan]), ValueError, "outside the torque range"),
+        (np.array([np.inf]), ValueError, "outside the torque range"),
+        (np.array([0.1, 0.2]), ValueError, "shape"),
+        (np.array(0.5), ValueError, "shape"),
+        (0.5, ValueError, "shape"),
+        ("a", TypeError, "float array"),
+        (None, TypeError, "float array"),
+    ],
+)
+def test_continuous_actions_outside_the_space(action, error, match) -> None:
+    env = AcrobotEnv(continuous=True)
+    env.reset()
+    with pytest.raises(error, match=match):
+        env.step(action)
+    assert env.data.ctrl[0] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"frame_skip": 0}, ValueError, "frame_skip"),
+        ({"frame_skip": -2}, ValueError, "frame_skip"),
+        ({"frame_skip": 1.5}, TypeError, "frame_skip"),
+        ({"integrator": "implicit"}, ValueError, "integrator"),
+        ({"step_reward": math.nan}, ValueError, "step_reward"),
+        ({"goal_reward": "big"}, TypeError, "goal_reward"),
+        ({"goal_height": 2.5}, ValueError, "goal_height"),
+        ({"goal_height": math.inf}, ValueError, "goal_height"),
+        ({"start_noise": -0.1}, ValueError, "start_noise"),
+        ({"start_noise": 2.0}, ValueError, "start_noise"),
+        ({"continuous": 1}, TypeError, "continuous"),
+        ({"render_mode": "human"}, ValueError, "render_mode"),
+        ({"render_mode": "rgb_array"}, NotImplementedError, "rendering"),
+        ({"width": 0}, ValueError, "width"),
+        ({"height": 10_000}, ValueError, "height"),
+        ({"camera": "top"}, ValueError, "camera"),
+        ({"frameskip": 4}, TypeError, "frameskip"),
+    ],
+)
+def test_invalid_options(kwargs, error, match) -> None:
+    with pytest.raises(error, match=match):
+        AcrobotEnv(**kwargs)
+
+
+def test_unknown_keyword_through_make() -> None:
+    with pytest.raises(TypeError, match="colour"):
+        gym.make(acrobot_mj.ENV_ID, colour="red")
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "match"),
+    [
+        ({"noise": 0.1}, ValueError, "unknown reset options"),
+        ({"start_noise": -1.0}, ValueError, "start_noise"),
+        ({"start_noise": math.nan}, ValueError, "start_noise"),
+    ],
+)
+def test_invalid_reset_options(env, options, error, match) -> None:
+    with pytest.raises(error, match=match):
+        env.reset(options=options)
+
+
+def test_missing_model_file(tmp_path) -> None:
+    missing = tmp_path / "nowhere.xml"
+    with pytest.raises(FileNotFoundError, match=r"nowhere\.xml"):
+        AcrobotEnv(model_path=missing)
+
+
+def test_malformed_model_file(tmp_path) -> None:
+    bad = tmp_path / "broken.xml"
+    bad.write_text("<mujoco><worldbody><body></mujoco>")
+    with pytest.raises(ValueError, match=r"broken\.xml"):
+        load_model(bad)
+
+
+def test_model_that_is_not_an_acrobot(tmp_path) -> None:
+    other = tmp_path / "pendulum.xml"
+    other.write_text(
+        "<mujoco><worldbody><body><joint name='hinge'/><geom size='0.1'/></body></worldbody>"
+        "</mujoco>"
+    )
+    with pytest.raises(ValueError, match=r"lacks body 'link1'.*joint 'shoulder'"):
+        AcrobotEnv(model_path=other)
+
+
+@pytest.mark.parametrize(
+    ("q", "dq", "match"),
+    [
+        ([math.nan, 0.0], [0.0, 0.0], "finite"),
+        ([0.0, 0.0], [0.0, math.inf], "finite"),
+        ([0.0], [0.0, 0.0], "shape"),
+        ([0.0, 0.0], [100.0, 0.0], "velocity limits"),
+    ],
+)
+def test_set_state_refuses_bad_states(env, q, dq, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        env.set_state(q, dq)
+
+
+def test_nan_state_in_data_is_reported_not_hidden(env) -> None:
+    # Writing NaN into MjData directly bypasses set_state; MuJoCo then resets its data with a
+    # warning. The env must raise instead of continuing from the silently reset state.
+    env.data.qvel[0] = math.nan
+    with pytest.raises(RuntimeError, match=r"non-finite.*BADQVEL"):
+        env.step(1)

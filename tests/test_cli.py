@@ -1,0 +1,51 @@
+"""CLI smoke tests with tiny budgets, through the real console entry point's main()."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from acrobot_mj.cli import main
+
+
+def test_demo_pump_reaches_the_goal_and_writes_json(tmp_path, capsys) -> None:
+    out = tmp_path / "demo.json"
+    assert main(["demo", "--policy", "pump", "--json", str(out)]) == 0
+    assert "reached the goal after 300 actions" in capsys.readouterr().out
+    record = json.loads(out.read_text())
+    assert record["episode_lengths"] == [300] and record["episode_successes"] == [True]
+    assert record["episode_returns"] == [-199.0]  # 299 steps of -1, then +100
+    assert record["config"]["policy"] == "pump" and "mujoco" in record["versions"]
+    assert len(record["episodes"][0]["states"]) == 301
+
+
+def test_demo_random_is_seeded(tmp_path) -> None:
+    runs = []
+    for name in ("a", "b"):
+        path = tmp_path / f"{name}.json"
+        main(["demo", "--policy", "random", "--steps", "50", "--seed", "3", "--json", str(path)])
+        runs.append(json.loads(path.read_text())["episodes"])
+    assert runs[0] == runs[1]
+    assert runs[0][0]["length"] == 50
+
+
+def test_params_table(capsys) -> None:
+    main(["params"])
+    assert "kg m^2" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["demo", "--steps", "0"],
+        ["demo", "--policy", "best"],
+        ["fly"],
+        ["demo", "--frame-skip", "x"],
+    ],
+)
+def test_bad_arguments_exit_with_usage(argv, capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    assert "error" in capsys.readouterr().err

@@ -1,0 +1,225 @@
+"""The Gymnasium environment: API conformance, the task of DESIGN.md section 3, determinism."""
+
+from __future__ import annotations
+
+import copy
+import math
+import pickle
+import warnings
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import acrobot_mj
+from acrobot_mj import integrators
+from acrobot_mj.env import MAX_VEL1, MAX_VEL2, AcrobotEnv, wrap_angle
+
+HANGING = [-math.pi / 2, 0.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{}, {"continuous": True}, {"frame_skip": 4}, {"integrator": "rk4", "start_noise": 0.1}],
+)
+def test_check_env_passes_without_warnings(kwargs) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(AcrobotEnv(**kwargs), skip_render_check=True)
+
+
+def test_registered_with_time_limit() -> None:
+    spec = gym.spec(acrobot_mj.ENV_ID)
+    assert spec.max_episode_steps == 1000
+    env = gym.make(acrobot_mj.ENV_ID, frame_skip=4)
+    assert isinstance(env.unwrapped, AcrobotEnv) and env.unwrapped.frame_skip == 4
+    assert isinstance(env.unwrapped.model, mujoco.MjModel)
+    assert isinstance(env.unwrapped.data, mujoco.MjData)
+
+
+def test_spaces_and_metadata() -> None:
+    env = AcrobotEnv()
+    assert env.action_space == gym.spaces.Discrete(3)
+    assert env.observation_space.dtype == np.float64
+    np.testing.assert_array_equal(
+        env.observation_space.high, [math.pi, math.pi, 4 * math.pi, 9 * math.pi]
+    )
+    assert env.metadata["render_fps"] == pytest.approx(20.0, rel=1e-15)  # 1 / 0.05 s
+    assert AcrobotEnv(frame_skip=4).metadata["render_fps"] == pytest.approx(5.0, rel=1e-15)
+    assert AcrobotEnv.metadata["render_fps"] == 20  # class default untouched by instances
+    cont = AcrobotEnv(continuous=True)
+    assert cont.action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+
+def test_reset_is_exactly_hanging_at_rest() -> None:
+    env = AcrobotEnv()
+    for seed in (None, 0, 123):
+        env.step(2)
+        obs, info = env.reset(seed=seed)
+        assert obs.dtype == np.float64
+        assert obs.tolist() == HANGING
+        assert env.data.qpos.tolist() == HANGING[:2] and env.data.qvel.tolist() == [0.0, 0.0]
+        assert env.data.time == 0.0 and env.data.ctrl[0] == 0.0
+        assert info == {"tip_height": -2.0, "is_success": False}
+
+
+def test_start_noise_option() -> None:
+    env = AcrobotEnv(start_noise=0.1)
+    obs, _ = env.reset(seed=1)
+    assert np.all(np.abs(obs - HANGING) <= 0.1) and np.any(obs != HANGING)
+    obs, _ = env.reset(seed=1, options={"start_noise": 0.0})
+    assert obs.tolist() == HANGING
+    plain = AcrobotEnv()
+    obs, _ = plain.reset(seed=1, options={"start_noise": 0.1})
+    np.testing.assert_array_equal(obs, env.reset(seed=1)[0])
+    assert plain.reset()[0].tolist() == HANGING  # the option lasts one episode
+
+
+def _rollout(env, seed: int, steps: int = 300) -> list:
+    obs, _ = env.reset(seed=seed)
+    env.action_space.seed(seed)
+    out = [obs]
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        out += [obs, reward, terminated, truncated, info]
+        if terminated or truncated:
+            obs, _ = env.reset()
+    return out
+
+
+def _identical(a: list, b: list) -> bool:
+    return all(
+        np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+        for x, y in zip(a, b, strict=True)
+    )
+
+
+def test_same_seed_same_rollout_bit_for_bit() -> None:
+    a = _rollout(gym.make(acrobot_mj.ENV_ID, start_noise=0.1), seed=7)
+    b = _rollout(gym.make(acrobot_mj.ENV_ID, start_noise=0.1), seed=7)
+    c = _rollout(gym.make(acrobot_mj.ENV_ID, start_noise=0.1), seed=8)
+    assert _identical(a, b)
+    assert not _identical(a, c)
+
+
+@pytest.mark.parametrize("clone", [lambda e: pickle.loads(pickle.dumps(e)), copy.deepcopy])
+def test_pickle_and_deepcopy_round_trip(clone) -> None:
+    env = AcrobotEnv(frame_skip=2, start_noise=0.05)
+    env.reset(seed=3)
+    for action in (2, 2, 0):
+        env.step(action)
+    twin = clone(env)
+    assert twin.model is not env.model and twin.data is not env.data
+    np.testing.assert_array_equal(twin.state, env.state)
+    for action in (0, 1, 2, 2, 0):  # the clone steps exactly like the original
+        a, b = env.step(action), twin.step(action)
+        assert _identical(list(a), list(b))
+    # Its cached views point into its own data, not a copy: stepping moves twin.data.
+    before = twin.data.qpos.copy()
+    twin.step(2)
+    assert not np.array_equal(before, twin.data.qpos)
+    assert _identical(list(env.reset(seed=9)), list(twin.reset(seed=9)))
+
+
+def test_reaching_the_goal_terminates_with_goal_reward() -> None:
+    env = AcrobotEnv()
+    env.reset()
+    env.set_state([math.pi / 2 - 0.1, 0.0])  # tip at 2 cos(0.1) = 1.99 m, above the 1 m line
+    _obs, reward, terminated, truncated, info = env.step(1)
+    assert (reward, terminated, truncated, info["is_success"]) == (100.0, True, False, True)
+    assert info["tip_height"] > 1.0
+    env.reset()
+    _, reward, terminated, _, info = env.step(1)
+    assert (reward, terminated, info["is_success"]) == (-1.0, False, False)
+
+
+def test_goal_threshold_is_strictly_above_goal_height() -> None:
+    # The tip height after the step decides: just below the line -> no goal; just above -> goal.
+    for goal_height, expected in [(0.5, True), (1.9, False)]:
+        env = AcrobotEnv(goal_height=goal_height, step_reward=-2.0, goal_reward=7.0)
+        env.reset()
+        env.set_state([0.0, math.pi / 2])  # tip at (1, 1): 1 m above the pivot, at rest
+        _, reward, terminated, _, info = env.step(1)
+        assert info["tip_height"] == pytest.approx(1.0, abs=0.05)  # moved a little in 0.05 s
+        assert terminated is expected and reward == (7.0 if expected else -2.0)
+
+
+def test_truncation_at_1000_steps_through_make() -> None:
+    env = gym.make(acrobot_mj.ENV_ID)
+    env.reset(seed=0)
+    for step in range(1, 1001):
+        _, reward, terminated, truncated, _ = env.step(1)  # no torque: stays hanging
+        assert not terminated and reward == -1.0
+        assert truncated == (step == 1000)
+
+
+def test_velocities_are_clipped_after_every_physics_step() -> None:
+    # Folded (q2 = pi) and spinning at both limits in opposite senses: the analytic model says
+    # each of the three physics steps pushes both speeds past their limits.
+    q, dq = [0.0, math.pi], [-MAX_VEL1, MAX_VEL2]
+    x = np.array([*q, *dq])
+    clipped_each_step = []
+    for _ in range(3):
+        unclipped = integrators.semi_implicit_euler_step(x, 1.0)
+        clipped_each_step.append(abs(unclipped[2]) > MAX_VEL1 and abs(unclipped[3]) > MAX_VEL2)
+        x = integrators.clip_velocity(unclipped)
+    assert all(clipped_each_step)
+
+    env = AcrobotEnv(frame_skip=3)
+    env.reset()
+    env.set_state(q, dq)
+    obs, *_ = env.step(2)
+    assert obs[2] == -MAX_VEL1 and obs[3] == MAX_VEL2  # pinned at the limits, exactly
+    # The positions integrate the clipped velocities of every physics step, as in the analytic
+    # model (1e-12: one-step rounding, see test_crosscheck).
+    np.testing.assert_allclose(env.state, x, atol=1e-12)
+
+
+def test_angles_are_wrapped() -> None:
+    env = AcrobotEnv()
+    env.reset()
+    env.set_state([3 * math.pi + 0.25, -5 * math.pi - 0.5])
+    obs, *_ = env.step(1)
+    assert np.all(obs[:2] >= -math.pi) and np.all(obs[:2] < math.pi)
+    assert math.cos(obs[0]) == pytest.approx(math.cos(env.state[0]), abs=1e-12)
+    assert math.sin(obs[1]) == pytest.approx(math.sin(env.state[1]), abs=1e-12)
+    # The edge cases of wrap_angle: the interval is half-open.
+    assert wrap_angle(math.pi) == -math.pi
+    assert wrap_angle(-math.pi) == -math.pi
+    assert wrap_angle(-1e-17) < math.pi
+    assert wrap_angle(2 * math.pi + 1.0) == pytest.approx(1.0, abs=1e-15)
+
+
+def test_frame_skip_repeats_the_action() -> None:
+    one, four = AcrobotEnv(), AcrobotEnv(frame_skip=4)
+    one.reset()
+    four.reset()
+    for _ in range(4):
+        one.step(2)
+    four.step(2)
+    np.testing.assert_array_equal(one.state, four.state)
+    assert four.dt == pytest.approx(0.2, rel=1e-15)
+
+
+def test_rk4_option_steps_mujoco_rk4() -> None:
+    env = AcrobotEnv(integrator="rk4")
+    assert env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    env.reset()
+    obs, *_ = env.step(2)
+    expected = integrators.rk4_step(HANGING, 1.0)
+    np.testing.assert_allclose(obs, expected, atol=1e-12)  # one-step rounding, see crosscheck
+
+
+def test_continuous_actions_apply_the_torque() -> None:
+    env = AcrobotEnv(continuous=True)
+    env.reset()
+    obs, *_ = env.step(np.array([0.25], dtype=np.float32))
+    assert env.data.ctrl[0] == 0.25
+    np.testing.assert_allclose(obs, integrators.semi_implicit_euler_step(HANGING, 0.25), atol=1e-12)
+
+
+def test_models_are_independent_per_instance() -> None:
+    a, b = AcrobotEnv(integrator="rk4"), AcrobotEnv()
+    assert a.model.opt.integrator != b.model.opt.integrator
