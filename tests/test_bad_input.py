@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import math
+import shutil
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 
 import acrobot_mj
-from acrobot_mj.assets import load_model
+from acrobot_mj.assets import load_model, models_dir
 from acrobot_mj.env import AcrobotEnv
 
 
@@ -58,6 +60,8 @@ def test_discrete_actions_inside_the_space(env, action) -> None:
         (np.array([0.1, 0.2]), ValueError, "shape"),
         (np.array(0.5), ValueError, "shape"),
         (0.5, ValueError, "shape"),
+        (1, ValueError, "shape"),  # a Discrete action given to the continuous env
+        (np.int64(2), ValueError, "shape"),
         ("a", TypeError, "float array"),
         (None, TypeError, "float array"),
     ],
@@ -152,9 +156,20 @@ def test_set_state_refuses_bad_states(env, q, dq, match) -> None:
         env.set_state(q, dq)
 
 
-def test_nan_state_in_data_is_reported_not_hidden(env) -> None:
-    # Writing NaN into MjData directly bypasses set_state; MuJoCo then resets its data with a
-    # warning. The env must raise instead of continuing from the silently reset state.
+@pytest.mark.parametrize("autoreset_in_file", [False, True])
+def test_nan_state_in_data_is_reported_not_hidden(tmp_path, autoreset_in_file) -> None:
+    # Writing NaN into MjData directly bypasses set_state. MuJoCo would reset its data with a
+    # warning and carry on from qpos0; the env turns autoreset off (also for a model file that
+    # leaves it on) and raises instead. Straight after reset is the hardest case to notice.
+    path = None
+    if autoreset_in_file:
+        shutil.copytree(models_dir(), tmp_path / "models")
+        robot = tmp_path / "models" / "acrobot.xml"
+        robot.write_text(robot.read_text().replace('autoreset="disable"', ""))
+        path = tmp_path / "models" / "scene.xml"
+        assert not load_model(path).opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    env = AcrobotEnv(model_path=path)
+    env.reset(seed=0)
     env.data.qvel[0] = math.nan
     with pytest.raises(RuntimeError, match=r"non-finite.*BADQVEL"):
         env.step(1)

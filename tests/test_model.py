@@ -60,7 +60,11 @@ def test_model_matches_params(name: str, params: AcrobotParams) -> None:
     np.testing.assert_array_equal(model.opt.gravity, [0, 0, -params.g])
     assert model.opt.timestep == params.dt
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
-    for flag in (mujoco.mjtDisableBit.mjDSBL_CONSTRAINT, mujoco.mjtDisableBit.mjDSBL_CONTACT):
+    for flag in (
+        mujoco.mjtDisableBit.mjDSBL_CONSTRAINT,
+        mujoco.mjtDisableBit.mjDSBL_CONTACT,
+        mujoco.mjtDisableBit.mjDSBL_AUTORESET,
+    ):
         assert model.opt.disableflags & flag, flag.name
 
     motor = model.actuator("elbow_motor")
