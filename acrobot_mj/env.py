@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +26,10 @@ INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtInteg
 RESET_OPTIONS = ("start_noise",)
 
 _TWO_PI = 2.0 * math.pi
+#: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
+_HUGE = 1e10
+#: set_state refuses larger angles [rad]: at 1e6 rad a double resolves 1e-10 rad, no finer.
+_MAX_ANGLE = 1e6
 _INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
 _TORQUE_OF = {i: t for i, t in enumerate(TORQUES)}
 _BAD_STATE_WARNINGS = (
@@ -40,7 +46,7 @@ def wrap_angle(angle: float) -> float:
 
 
 def _check_int(name: str, value: Any, minimum: int, maximum: int | None = None) -> int:
-    if not isinstance(value, _INT_TYPES) or isinstance(value, bool):
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool):
         raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
     if value < minimum or (maximum is not None and value > maximum):
         bound = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
@@ -175,22 +181,24 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         camera: str = "side",
         model_path: str | Path | None = None,
     ) -> None:
-        self.frame_skip = _check_int("frame_skip", frame_skip, 1)
-        if integrator not in INTEGRATORS:
+        self._frame_skip = _check_int("frame_skip", frame_skip, 1)
+        if not isinstance(integrator, str) or integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
-        self.integrator = integrator
+        self._integrator = integrator
         self.step_reward = _check_float("step_reward", step_reward)
         self.goal_reward = _check_float("goal_reward", goal_reward)
         self.start_noise = _check_float("start_noise", start_noise, 0.0, 1.0)
         if not isinstance(continuous, bool):
             raise TypeError(f"continuous must be True or False, got {continuous!r}")
-        self.continuous = continuous
+        self._continuous = continuous
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
 
+        if model_path is not None and not isinstance(model_path, (str, os.PathLike)):
+            raise TypeError(f"model_path must be a path to an MJCF file, got {model_path!r}")
         self.model = load_model(model_path)
         self.model.opt.integrator = INTEGRATORS[integrator]
         # Whatever the file says: a NaN state must stay visible (step raises), not be reset away.
@@ -198,9 +206,13 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self.data = mujoco.MjData(self.model)
         self._ids()
         self._l1, self._l2 = self._link_lengths()
-        self.goal_height = _check_float(
-            "goal_height", goal_height, -(self._l1 + self._l2), self._l1 + self._l2
-        )
+        reach = self._l1 + self._l2
+        self.goal_height = _check_float("goal_height", goal_height, -reach, reach)
+        if abs(self.goal_height) == reach:
+            raise ValueError(
+                f"goal_height must be strictly inside (-{reach:g}, {reach:g}) m: "
+                f"at {self.goal_height:g} m the goal is never or always reached"
+            )
 
         offwidth, offheight = self.model.vis.global_.offwidth, self.model.vis.global_.offheight
         self.width = _check_int("width", width, 1, offwidth)
@@ -268,10 +280,15 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
 
     # -- the task --------------------------------------------------------------------------
 
+    # Read-only: the spaces, metadata and model are built from them at construction.
+    frame_skip = property(lambda self: self._frame_skip, doc="Physics steps per action.")
+    integrator = property(lambda self: self._integrator, doc='"euler" or "rk4".')
+    continuous = property(lambda self: self._continuous, doc="Box actions instead of Discrete.")
+
     @property
     def dt(self) -> float:
         """Time between actions [s]: ``timestep * frame_skip``."""
-        return self.model.opt.timestep * self.frame_skip
+        return self.model.opt.timestep * self._frame_skip
 
     @property
     def state(self) -> np.ndarray:
@@ -285,6 +302,11 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             raise ValueError(f"q and dq must have shape (2,), got {q.shape} and {dq.shape}")
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
             raise ValueError(f"state must be finite, got q={q}, dq={dq}")
+        if np.any(np.abs(q) > _MAX_ANGLE):
+            raise ValueError(
+                f"angles q={q} rad are beyond +-{_MAX_ANGLE:g} rad, where they lose "
+                "precision; wrap them into [-pi, pi) first"
+            )
         if abs(dq[0]) > MAX_VEL1 or abs(dq[1]) > MAX_VEL2:
             raise ValueError(
                 f"dq={dq} exceeds the velocity limits ({MAX_VEL1:.4g}, {MAX_VEL2:.4g}) rad/s"
@@ -297,6 +319,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         noise = self.start_noise
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"reset options must be a dict, got {options!r}")
         if options:
             unknown = sorted(set(options) - set(RESET_OPTIONS))
             if unknown:
@@ -316,7 +340,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         torque = self._torque_of.get(action) if action.__class__ in _INT_TYPES else None
         self._ctrl[0] = self._torque(action) if torque is None else torque
         m, d, qvel = self.model, self.data, self._qvel
-        for _ in range(self.frame_skip):
+        for _ in range(self._frame_skip):
             mujoco.mj_step(m, d)
             # Velocity limits of the task, after every physics step.
             v1, v2 = qvel.tolist()
@@ -325,7 +349,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             if v2 > MAX_VEL2 or v2 < -MAX_VEL2:
                 qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
         obs, tip, finite = self._observe()
-        if not finite:  # the env disables MuJoCo's autoreset, so NaN cannot hide
+        if not finite:  # the env disables MuJoCo's autoreset, so a bad state cannot hide
             self._raise_bad_state()
         terminated = tip > self.goal_height
         reward = self.goal_reward if terminated else self.step_reward
@@ -342,7 +366,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         if w1 >= math.pi or w2 >= math.pi:
             w1, w2 = wrap_angle(q1), wrap_angle(q2)
         obs = np.array((w1, w2, v1, v2))
-        return obs, tip, math.isfinite(q1 + q2 + v1 + v2)
+        # False for NaN, infinities and MuJoCo's "huge" values alike (one comparison).
+        return obs, tip, abs(q1) + abs(q2) + abs(v1) + abs(v2) < _HUGE
 
     def _raise_bad_state(self) -> None:
         reported = [
@@ -351,14 +376,14 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             if self.data.warning[w].number
         ]
         raise RuntimeError(
-            "the simulation reached a non-finite state"
+            "the simulation reached a non-finite or huge state"
             + (f"; MuJoCo reported {', '.join(reported)}" if reported else "")
             + f"; state now {self.state.tolist()}. Call reset() before stepping again."
         )
 
     def _torque(self, action: Any) -> float:
         """The elbow torque [N m] of ``action``; raises on anything outside the action space."""
-        if not self.continuous:
+        if not self._continuous:
             if action.__class__ in _INT_TYPES:
                 torque = _TORQUE_OF.get(action)
                 if torque is not None:
@@ -367,6 +392,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                     f"action {action} is outside Discrete(3): use 0 (-1 N m), "
                     "1 (0 N m) or 2 (+1 N m)"
                 )
+            if isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+                return self._torque(int(action))  # e.g. np.longlong or an IntEnum member
             if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu":
                 return self._torque(action.item())
             raise TypeError(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import enum
 import math
 import shutil
 
@@ -45,9 +46,20 @@ def test_discrete_actions_outside_the_space(env, action, error, match) -> None:
     np.testing.assert_array_equal(env.state, before)  # nothing was stepped
 
 
-@pytest.mark.parametrize("action", [0, 1, 2, np.int64(2), np.int32(0), np.array(1)])
+class Torque(enum.IntEnum):
+    NEGATIVE = 0
+    POSITIVE = 2
+
+
+@pytest.mark.parametrize(
+    "action",
+    [0, 1, 2, np.int64(2), np.int32(0), np.longlong(1), np.uint8(2), np.array(1), Torque.POSITIVE],
+)
 def test_discrete_actions_inside_the_space(env, action) -> None:
+    # Everything Gymnasium's Discrete(3).contains accepts is stepped with its torque.
+    assert env.action_space.contains(action)
     env.step(action)
+    assert env.data.ctrl[0] == [-1.0, 0.0, 1.0][int(action)]
 
 
 @pytest.mark.parametrize(
@@ -81,6 +93,10 @@ def test_continuous_actions_outside_the_space(action, error, match) -> None:
         ({"frame_skip": -2}, ValueError, "frame_skip"),
         ({"frame_skip": 1.5}, TypeError, "frame_skip"),
         ({"integrator": "implicit"}, ValueError, "integrator"),
+        ({"integrator": ["euler"]}, ValueError, "integrator"),
+        ({"model_path": 123}, TypeError, "model_path"),
+        ({"goal_height": 2.0}, ValueError, "goal_height"),
+        ({"goal_height": -2.0}, ValueError, "goal_height"),
         ({"step_reward": math.nan}, ValueError, "step_reward"),
         ({"goal_reward": "big"}, TypeError, "goal_reward"),
         ({"goal_height": 2.5}, ValueError, "goal_height"),
@@ -110,6 +126,8 @@ def test_unknown_keyword_through_make() -> None:
     ("options", "error", "match"),
     [
         ({"noise": 0.1}, ValueError, "unknown reset options"),
+        (["start_noise"], TypeError, "must be a dict"),
+        ("start_noise", TypeError, "must be a dict"),
         ({"start_noise": -1.0}, ValueError, "start_noise"),
         ({"start_noise": math.nan}, ValueError, "start_noise"),
     ],
@@ -149,6 +167,7 @@ def test_model_that_is_not_an_acrobot(tmp_path) -> None:
         ([0.0, 0.0], [0.0, math.inf], "finite"),
         ([0.0], [0.0, 0.0], "shape"),
         ([0.0, 0.0], [100.0, 0.0], "velocity limits"),
+        ([1e300, 0.0], [0.0, 0.0], "lose precision"),
     ],
 )
 def test_set_state_refuses_bad_states(env, q, dq, match) -> None:
@@ -157,7 +176,7 @@ def test_set_state_refuses_bad_states(env, q, dq, match) -> None:
 
 
 @pytest.mark.parametrize("autoreset_in_file", [False, True])
-def test_nan_state_in_data_is_reported_not_hidden(tmp_path, autoreset_in_file) -> None:
+def test_nan_state_in_data_is_reported_not_hidden(tmp_path, monkeypatch, autoreset_in_file):
     # Writing NaN into MjData directly bypasses set_state. MuJoCo would reset its data with a
     # warning and carry on from qpos0; the env turns autoreset off (also for a model file that
     # leaves it on) and raises instead. Straight after reset is the hardest case to notice.
@@ -170,6 +189,16 @@ def test_nan_state_in_data_is_reported_not_hidden(tmp_path, autoreset_in_file) -
         assert not load_model(path).opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET
     env = AcrobotEnv(model_path=path)
     env.reset(seed=0)
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the cwd
     env.data.qvel[0] = math.nan
     with pytest.raises(RuntimeError, match=r"non-finite.*BADQVEL"):
+        env.step(1)
+
+
+def test_huge_state_in_data_is_reported(env, tmp_path, monkeypatch) -> None:
+    # Finite but beyond MuJoCo's mjMAXVAL (1e10): MuJoCo warns (BADQPOS) and the numbers are
+    # meaningless, so the env raises as for NaN.
+    monkeypatch.chdir(tmp_path)
+    env.data.qpos[0] = 1e300
+    with pytest.raises(RuntimeError, match="non-finite or huge"):
         env.step(1)

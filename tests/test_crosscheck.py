@@ -14,7 +14,7 @@ import pytest
 
 from acrobot_mj import dynamics, integrators
 from acrobot_mj.params import AcrobotParams
-from tests.conftest import N_STATES, random_states
+from tests.conftest import random_states
 
 REL = 1e-10
 
@@ -99,34 +99,62 @@ def test_explicit_euler_is_not_mujocos_euler(model, data) -> None:
     assert np.max(np.abs(integrators.explicit_euler_step(x, tau) - mujoco_next)) > 1e-3
 
 
-# 1000 steps (50 s) from rest with random actions in {-1, 0, +1} N m and the task's velocity
-# clipping after each step. Rounding differences grow with the motion's divergence; from rest at
-# these energies the measured gap is ~3e-14, so 1e-8 (the issue's bound) is safe on any platform.
-@pytest.mark.parametrize(
-    ("integrator", "method"),
-    [
-        (mujoco.mjtIntegrator.mjINT_EULER, "semi_implicit_euler"),
-        (mujoco.mjtIntegrator.mjINT_RK4, "rk4"),
-    ],
-)
-@pytest.mark.parametrize("seed", range(3))
-def test_1000_step_trajectories(model, data, integrator, method, seed) -> None:
+def _mujoco_trajectory(model, data, x0, torques) -> np.ndarray:
+    """MuJoCo from x0 under torques, clipping velocities after every step as the env does."""
     p = AcrobotParams()
-    model.opt.integrator = integrator
-    rng = np.random.default_rng(seed)
-    torques = rng.choice([-1.0, 0.0, 1.0], 1000)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("hanging").id)
-    analytic = integrators.simulate(np.concatenate([data.qpos, data.qvel]), torques, method)
-    simulated = [np.concatenate([data.qpos, data.qvel])]
+    data.qpos[:], data.qvel[:] = x0[:2], x0[2:]
+    states = [np.concatenate([data.qpos, data.qvel])]
     for tau in torques:
         data.ctrl[0] = tau
         mujoco.mj_step(model, data)
         data.qvel[:] = np.clip(data.qvel, [-p.max_vel1, -p.max_vel2], [p.max_vel1, p.max_vel2])
-        simulated.append(np.concatenate([data.qpos, data.qvel]))
-    np.testing.assert_allclose(np.array(simulated), analytic, rtol=0, atol=1e-8)
+        states.append(np.concatenate([data.qpos, data.qvel]))
+    return np.array(states)
+
+
+INTEGRATOR_PAIRS = [
+    (mujoco.mjtIntegrator.mjINT_EULER, "semi_implicit_euler"),
+    (mujoco.mjtIntegrator.mjINT_RK4, "rk4"),
+]
+
+
+# 1000 steps (50 s) from rest with random actions in {-1, 0, +1} N m. These are the task's own
+# trajectories; they stay at moderate energy (|dq1| < 1.6 rad/s), where the measured gap after
+# 1000 steps is ~3e-14, so the issue's 1e-8 bound holds with a wide margin.
+@pytest.mark.parametrize(("integrator", "method"), INTEGRATOR_PAIRS)
+@pytest.mark.parametrize("seed", range(3))
+def test_1000_step_trajectories(model, data, integrator, method, seed) -> None:
+    model.opt.integrator = integrator
+    rng = np.random.default_rng(seed)
+    torques = rng.choice([-1.0, 0.0, 1.0], 1000)
+    x0 = np.array([-np.pi / 2, 0.0, 0.0, 0.0])
+    analytic = integrators.simulate(x0, torques, method)
+    np.testing.assert_allclose(
+        _mujoco_trajectory(model, data, x0, torques), analytic, rtol=0, atol=1e-8
+    )
     # The trajectory must actually move for the comparison to mean anything.
     assert np.ptp(analytic[:, 0]) > 0.3
 
 
-def test_n_states_is_at_least_100() -> None:
-    assert N_STATES >= 100
+# High energy: random states anywhere in the domain (speeds up to the limits), so velocity
+# clipping acts. The motion is chaotic there: rounding differences (1e-16) grow until, after
+# ~200 steps, they pass 1e-8 (measured: first at step 196 to 261 for these seeds). That is the
+# flow's divergence, not a model error, so the horizon is 100 steps, where the largest measured
+# gap is 6e-11: 1e-8 leaves a 170x margin.
+@pytest.mark.parametrize(("integrator", "method"), INTEGRATOR_PAIRS)
+def test_high_energy_trajectories_with_clipping(model, data, integrator, method) -> None:
+    p = AcrobotParams()
+    model.opt.integrator = integrator
+    clipped = 0
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        x0 = np.concatenate(
+            [rng.uniform(-np.pi, np.pi, 2), rng.uniform(-1, 1, 2) * [p.max_vel1, p.max_vel2]]
+        )
+        torques = rng.choice([-1.0, 0.0, 1.0], 100)
+        analytic = integrators.simulate(x0, torques, method)
+        clipped += np.any(np.abs(analytic[1:, 2:]) == [p.max_vel1, p.max_vel2])
+        np.testing.assert_allclose(
+            _mujoco_trajectory(model, data, x0, torques), analytic, rtol=0, atol=1e-8
+        )
+    assert clipped >= 2  # measured: 3 of 5 runs (Euler), 2 of 5 (RK4) end a step clipped

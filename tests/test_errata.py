@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import pytest
 
 from acrobot_mj import dynamics, errata
 from tests.conftest import random_states
@@ -42,12 +43,17 @@ def test_printed_mass_matrix_is_wrong_only_in_d22(model, data) -> None:
     np.testing.assert_allclose(diff, [[0, 0], [0, 0.5 * np.cos(1.1)]], atol=1e-12)
 
 
-def test_d12_definition(params) -> None:
-    # The report uses d12 without defining it; d12 = m2 (lc2^2 + l1 lc2 cos q2) + I2.
+def test_d12_definition(model, data, params) -> None:
+    # The report uses d12 without defining it; d12 = m2 (lc2^2 + l1 lc2 cos q2) + I2 is MuJoCo's
+    # off-diagonal inertia. 1e-12: O(1) entries, rounding only (see test_crosscheck).
+    full_m = np.zeros((2, 2))
     for q2 in np.linspace(-np.pi, np.pi, 7):
-        expected = params.m2 * (params.lc2**2 + params.l1 * params.lc2 * np.cos(q2)) + params.I2
-        assert dynamics.mass_matrix([0.0, q2])[0, 1] == expected
-        assert dynamics.mass_matrix([0.0, q2])[1, 0] == expected
+        data.qpos[:] = [0.4, q2]
+        mujoco.mj_forward(model, data)
+        mujoco.mj_fullM(model, data, full_m)
+        d12 = params.m2 * (params.lc2**2 + params.l1 * params.lc2 * np.cos(q2)) + params.I2
+        assert full_m[0, 1] == pytest.approx(d12, abs=1e-12)
+        assert full_m[1, 0] == pytest.approx(d12, abs=1e-12)
 
 
 def test_four_equilibria_not_two(model, data) -> None:
