@@ -1,33 +1,24 @@
-"""Command line: ``acrobot-mj demo | params``. A thin layer over the library."""
+"""Command line: ``acrobot-mj train | evaluate | demo | params``. A thin layer over the library."""
 
 from __future__ import annotations
 
 import argparse
 import json
-import platform
 import sys
 from collections.abc import Sequence
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 
 import acrobot_mj
+from acrobot_mj.checkpoint import CheckpointError
+from acrobot_mj.config import FIELD_NAMES, PRESETS, TrainConfig, parse_value
 from acrobot_mj.params import describe
 from acrobot_mj.policies import POLICY_NAMES, make_policy, run_episode
-
-
-def versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
-    return {
-        "python": platform.python_version(),
-        "acrobot_mj": acrobot_mj.__version__,
-        "mujoco": mujoco.__version__,
-        "gymnasium": gym.__version__,
-        "numpy": np.__version__,
-    }
+from acrobot_mj.training import evaluate, train, train_seeds, versions
 
 
 def _positive_int(text: str) -> int:
@@ -35,6 +26,57 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
     return value
+
+
+def _config(args: argparse.Namespace) -> TrainConfig:
+    """The preset with every ``--<field>`` given on the command line applied."""
+    overrides = {
+        name: parse_value(name, getattr(args, name))
+        for name in FIELD_NAMES
+        if getattr(args, name) is not None
+    }
+    return PRESETS[args.preset].replace(**overrides)
+
+
+def train_command(args: argparse.Namespace) -> dict[str, Any]:
+    config = _config(args)
+    if args.seeds is not None:
+        out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}")
+        seeds = list(range(args.seed, args.seed + args.seeds))
+        summary = train_seeds(config, seeds, out, jobs=args.jobs, resume=args.resume)
+        g, s = summary["greedy_from_rest_length"], summary["successes"]
+        print(
+            f"{len(seeds)} seeds -> {out}: successes per run median {s['median']:g} "
+            f"(min {s['min']:g}, max {s['max']:g}); greedy decisions from rest median "
+            f"{g['median']:g} (IQR {g['q25']:g}-{g['q75']:g}), "
+            f"{summary['greedy_from_rest_successes']}/{len(seeds)} reach the goal"
+        )
+        return summary
+    out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    record = train(config, args.seed, out, resume=args.resume, progress=progress)
+    last20 = float(np.median(record["episode_lengths"][-20:]))
+    greedy = record["greedy_from_rest"]
+    outcome = "goal" if greedy["success"] else "no goal"
+    print(
+        f"trained {record['episodes_done']} episodes ({record['steps']} decisions, "
+        f"{record['wall_seconds']:.1f} s) -> {out}: {sum(record['episode_successes'])} reached "
+        f"the goal; last 20 episodes median {last20:g} decisions; greedy from rest: "
+        f"{outcome} in {greedy['length']} decisions"
+    )
+    return record
+
+
+def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
+    record = evaluate(args.run_dir, args.episodes, seed=args.seed)
+    lengths, successes = record["episode_lengths"], record["episode_successes"]
+    print(
+        f"{len(lengths)} greedy episodes of {args.run_dir}: {sum(successes)} reached the goal; "
+        f"from rest {lengths[0]} decisions"
+        + ("" if successes[0] else " (no goal)")
+        + f"; wrote {Path(args.run_dir) / 'eval.json'}"
+    )
+    return record
 
 
 def demo(args: argparse.Namespace) -> dict[str, Any]:
@@ -74,7 +116,7 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
     return record
 
 
-def params(args: argparse.Namespace) -> None:
+def params_command(args: argparse.Namespace) -> None:
     """Print the physical parameters with units and sources."""
     print(describe())
 
@@ -83,6 +125,37 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="acrobot-mj", description=__doc__)
     parser.add_argument("--version", action="version", version=acrobot_mj.__version__)
     commands = parser.add_subparsers(dest="command", required=True)
+
+    p = commands.add_parser(
+        "train",
+        help="train a learner, write run.json, checkpoint and learning curve",
+        description="Train the report's or the book's learner. Every config field can be "
+        "overridden with --FIELD VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
+    )
+    p.add_argument("--preset", choices=sorted(PRESETS), default="report")
+    p.add_argument("--seed", type=int, default=0, help="seed (the first one with --seeds)")
+    p.add_argument("--seeds", type=_positive_int, help="train K seeds, write summary.json")
+    p.add_argument("--jobs", type=_positive_int, default=1, help="processes for --seeds")
+    p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
+    p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
+    group = p.add_argument_group("config overrides (defaults: the preset's)")
+    for f in fields(TrainConfig):
+        group.add_argument(
+            f"--{f.name.replace('_', '-')}", dest=f.name, metavar="VALUE", help=f.metadata["doc"]
+        )
+    p.set_defaults(func=train_command)
+
+    p = commands.add_parser("evaluate", help="greedy episodes of a trained run -> eval.json")
+    p.add_argument("run_dir", help="a directory written by acrobot-mj train")
+    p.add_argument("--episodes", type=_positive_int, help="default: the run's eval_episodes")
+    p.add_argument("--seed", type=int, default=0, help="seed of start noise and tie-breaking")
+    p.set_defaults(func=evaluate_command)
 
     p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
     p.add_argument(
@@ -100,13 +173,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=demo)
 
     p = commands.add_parser("params", help="print the physical parameters, units and sources")
-    p.set_defaults(func=params)
+    p.set_defaults(func=params_command)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    args.func(args)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        args.func(args)
+    except (ValueError, TypeError, FileNotFoundError, CheckpointError) as error:
+        parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
+    except KeyboardInterrupt as interrupt:
+        parser.exit(
+            130,
+            f"acrobot-mj {args.command}: {interrupt or 'interrupted'}; continue with --resume\n",
+        )
     return 0
 
 

@@ -1,0 +1,64 @@
+"""The agents' own random numbers: a seeded numpy Generator read in blocks."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+BLOCK = 1024
+
+
+class RandomStream:
+    """Uniform draws in [0, 1) from ``numpy.random.default_rng(seed)``, fetched ``BLOCK`` at a
+    time (one Generator call per draw costs more than an agent's whole update).
+
+    The same seed gives the same draws; :meth:`state_dict` captures the generator and the unread
+    part of the block, so a restored stream continues exactly where it stopped.
+    """
+
+    def __init__(self, seed: int | np.random.SeedSequence | None = None) -> None:
+        self.generator = np.random.default_rng(seed)
+        self._block: list[float] = []
+        self._next = 0
+
+    def random(self) -> float:
+        """One uniform draw in [0, 1)."""
+        if self._next == len(self._block):
+            self._block = self.generator.random(BLOCK).tolist()
+            self._next = 0
+        u = self._block[self._next]
+        self._next += 1
+        return u
+
+    def below(self, n: int) -> int:
+        """A uniform integer in ``[0, n)``."""
+        return int(self.random() * n)
+
+    def argmax(self, values: list[float]) -> int:
+        """Index of the largest value, ties broken uniformly at random."""
+        best = max(values)
+        ties = [i for i, v in enumerate(values) if v == best]
+        return ties[0] if len(ties) == 1 else ties[self.below(len(ties))]
+
+    def state_dict(self) -> dict[str, np.ndarray]:
+        return {
+            "bit_generator": np.array(json.dumps(self.generator.bit_generator.state)),
+            "block": np.array(self._block, dtype=np.float64),
+            "next": np.array(self._next),
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        bit_state = json.loads(str(state["bit_generator"]))
+        if bit_state.get("bit_generator") != type(self.generator.bit_generator).__name__:
+            raise ValueError(
+                f"random state is for {bit_state.get('bit_generator')!r}, not "
+                f"{type(self.generator.bit_generator).__name__}"
+            )
+        block = np.asarray(state["block"], dtype=np.float64)
+        nxt = int(state["next"])
+        if block.ndim != 1 or not 0 <= nxt <= len(block):
+            raise ValueError("random state has an inconsistent block position")
+        self.generator.bit_generator.state = bit_state
+        self._block, self._next = block.tolist(), nxt

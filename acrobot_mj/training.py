@@ -1,0 +1,384 @@
+"""Train and evaluate loops over any Gymnasium env with the acrobot's spaces, with run records,
+checkpoints and resume.
+
+A run directory holds ``run.json`` (config, seed, versions, per-episode lengths, returns and
+successes), ``checkpoint.npz`` (agent state and progress, see :mod:`acrobot_mj.checkpoint`),
+``learning_curve.png`` and, after :func:`evaluate`, ``eval.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+import acrobot_mj
+from acrobot_mj.agents import RandomStream, Sarsa, SarsaLambda
+from acrobot_mj.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+from acrobot_mj.config import TrainConfig
+from acrobot_mj.plots import learning_curve
+
+RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE = (
+    "run.json",
+    "eval.json",
+    "checkpoint.npz",
+    "learning_curve.png",
+)
+#: Best-known minimum decisions to the goal from rest (validation issue), for reference lines.
+MIN_DECISIONS = {1: 252, 4: 63}
+
+Agent = Sarsa | SarsaLambda
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and the packages a result depends on."""
+    return {
+        "python": platform.python_version(),
+        "acrobot_mj": acrobot_mj.__version__,
+        "mujoco": mujoco.__version__,
+        "gymnasium": gym.__version__,
+        "numpy": np.__version__,
+    }
+
+
+def make_env(config: TrainConfig, **overrides: Any) -> gym.Env:
+    """The training env of ``config`` (through ``gymnasium.make``, so with its TimeLimit)."""
+    kwargs = {**config.env_kwargs(), **overrides}
+    return gym.make(acrobot_mj.ENV_ID, **kwargs)
+
+
+def episode_seed(seed: int, episode: int) -> int:
+    """The env's reset seed for ``episode`` of run ``seed``: fixed per episode, so a resumed
+    run resets exactly as an uninterrupted one."""
+    return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
+
+
+def check_spaces(env: gym.Env) -> None:
+    """Refuse envs whose spaces the agents cannot use, naming what is wrong."""
+    if not (isinstance(env.action_space, gym.spaces.Discrete) and env.action_space.n == 3):
+        raise ValueError(f"the agents need a Discrete(3) action space, got {env.action_space}")
+    shape = getattr(env.observation_space, "shape", None)
+    if not isinstance(env.observation_space, gym.spaces.Box) or shape != (4,):
+        raise ValueError(
+            "the agents need observations (q1, q2, dq1, dq2) in a Box of shape "
+            f"(4,), got {env.observation_space}"
+        )
+
+
+def learn_episode(env: gym.Env, agent: Agent, seed: int | None = None) -> tuple[int, float, bool]:
+    """One learning episode; returns (decisions, return, reached the goal)."""
+    obs, _ = env.reset(seed=seed)
+    action = agent.begin_episode(obs)
+    length, total = 0, 0.0
+    step, learn = env.step, agent.learn
+    while True:
+        obs, reward, terminated, truncated, info = step(action)
+        length += 1
+        total += reward
+        action = learn(reward, obs, terminated, truncated)
+        if terminated or truncated:
+            return length, float(total), bool(info.get("is_success", terminated))
+
+
+def greedy_episode(
+    env: gym.Env,
+    agent: Agent,
+    stream: RandomStream,
+    seed: int | None = None,
+    options: dict[str, Any] | None = None,
+) -> tuple[int, float, bool]:
+    """One episode of the greedy policy (no learning); ties broken by ``stream``."""
+    obs, _ = env.reset(seed=seed, options=options)
+    length, total = 0, 0.0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(agent.greedy_action(obs, stream))
+        length += 1
+        total += reward
+        if terminated or truncated:
+            return length, float(total), bool(info.get("is_success", terminated))
+
+
+@dataclass
+class History:
+    """Per-episode results so far."""
+
+    episode_lengths: list[int] = field(default_factory=list)
+    episode_returns: list[float] = field(default_factory=list)
+    episode_successes: list[bool] = field(default_factory=list)
+
+    def add(self, length: int, total: float, success: bool) -> None:
+        self.episode_lengths.append(length)
+        self.episode_returns.append(total)
+        self.episode_successes.append(success)
+
+    def __len__(self) -> int:
+        return len(self.episode_lengths)
+
+    def to_dict(self) -> dict[str, list]:
+        return {
+            "episode_lengths": self.episode_lengths,
+            "episode_returns": self.episode_returns,
+            "episode_successes": self.episode_successes,
+        }
+
+
+class Progress:
+    """A one-line progress bar on stderr, redrawn at most every 0.5 s (and only if enabled)."""
+
+    def __init__(self, total: int, label: str, enabled: bool) -> None:
+        self.total, self.label, self.enabled = total, label, enabled
+        self.start = self.last = time.perf_counter()
+
+    def update(self, done: int, history: History) -> None:
+        now = time.perf_counter()
+        if not self.enabled or (now - self.last < 0.5 and done < self.total):
+            return
+        self.last = now
+        recent = history.episode_lengths[-20:]
+        bar = "#" * int(30 * done / self.total)
+        end = "\n" if done >= self.total else ""
+        sys.stderr.write(
+            f"\r{self.label} [{bar:<30}] {done}/{self.total} episodes, last 20: median "
+            f"{np.median(recent):.0f} decisions, {sum(history.episode_successes)} successes, "
+            f"{now - self.start:.0f} s{end}"
+        )
+        sys.stderr.flush()
+
+
+def _meta(config: TrainConfig, seed: int, history: History, steps: int) -> dict[str, Any]:
+    return {
+        "config": config.to_dict(),
+        "seed": seed,
+        "episodes_done": len(history),
+        "steps": steps,
+        "history": {k: list(v) for k, v in history.to_dict().items()},
+        "agent": config.algorithm,
+    }
+
+
+def train(
+    config: TrainConfig,
+    seed: int,
+    out_dir: str | Path | None = None,
+    env: gym.Env | None = None,
+    resume: bool = False,
+    progress: bool = False,
+    on_episode: Callable[[int, History], None] | None = None,
+) -> dict[str, Any]:
+    """Train ``config``'s agent with ``seed`` for ``config.episodes`` episodes.
+
+    With ``out_dir`` it writes the run record, checkpoints (every ``checkpoint_every`` episodes,
+    at the end and on Ctrl-C) and the learning curve there; with ``resume`` it continues from
+    the checkpoint in ``out_dir`` and ends exactly as an uninterrupted run would. ``env`` may be
+    any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)`` observations (default: the
+    config's acrobot env). Returns the run record.
+    """
+    env = make_env(config) if env is None else env
+    check_spaces(env)
+    out = Path(out_dir) if out_dir is not None else None
+    agent = config.make_agent(seed=seed)
+    history, steps = History(), 0
+    if resume:
+        if out is None:
+            raise ValueError("resume needs the run directory (out_dir)")
+        history, steps = _restore(out / CHECKPOINT_FILE, config, seed, agent)
+
+    # The state after the last completed episode: what a checkpoint holds, so a run stopped in
+    # the middle of an episode resumes exactly (that episode is run again from its start).
+    snapshot = (agent.state_dict(), _meta(config, seed, history, steps))
+
+    def checkpoint() -> None:
+        if out is not None:
+            save_checkpoint(out / CHECKPOINT_FILE, *snapshot)
+
+    bar = Progress(config.episodes, f"{config.algorithm} seed {seed}", progress)
+    started = time.perf_counter()
+    interrupted = False
+    try:
+        for episode in range(len(history), config.episodes):
+            length, total, success = learn_episode(env, agent, episode_seed(seed, episode))
+            history.add(length, total, success)
+            steps += length
+            if out is not None:
+                snapshot = (agent.state_dict(), _meta(config, seed, history, steps))
+            bar.update(len(history), history)
+            if (episode + 1) % config.checkpoint_every == 0:
+                checkpoint()
+            if on_episode is not None:
+                on_episode(episode, history)
+    except KeyboardInterrupt:
+        interrupted = True
+    elapsed = time.perf_counter() - started
+    checkpoint()
+
+    record: dict[str, Any] = {
+        "config": config.to_dict(),
+        "seed": seed,
+        "versions": versions(),
+        "episodes_done": len(history),
+        "steps": steps,
+        "interrupted": interrupted,
+        "wall_seconds": elapsed,
+        **history.to_dict(),
+    }
+    if not interrupted:
+        # The greedy policy from rest, on the training env (ties broken by a fixed stream).
+        length, total, success = greedy_episode(
+            env, agent, RandomStream(seed), seed=seed, options={"start_noise": 0.0}
+        )
+        record["greedy_from_rest"] = {"length": length, "return": total, "success": success}
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / RUN_FILE).write_text(json.dumps(record, indent=1))
+        if history.episode_lengths:
+            learning_curve(
+                out / CURVE_FILE,
+                [history.episode_lengths],
+                f"{config.algorithm} ({config.features}), seed {seed}",
+                _reference(config),
+            )
+    if interrupted:
+        raise KeyboardInterrupt(f"interrupted after {len(history)} episodes; checkpoint saved")
+    return record
+
+
+def _reference(config: TrainConfig) -> list[tuple[float, str]]:
+    best = MIN_DECISIONS.get(config.frame_skip)
+    return [(best, f"best known minimum ({best})")] if best else []
+
+
+def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[History, int]:
+    meta, arrays = load_checkpoint(path)
+    saved = TrainConfig.from_dict(meta["config"])
+    differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - {"episodes"}
+    if differs:
+        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
+    if meta["seed"] != seed:
+        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+    try:
+        agent.load_state_dict(arrays)
+    except (KeyError, ValueError) as error:
+        raise CheckpointError(f"{path} does not fit this agent: {error}") from error
+    history = History(**meta["history"])
+    if len(history) != meta["episodes_done"]:
+        raise CheckpointError(f"{path} has an inconsistent episode count")
+    return history, int(meta["steps"])
+
+
+def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
+    """The config, seed and trained agent of a run directory."""
+    meta, arrays = load_checkpoint(Path(run_dir) / CHECKPOINT_FILE)
+    config = TrainConfig.from_dict(meta["config"])
+    agent = config.make_agent(seed=meta["seed"])
+    try:
+        agent.load_state_dict(arrays)
+    except (KeyError, ValueError) as error:
+        raise CheckpointError(f"{run_dir}: checkpoint does not fit its config: {error}") from error
+    return config, meta["seed"], agent
+
+
+def evaluate(run_dir: str | Path, episodes: int | None = None, seed: int = 0) -> dict[str, Any]:
+    """Greedy episodes of a trained run on its own env settings: episode 0 from rest, the
+    others with ``config.eval_noise`` start noise. Writes and returns ``eval.json``."""
+    run_dir = Path(run_dir)
+    config, run_seed, agent = load_agent(run_dir)
+    episodes = config.eval_episodes if episodes is None else episodes
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    env = make_env(config)
+    stream = RandomStream(seed)
+    history = History()
+    for k in range(episodes):
+        noise = 0.0 if k == 0 else config.eval_noise
+        history.add(
+            *greedy_episode(
+                env, agent, stream, seed=episode_seed(seed, k), options={"start_noise": noise}
+            )
+        )
+    record = {
+        "run": str(run_dir),
+        "run_seed": run_seed,
+        "eval_seed": seed,
+        "config": config.to_dict(),
+        "versions": versions(),
+        "start_noise": [0.0 if k == 0 else config.eval_noise for k in range(episodes)],
+        **history.to_dict(),
+    }
+    (run_dir / EVAL_FILE).write_text(json.dumps(record, indent=1))
+    return record
+
+
+def _train_one(args: tuple[TrainConfig, int, str, bool]) -> dict[str, Any]:
+    config, seed, out_dir, resume = args
+    return train(config, seed, out_dir, resume=resume)
+
+
+def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Mean and spread across seeds of what a run record reports."""
+
+    def stats(values: list[float]) -> dict[str, float]:
+        v = np.asarray(values, dtype=float)
+        q25, q50, q75 = np.percentile(v, [25, 50, 75])
+        return {
+            "mean": float(v.mean()),
+            "std": float(v.std()),
+            "median": float(q50),
+            "q25": float(q25),
+            "q75": float(q75),
+            "min": float(v.min()),
+            "max": float(v.max()),
+        }
+
+    greedy = [r["greedy_from_rest"] for r in records if "greedy_from_rest" in r]
+    return {
+        "seeds": [r["seed"] for r in records],
+        "successes": stats([sum(r["episode_successes"]) for r in records]),
+        "runs_with_a_success": sum(any(r["episode_successes"]) for r in records),
+        "last20_median_length": stats([np.median(r["episode_lengths"][-20:]) for r in records]),
+        "greedy_from_rest_length": stats([g["length"] for g in greedy]),
+        "greedy_from_rest_successes": sum(g["success"] for g in greedy),
+    }
+
+
+def train_seeds(
+    config: TrainConfig,
+    seeds: list[int],
+    out_dir: str | Path,
+    jobs: int = 1,
+    resume: bool = False,
+) -> dict[str, Any]:
+    """Train one run per seed into ``out_dir/seed_S`` (``jobs`` processes), then write
+    ``out_dir/summary.json`` and the learning curve across seeds."""
+    out = Path(out_dir)
+    tasks = [(config, s, str(out / f"seed_{s}"), resume) for s in seeds]
+    if jobs > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            records = list(pool.map(_train_one, tasks))
+    else:
+        records = [_train_one(task) for task in tasks]
+    summary = {
+        "config": config.to_dict(),
+        "versions": versions(),
+        **summarize(records),
+        "runs": [f"seed_{s}" for s in seeds],
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    learning_curve(
+        out / CURVE_FILE,
+        [r["episode_lengths"] for r in records],
+        f"{config.algorithm} ({config.features}), {len(seeds)} seeds",
+        _reference(config),
+    )
+    return summary

@@ -1,0 +1,114 @@
+"""CLI smoke tests of train and evaluate with tiny budgets."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from acrobot_mj.cli import main
+
+
+def test_train_and_evaluate_report_preset(tmp_path, capsys) -> None:
+    out = tmp_path / "run"
+    argv = [
+        "train",
+        "--preset",
+        "report",
+        "--episodes",
+        "2",
+        "--max-episode-steps",
+        "30",
+        "--out",
+        str(out),
+        "--seed",
+        "3",
+    ]
+    assert main(argv) == 0
+    assert "trained 2 episodes (60 decisions" in capsys.readouterr().out
+    record = json.loads((out / "run.json").read_text())
+    assert record["seed"] == 3 and record["config"]["alpha"] == 0.5
+    assert record["config"]["max_episode_steps"] == 30
+    assert main(["evaluate", str(out), "--episodes", "2"]) == 0
+    assert json.loads((out / "eval.json").read_text())["episode_lengths"] == [30, 30]
+
+
+def test_overrides_reach_the_config(tmp_path) -> None:
+    out = tmp_path / "run"
+    main(
+        [
+            "train",
+            "--preset",
+            "book",
+            "--episodes",
+            "1",
+            "--alpha",
+            "0.1/48",
+            "--lam",
+            "0.5",
+            "--subset-tilings",
+            "false",
+            "--out",
+            str(out),
+        ]
+    )
+    config = json.loads((out / "run.json").read_text())["config"]
+    assert config["alpha"] == 0.1 / 48 and config["lam"] == 0.5
+    assert config["subset_tilings"] is False and config["episodes"] == 1
+
+
+def test_seeds_write_one_record_per_seed_and_a_summary(tmp_path, capsys) -> None:
+    out = tmp_path / "many"
+    main(
+        [
+            "train",
+            "--preset",
+            "book",
+            "--episodes",
+            "2",
+            "--seeds",
+            "2",
+            "--seed",
+            "5",
+            "--out",
+            str(out),
+        ]
+    )
+    assert "2 seeds" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["seeds"] == [5, 6] and summary["runs"] == ["seed_5", "seed_6"]
+    for seed in (5, 6):
+        assert json.loads((out / f"seed_{seed}" / "run.json").read_text())["seed"] == seed
+
+
+def test_resume_continues_a_run(tmp_path, capsys) -> None:
+    out = tmp_path / "run"
+    main(["train", "--preset", "book", "--episodes", "2", "--out", str(out)])
+    main(["train", "--preset", "book", "--episodes", "4", "--out", str(out), "--resume"])
+    assert len(json.loads((out / "run.json").read_text())["episode_lengths"]) == 4
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["train", "--alpha", "fast"], "config alpha needs a float"),
+        (["train", "--algorithm", "dqn"], "algorithm must be one of"),
+        (["train", "--resume", "--out", "nowhere"], "checkpoint not found"),
+        (["evaluate", "nowhere"], "checkpoint not found"),
+    ],
+)
+def test_bad_arguments_give_a_clear_error(argv, message, tmp_path, monkeypatch, capsys) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_corrupt_checkpoint_gives_a_clear_error(tmp_path, capsys) -> None:
+    out = tmp_path / "run"
+    main(["train", "--preset", "book", "--episodes", "1", "--out", str(out)])
+    (out / "checkpoint.npz").write_bytes(b"garbage")
+    with pytest.raises(SystemExit):
+        main(["evaluate", str(out)])
+    assert "truncated or corrupt" in capsys.readouterr().err
