@@ -52,11 +52,16 @@ class StateGrid:
             low, high = getattr(self, name)
             if not (math.isfinite(low) and math.isfinite(high) and low < high):
                 raise ValueError(f"{name} must be (low, high) with low < high, got {(low, high)}")
-        ranges = (self.angle_range, self.angle_range, self.velocity_range, self.velocity_range)
-        bins = (self.angle_bins, self.angle_bins, self.velocity_bins, self.velocity_bins)
-        # (low, cells per unit, bins) per variable, for the hot path of index().
-        consts = tuple(
-            (lo, (n - 1) / (hi - lo), n) for (lo, hi), n in zip(ranges, bins, strict=True)
+        # (low, cells per unit, cells) for the angles, then for the velocities: for index().
+        (low_a, high_a), (low_v, high_v) = self.angle_range, self.velocity_range
+        n_a, n_v = self.angle_bins, self.velocity_bins
+        consts = (
+            low_a,
+            (n_a - 1) / (high_a - low_a),
+            n_a,
+            low_v,
+            (n_v - 1) / (high_v - low_v),
+            n_v,
         )
         object.__setattr__(self, "_consts", consts)
 
@@ -77,11 +82,17 @@ class StateGrid:
 
     def index(self, obs: Sequence[float]) -> int:
         """Cell index of ``obs`` in ``[0, num_features)``, row-major over (q1, q2, dq1, dq2)."""
-        index = 0
-        for x, (low, per_unit, n) in zip(obs, self._consts, strict=True):
-            i = round((x - low) * per_unit)
-            index = index * n + (0 if i < 0 else n - 1 if i >= n else i)
-        return index
+        # Unrolled over the four variables, in Python floats: the training loop's hot path.
+        q1, q2, v1, v2 = obs.tolist() if isinstance(obs, np.ndarray) else obs
+        low_a, per_a, n_a, low_v, per_v, n_v = self._consts
+        top_a, top_v = n_a - 1, n_v - 1
+        i1, i2 = round((q1 - low_a) * per_a), round((q2 - low_a) * per_a)
+        i3, i4 = round((v1 - low_v) * per_v), round((v2 - low_v) * per_v)
+        i1 = 0 if i1 < 0 else top_a if i1 > top_a else i1
+        i2 = 0 if i2 < 0 else top_a if i2 > top_a else i2
+        i3 = 0 if i3 < 0 else top_v if i3 > top_v else i3
+        i4 = 0 if i4 < 0 else top_v if i4 > top_v else i4
+        return ((i1 * n_a + i2) * n_v + i3) * n_v + i4
 
     def active(self, obs: Sequence[float]) -> np.ndarray:
         """Active feature indices, shape ``(1,)``."""

@@ -39,8 +39,10 @@ class RandomStream:
     def argmax(self, values: list[float]) -> int:
         """Index of the largest value, ties broken uniformly at random."""
         best = max(values)
+        if values.count(best) == 1:  # the common case, at C speed
+            return values.index(best)
         ties = [i for i, v in enumerate(values) if v == best]
-        return ties[0] if len(ties) == 1 else ties[self.below(len(ties))]
+        return ties[self.below(len(ties))]
 
     def state_dict(self) -> dict[str, np.ndarray]:
         return {
