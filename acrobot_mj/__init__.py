@@ -6,9 +6,14 @@
 
 from __future__ import annotations
 
-import gymnasium
+# First, before anything imports mujoco: pick a headless OpenGL backend (render.py).
+from acrobot_mj.render import configure_gl
 
-from acrobot_mj.params import AcrobotParams
+configure_gl()
+
+import gymnasium  # noqa: E402
+
+from acrobot_mj.params import AcrobotParams  # noqa: E402
 
 __version__ = "0.1.0"
 ENV_ID = "acrobot_mj/Acrobot-v0"

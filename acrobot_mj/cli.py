@@ -1,4 +1,4 @@
-"""Command line: ``acrobot-mj train | evaluate | demo | params``. A thin layer over the library."""
+"""Command line: ``acrobot-mj train | evaluate | render | demo | params``, over the library."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from acrobot_mj.checkpoint import CheckpointError
 from acrobot_mj.config import FIELD_NAMES, PRESETS, TrainConfig, parse_value
 from acrobot_mj.params import describe
 from acrobot_mj.policies import POLICY_NAMES, make_policy, run_episode
+from acrobot_mj.render import GLBackendError
 from acrobot_mj.training import evaluate, train, train_seeds, versions
 
 
@@ -116,6 +117,33 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
     return record
 
 
+def render_command(args: argparse.Namespace) -> dict[str, Any]:
+    from acrobot_mj.video import render_policy, render_run
+
+    if (args.run_dir is None) == (args.policy is None):
+        raise ValueError("give either a run directory or --policy, not both or neither")
+    common = {
+        "seed": args.seed,
+        "width": args.width,
+        "height": args.height,
+        "camera": args.camera,
+        "strip": args.strip,
+        "captions": args.captions,
+    }
+    if args.run_dir is not None:
+        record = render_run(args.run_dir, args.out, max_steps=args.steps, **common)
+    else:
+        record = render_policy(
+            args.policy, args.out, steps=args.steps, frame_skip=args.frame_skip, **common
+        )
+    outcome = "reaches the goal" if record["success"] else "does not reach the goal"
+    print(
+        f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
+        f"{outcome} in {record['length']} steps"
+    )
+    return record
+
+
 def params_command(args: argparse.Namespace) -> None:
     """Print the physical parameters with units and sources."""
     print(describe())
@@ -157,6 +185,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of start noise and tie-breaking")
     p.set_defaults(func=evaluate_command)
 
+    p = commands.add_parser(
+        "render",
+        help="MP4 of a trained run's greedy policy, or of a fixed policy",
+        description="Render an episode from rest to MP4 at real time (EGL or OSMesa, headless).",
+    )
+    p.add_argument("run_dir", nargs="?", help="a directory written by acrobot-mj train")
+    p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
+    p.add_argument("--out", required=True, help="the .mp4 file (a .json record goes beside it)")
+    p.add_argument("--steps", type=_positive_int, help="most steps (default: the whole episode)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the env, ties and --policy random")
+    p.add_argument("--frame-skip", type=_positive_int, default=1, help="with --policy only")
+    p.add_argument("--width", type=_positive_int, default=480)
+    p.add_argument("--height", type=_positive_int, default=480)
+    p.add_argument("--camera", default="side", help="a camera of the model: side or wide")
+    p.add_argument("--strip", metavar="PNG", help="also write a strip of 6 frames")
+    p.add_argument(
+        "--captions",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="time, torque and tip height on each frame",
+    )
+    p.set_defaults(func=render_command)
+
     p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
     p.add_argument(
         "--policy",
@@ -182,7 +233,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         args.func(args)
-    except (ValueError, TypeError, FileNotFoundError, CheckpointError) as error:
+    except (ValueError, TypeError, FileNotFoundError, CheckpointError, GLBackendError) as error:
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
         parser.exit(

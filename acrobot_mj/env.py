@@ -15,6 +15,7 @@ from gymnasium import spaces
 
 from acrobot_mj.assets import load_model
 from acrobot_mj.params import AcrobotParams
+from acrobot_mj.render import make_renderer
 
 _REPORT = AcrobotParams()
 #: Velocity limits [rad/s] (the report, after Sutton and Barto), applied after every physics step.
@@ -128,7 +129,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     | goal_height   | 1.0       | tip height above the pivot that ends the episode [m], < l1 + l2 |
     | start_noise   | 0.0       | half-width of the uniform start noise [rad, rad/s], in [0, 1]   |
     | continuous    | False     | ``Box(-1, 1, (1,))`` torques instead of ``Discrete(3)``         |
-    | render_mode   | None      | ``"rgb_array"`` (not available yet: it raises)                  |
+    | render_mode   | None      | ``"rgb_array"``: ``render()`` returns frames (EGL or OSMesa)   |
     | width, height | 480, 480  | frame size [pixels], at most the model's offscreen buffer       |
     | camera        | "side"    | name of a camera in the model (``"side"`` or ``"wide"``)        |
     | model_path    | None      | an MJCF file to use instead of the packaged ``scene.xml``       |
@@ -161,7 +162,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     (300, 100.0, True, 1.044545016)
 
     ## Version History
-    - v0: first version: the report's task on MuJoCo (semi-implicit Euler, 0.05 s steps).
+    - v0: first version: the report's task on MuJoCo (semi-implicit Euler, 0.05 s steps),
+      with offscreen ``rgb_array`` rendering.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
@@ -226,13 +228,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                 f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
             )
         self.camera = camera
-        if render_mode is not None:
-            raise NotImplementedError(
-                f"render_mode={render_mode!r} is not available yet: offscreen rendering "
-                "(acrobot_mj/render.py, EGL or OSMesa) lands with the rendering issue; "
-                "use render_mode=None"
-            )
         self.render_mode = render_mode
+        self._renderer = None  # created by the first render() call, released by close()
 
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
         if continuous:
@@ -272,6 +269,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         state = self.__dict__.copy()
         for key in ("_qpos", "_qvel", "_ctrl"):
             state.pop(key)
+        state["_renderer"] = None  # a GL context cannot be copied; the copy makes its own
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -409,7 +407,25 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             raise ValueError(f"action {torque} N m is outside the torque range [-1, 1] N m")
         return torque
 
-    def render(self) -> None:
-        """No frames yet: ``render_mode=None`` is the only mode available (Gymnasium's no-op)."""
-        gym.logger.warn("render() called with render_mode=None: nothing is rendered")
-        return None
+    def render(self) -> np.ndarray | None:
+        """The current frame, ``uint8`` of shape ``(height, width, 3)``, from ``camera``.
+
+        The renderer is created on the first call through :func:`acrobot_mj.render.make_renderer`
+        (headless EGL or OSMesa; a clear error if neither works) and released by :meth:`close`.
+        """
+        if self.render_mode is None:
+            gym.logger.warn("render() called with render_mode=None: nothing is rendered")
+            return None
+        if self._renderer is None:
+            self._renderer = make_renderer(self.model, self.width, self.height)
+        # Positions of bodies, cameras and lights for the current state (mj_step leaves them
+        # at the start of the last step).
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        self._renderer.update_scene(self.data, camera=self.camera)
+        return self._renderer.render()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

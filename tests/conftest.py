@@ -4,9 +4,15 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 import pytest
+
+# acrobot_mj before mujoco: it picks the headless GL backend (MUJOCO_GL) that mujoco reads on
+# import (see acrobot_mj/render.py), so frames can be rendered in this process too.
+# isort: off
+import acrobot_mj  # noqa: F401  before mujoco: it picks the GL backend mujoco reads on import
+import mujoco
+# isort: on
 
 from acrobot_mj.assets import model_path
 from acrobot_mj.params import AcrobotParams

@@ -105,7 +105,6 @@ def test_continuous_actions_outside_the_space(action, error, match) -> None:
         ({"start_noise": 2.0}, ValueError, "start_noise"),
         ({"continuous": 1}, TypeError, "continuous"),
         ({"render_mode": "human"}, ValueError, "render_mode"),
-        ({"render_mode": "rgb_array"}, NotImplementedError, "rendering"),
         ({"width": 0}, ValueError, "width"),
         ({"height": 10_000}, ValueError, "height"),
         ({"camera": "top"}, ValueError, "camera"),
