@@ -10,10 +10,10 @@ The foundation issue keeps ``env.step`` lean; the scale issue holds the ratio to
 from __future__ import annotations
 
 import argparse
-import statistics
 import time
 
 import gymnasium as gym
+from common import interleaved, print_ratios
 
 import acrobot_mj
 
@@ -38,15 +38,14 @@ def main() -> None:
         "acrobot_mj/Acrobot-v0": gym.make(acrobot_mj.ENV_ID),
         "acrobot_mj/Acrobot-v0 (unwrapped)": gym.make(acrobot_mj.ENV_ID).unwrapped,
     }
-    rates: dict[str, list[float]] = {name: [] for name in envs}
-    for _ in range(args.rounds):
-        for name, env in envs.items():
-            rates[name].append(steps_per_second(env, args.steps))
-    base = statistics.median(rates["gymnasium Acrobot-v1"])
-    print(f"{'env':<36} {'steps/s':>10} {'us/step':>8} {'ratio':>6}")
-    for name, values in rates.items():
-        rate = statistics.median(values)
-        print(f"{name:<36} {rate:10.0f} {1e6 / rate:8.2f} {rate / base:6.2f}")
+    rates = interleaved(
+        {
+            name: (lambda k, env=env: steps_per_second(env, args.steps))
+            for name, env in envs.items()
+        },
+        args.rounds,
+    )
+    print_ratios(rates, "gymnasium Acrobot-v1")
 
 
 if __name__ == "__main__":

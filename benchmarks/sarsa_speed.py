@@ -13,8 +13,9 @@ shared machine hits both alike; the median round is kept. Target (learning issue
 from __future__ import annotations
 
 import argparse
-import statistics
 import time
+
+from common import interleaved, print_ratios
 
 import acrobot_mj  # noqa: F401  (registers the env)
 from acrobot_mj.compat import make_gymnasium_acrobot
@@ -39,15 +40,14 @@ def main() -> None:
         "SARSA on Gymnasium Acrobot-v1": make_gymnasium_acrobot(max_episode_steps=1000),
         "SARSA on acrobot_mj/Acrobot-v0": make_env(PRESETS["report"]),
     }
-    rates: dict[str, list[float]] = {name: [] for name in envs}
-    for k in range(args.rounds):
-        for name, env in envs.items():
-            rates[name].append(steps_per_second(env, args.episodes, seed=k))
-    base = statistics.median(rates["SARSA on Gymnasium Acrobot-v1"])
-    print(f"{'training loop':<34} {'steps/s':>10} {'us/step':>8} {'ratio':>6}")
-    for name, values in rates.items():
-        rate = statistics.median(values)
-        print(f"{name:<34} {rate:10.0f} {1e6 / rate:8.2f} {rate / base:6.2f}")
+    rates = interleaved(
+        {
+            name: (lambda k, env=env: steps_per_second(env, args.episodes, seed=k))
+            for name, env in envs.items()
+        },
+        args.rounds,
+    )
+    print_ratios(rates, "SARSA on Gymnasium Acrobot-v1")
 
 
 if __name__ == "__main__":

@@ -44,14 +44,17 @@ class RandomStream:
         ties = [i for i, v in enumerate(values) if v == best]
         return ties[self.below(len(ties))]
 
-    def state_dict(self) -> dict[str, np.ndarray]:
+    def state_dict(self, prefix: str = "") -> dict[str, np.ndarray]:
+        """The stream's state as arrays, their names starting with ``prefix``."""
         return {
-            "bit_generator": np.array(json.dumps(self.generator.bit_generator.state)),
-            "block": np.array(self._block, dtype=np.float64),
-            "next": np.array(self._next),
+            f"{prefix}bit_generator": np.array(json.dumps(self.generator.bit_generator.state)),
+            f"{prefix}block": np.array(self._block, dtype=np.float64),
+            f"{prefix}next": np.array(self._next),
         }
 
-    def load_state_dict(self, state: dict[str, Any]) -> None:
+    def load_state_dict(self, state: dict[str, Any], prefix: str = "") -> None:
+        """Restore what :meth:`state_dict` returned (with the same ``prefix``)."""
+        state = {k.removeprefix(prefix): v for k, v in state.items() if k.startswith(prefix)}
         bit_state = json.loads(str(state["bit_generator"]))
         if bit_state.get("bit_generator") != type(self.generator.bit_generator).__name__:
             raise ValueError(
@@ -64,3 +67,13 @@ class RandomStream:
             raise ValueError("random state has an inconsistent block position")
         self.generator.bit_generator.state = bit_state
         self._block, self._next = block.tolist(), nxt
+
+
+def checked_values(state: dict[str, Any], name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``state[name]`` as float64, refused unless it has ``shape`` and only finite values."""
+    values = np.asarray(state[name], dtype=np.float64)
+    if values.shape != shape:
+        raise ValueError(f"{name} has shape {values.shape}, this agent needs {shape}")
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{name} holds non-finite values")
+    return values

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents.random_stream import RandomStream
+from acrobot_mj.agents.random_stream import RandomStream, checked_values
 from acrobot_mj.features import StateGrid
 
 
@@ -96,16 +96,9 @@ class Sarsa:
         return stream.argmax(self._q[self.grid.index(obs)])
 
     def state_dict(self) -> dict[str, np.ndarray]:
-        return {"q": self.q, **{f"stream.{k}": v for k, v in self.stream.state_dict().items()}}
+        return {"q": self.q, **self.stream.state_dict(prefix="stream.")}
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
-        q = np.asarray(state["q"], dtype=np.float64)
-        expected = (self.grid.num_features, self.n_actions)
-        if q.shape != expected:
-            raise ValueError(f"Q table has shape {q.shape}, this agent needs {expected}")
-        if not np.all(np.isfinite(q)):
-            raise ValueError("Q table holds non-finite values")
-        self.stream.load_state_dict(
-            {k.removeprefix("stream."): v for k, v in state.items() if k.startswith("stream.")}
-        )
+        q = checked_values(state, "q", (self.grid.num_features, self.n_actions))
+        self.stream.load_state_dict(state, prefix="stream.")
         self._q = q.tolist()

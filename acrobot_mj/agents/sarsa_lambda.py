@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents.random_stream import RandomStream
+from acrobot_mj.agents.random_stream import RandomStream, checked_values
 from acrobot_mj.features import StateGrid, TileCoder
 
 TRACES = ("replacing", "accumulating")
@@ -175,20 +175,10 @@ class SarsaLambda:
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """Weights and random stream (traces are empty between episodes)."""
-        return {
-            "w": self.w.copy(),
-            **{f"stream.{k}": v for k, v in self.stream.state_dict().items()},
-        }
+        return {"w": self.w.copy(), **self.stream.state_dict(prefix="stream.")}
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
-        w = np.asarray(state["w"], dtype=np.float64)
-        expected = (self.n_actions, self.num_features)
-        if w.shape != expected:
-            raise ValueError(f"weights have shape {w.shape}, this agent needs {expected}")
-        if not np.all(np.isfinite(w)):
-            raise ValueError("weights hold non-finite values")
-        self.stream.load_state_dict(
-            {k.removeprefix("stream."): v for k, v in state.items() if k.startswith("stream.")}
-        )
+        w = checked_values(state, "w", (self.n_actions, self.num_features))
+        self.stream.load_state_dict(state, prefix="stream.")
         self._w = w.ravel().copy()
         self._clear_traces()
