@@ -74,9 +74,11 @@ def check_spaces(env: gym.Env) -> None:
         )
 
 
-def learn_episode(env: gym.Env, agent: Agent, seed: int | None = None) -> tuple[int, float, bool]:
+def learn_episode(
+    env: gym.Env, agent: Agent, seed: int | None = None, options: dict[str, Any] | None = None
+) -> tuple[int, float, bool]:
     """One learning episode; returns (decisions, return, reached the goal)."""
-    obs, _ = env.reset(seed=seed)
+    obs, _ = env.reset(seed=seed, options=options)
     action = agent.begin_episode(obs)
     length, total = 0, 0.0
     step, learn = env.step, agent.learn
@@ -205,7 +207,9 @@ def train(
     interrupted = False
     try:
         for episode in range(len(history), config.episodes):
-            length, total, success = learn_episode(env, agent, episode_seed(seed, episode))
+            noise = config.start_noise_at(episode)
+            options = {"start_noise": noise} if noise > 0 else None
+            length, total, success = learn_episode(env, agent, episode_seed(seed, episode), options)
             history.add(length, total, success)
             steps += length
             if out is not None:

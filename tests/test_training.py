@@ -10,7 +10,14 @@ import pytest
 from acrobot_mj.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.compat import make_gymnasium_acrobot
 from acrobot_mj.config import PRESETS, TrainConfig, parse_overrides
-from acrobot_mj.training import CHECKPOINT_FILE, evaluate, load_agent, train, train_seeds
+from acrobot_mj.training import (
+    CHECKPOINT_FILE,
+    evaluate,
+    load_agent,
+    make_env,
+    train,
+    train_seeds,
+)
 
 TINY_BOOK = PRESETS["book"].replace(episodes=6, checkpoint_every=2, eval_episodes=2)
 
@@ -195,6 +202,44 @@ def test_config_overrides_are_typed_and_checked() -> None:
     with pytest.raises(TypeError, match="episodes"):
         TrainConfig(episodes=2.5)
     assert TrainConfig.from_dict(PRESETS["book"].to_dict()) == PRESETS["book"]
+
+
+def test_start_noise_schedule() -> None:
+    config = PRESETS["tuned"]  # 0.2 falling linearly to 0 by 80 % of 500 episodes
+    assert [config.start_noise_at(e) for e in (0, 200, 400, 499)] == [0.2, 0.1, 0.0, 0.0]
+    assert PRESETS["book"].start_noise_at(123) == 0.0
+    constant = PRESETS["book"].replace(start_noise=0.05)
+    assert constant.start_noise_at(0) == constant.start_noise_at(499) == 0.05
+    with pytest.raises(ValueError, match="noise_until"):
+        PRESETS["book"].replace(noise_until=1.5)
+
+
+def test_noisy_training_starts_follow_the_schedule_and_the_seed() -> None:
+    import gymnasium as gym
+
+    class Starts(gym.Wrapper):
+        def __init__(self, env):
+            super().__init__(env)
+            self.starts = []
+
+        def reset(self, **kwargs):
+            obs, info = self.env.reset(**kwargs)
+            self.starts.append(obs)  # only the first reset of the greedy run has no noise
+            return obs, info
+
+    config = PRESETS["tuned"].replace(episodes=5, max_episode_steps=5, noise_until=0.8)
+    runs = []
+    for seed in (1, 1, 2):
+        env = Starts(make_env(config))
+        train(config, seed=seed, env=env)
+        runs.append(np.array(env.starts))
+    hanging = np.array([-np.pi / 2, 0.0, 0.0, 0.0])
+    noise = np.abs(runs[0][:5] - hanging).max(axis=1)
+    # U(-s, s) with s = 0.2, 0.15, 0.1, 0.05, 0 for episodes 0..4; then the greedy run at rest.
+    assert np.all(noise <= [0.2, 0.15, 0.1, 0.05, 0.0]) and np.all(noise[:4] > 0)
+    np.testing.assert_array_equal(runs[0][5], hanging)
+    np.testing.assert_array_equal(runs[0], runs[1])  # same seed, same starts
+    assert not np.array_equal(runs[0], runs[2])
 
 
 @pytest.mark.slow
