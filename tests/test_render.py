@@ -184,3 +184,16 @@ def test_record_video_wrapper(tmp_path) -> None:
     env.close()
     (video,) = folder.glob("*.mp4")
     assert iio.imread(video).shape == (21, 160, 160, 3)
+
+
+def test_rgb_array_list_through_make() -> None:
+    # gymnasium.make adds its RenderCollection wrapper: one frame per reset and step.
+    import gymnasium as gym
+
+    env = gym.make(acrobot_mj.ENV_ID, render_mode="rgb_array_list", width=64, height=48)
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(2)
+    frames = env.render()
+    env.close()
+    assert len(frames) == 4 and frames[0].shape == (48, 64, 3)
