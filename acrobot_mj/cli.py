@@ -1,4 +1,4 @@
-"""Command line: ``acrobot-mj train | evaluate | render | demo | params``, over the library."""
+"""Command line: ``acrobot-mj train | evaluate | render | validate | demo | params``."""
 
 from __future__ import annotations
 
@@ -144,6 +144,21 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
     return record
 
 
+def validate_command(args: argparse.Namespace) -> dict[str, Any]:
+    from acrobot_mj.validation import summary_rows, validate
+
+    report = validate(args.out, quick=args.quick)
+    rows = summary_rows(report)
+    width = max(len(what) for what, _ in rows)
+    for what, value in rows:
+        print(f"{what:<{width}}  {value}")
+    print(
+        f"wrote {Path(args.out) / 'validation.json'}, validation.md and "
+        f"{len(report['figures'])} figures ({report['wall_seconds']:.0f} s)"
+    )
+    return report
+
+
 def params_command(args: argparse.Namespace) -> None:
     """Print the physical parameters with units and sources."""
     print(describe())
@@ -207,6 +222,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="time, torque and tip height on each frame",
     )
     p.set_defaults(func=render_command)
+
+    p = commands.add_parser(
+        "validate", help="check the dynamics against MuJoCo; controllers, bounds, minimum time"
+    )
+    p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
+    p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
+    p.set_defaults(func=validate_command)
 
     p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
     p.add_argument(

@@ -36,10 +36,14 @@ class Series:
 
 
 def _ticks(low: float, high: float, log: bool) -> list[float]:
-    if log:
+    if log:  # low, high in decades: 1-2-5 ticks over a few decades, else every n-th decade
+        decades = range(math.floor(low), math.ceil(high) + 1)
+        if high - low > 4:
+            every = max(1, math.ceil((high - low) / 8))
+            return [10.0**k for k in decades if k % every == 0 and low <= k <= high]
         return [
             10.0**k * m
-            for k in range(math.floor(low), math.ceil(high) + 1)
+            for k in decades
             for m in (1, 2, 5)
             if low - 1e-9 <= math.log10(10.0**k * m) <= high + 1e-9
         ]

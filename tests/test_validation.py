@@ -1,0 +1,134 @@
+"""acrobot-mj validate: its JSON schema and the claims it reports, checked independently."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import acrobot_mj
+from acrobot_mj import control
+from acrobot_mj.cli import main
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("validation")
+    assert main(["validate", "--quick", "--out", str(out)]) == 0
+    return out, json.loads((out / "validation.json").read_text())
+
+
+def test_schema(report) -> None:
+    out, r = report
+    assert r["schema_version"] == 1 and r["quick"] is True
+    for key in (
+        "cross_check",
+        "integrators",
+        "linearisation",
+        "controllers",
+        "minimum_time",
+        "figures",
+        "moonshot_balance",
+        "versions",
+    ):
+        assert key in r, key
+    assert isinstance(r["min_time_steps_frame_skip_1"], int)
+    assert isinstance(r["min_time_decisions_frame_skip_4"], int)
+    assert set(r["linearisation"]["equilibria"]) == {
+        "hanging",
+        "upright",
+        "down_folded",
+        "up_folded",
+    }
+    assert set(r["integrators"]["energy_drift"]) >= {"explicit_euler", "semi_implicit_euler", "rk4"}
+    markdown = (out / "validation.md").read_text()
+    for figure in r["figures"]:
+        assert (out / figure).read_bytes()[:4] == b"\x89PNG"
+        assert f"]({figure})" in markdown
+
+
+def test_cross_check_and_errata(report) -> None:
+    _, r = report
+    relative = r["cross_check"]["relative"]
+    # Rounding only (see tests/test_crosscheck.py for the reasons behind each bound).
+    assert max(relative["mass_matrix"], relative["bias_forces"], relative["accelerations"]) <= 1e-10
+    assert relative["accelerations_eq2_as_printed"] > 0.1  # the erratum is an O(1) error
+    assert max(r["cross_check"]["one_step"].values()) <= 1e-12
+    assert max(r["cross_check"]["trajectory_1000"].values()) <= 1e-8
+
+
+def test_eigenvalues_agree_to_1e_6(report) -> None:
+    _, r = report
+    rows = r["linearisation"]["equilibria"]
+    for row in rows.values():
+        assert row["max_eigenvalue_gap"] <= 1e-6  # measured 3e-10 (central differences)
+        np.testing.assert_allclose(row["acceleration_at_rest"], 0.0, atol=1e-12)
+    assert rows["hanging"]["unstable_modes"] == 0 and rows["upright"]["unstable_modes"] == 2
+    assert r["linearisation"]["controllability_rank_upright"] == 4
+
+
+def _play(actions, frame_skip):
+    env = gym.make(acrobot_mj.ENV_ID, frame_skip=frame_skip)
+    env.reset(seed=0)
+    for k, action in enumerate(actions, start=1):
+        _, reward, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            return k, info["is_success"], reward
+    return len(actions), False, None
+
+
+def test_minimum_time_sequences_replay_to_the_goal_in_the_env(report) -> None:
+    _, r = report
+    mt = r["minimum_time"]
+    for key, frame_skip, length in [
+        ("actions_frame_skip_4", 4, r["min_time_decisions_frame_skip_4"]),
+        ("actions_frame_skip_1", 1, r["min_time_steps_frame_skip_1"]),
+    ]:
+        assert len(mt[key]) == length
+        steps, success, reward = _play(mt[key], frame_skip)
+        # The goal is reached on the last action, not before (the search's first hit).
+        assert (steps, success, reward) == (length, True, 100.0)
+
+
+@pytest.mark.slow
+def test_full_search_matches_the_best_known_minimum() -> None:
+    # The best known: 63 decisions at frame_skip 4 (so 252 steps at frame_skip 1).
+    result = control.min_time_search(frame_skip=4, width=20_000)
+    assert result.decisions <= 63
+    assert _play(result.actions, 4)[:2] == (result.decisions, True)
+
+
+def test_energy_pumping_raises_energy_monotonically() -> None:
+    # dE/dt = tau dq2 >= 0 while E < E*: in continuous time the energy never falls. With the
+    # torque held over an RK4 step the only losses come from dq2 changing sign inside a step,
+    # O(dt^2): measured 2.8e-4 J at dt = 0.01 s and 2.3e-6 J at 0.001 s.
+    coarse, fine = control.pumping_energies(1e-2), control.pumping_energies(1e-3)
+    assert fine[0] == pytest.approx(-19.6, abs=0.01) and fine[-1] >= 19.6 - 1e-9
+    worst_coarse, worst_fine = -np.diff(coarse).min(), -np.diff(fine).min()
+    assert worst_fine <= 1e-5  # |tau| max|ddq2| dt^2 / 2 with |ddq2| < 20 rad/s^2
+    assert worst_coarse / worst_fine > 50  # dt^2 scaling: 10x smaller dt, ~100x smaller drop
+    assert np.sum(np.diff(fine) < 0) <= 10  # a handful of sign changes of dq2, no trend
+
+
+def test_energy_pumping_swings_up_in_the_env(report) -> None:
+    _, r = report
+    pumping = r["controllers"]["energy_pumping"]
+    assert pumping["reached_goal"] and pumping["steps_to_goal"] < 1000
+
+
+def test_lqr_recovers_inside_its_basin_and_nothing_beats_the_bound(report) -> None:
+    _, r = report
+    low, high = r["controllers"]["lqr"]["q1_basin_rad"]
+    bound = r["controllers"]["bound_any_controller_q1_rad"]
+    # DESIGN.md's independent figure: no bounded controller recovers beyond about 0.084 rad.
+    assert bound == pytest.approx(0.084, abs=5e-4)
+    assert 0.005 < high < bound and -bound < low < -0.005
+    lqr = control.LQR()
+    inside = control.UPRIGHT + np.array(
+        [[0.5 * high, 0, 0, 0], [0.5 * low, 0, 0, 0], [0.9 * high, 0, 0, 0]]
+    )
+    assert control.balances(lqr, inside).all()
+    outside = control.UPRIGHT + np.array([[1.1 * bound, 0, 0, 0], [-1.1 * bound, 0, 0, 0]])
+    assert not control.balances(lqr, outside).any()
