@@ -23,7 +23,10 @@ __all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "AcrobotEnv", "AcrobotParams", "__vers
 
 if ENV_ID not in gymnasium.registry:
     gymnasium.register(
-        id=ENV_ID, entry_point="acrobot_mj.env:AcrobotEnv", max_episode_steps=MAX_EPISODE_STEPS
+        id=ENV_ID,
+        entry_point="acrobot_mj.env:AcrobotEnv",
+        vector_entry_point="acrobot_mj.vector:AcrobotVectorEnv",
+        max_episode_steps=MAX_EPISODE_STEPS,
     )
 
 
