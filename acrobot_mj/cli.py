@@ -177,8 +177,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--preset", choices=sorted(PRESETS), default="report")
     p.add_argument("--seed", type=int, default=0, help="seed (the first one with --seeds)")
-    p.add_argument("--seeds", type=_positive_int, help="train K seeds, write summary.json")
-    p.add_argument("--jobs", type=_positive_int, default=1, help="processes for --seeds")
+    p.add_argument(
+        "--seeds",
+        type=_positive_int,
+        help="train K seeds and write summary.json; tabular SARSA runs them in "
+        "lockstep on one batched vector env, Sarsa(lambda) one per process",
+    )
+    p.add_argument(
+        "--jobs", type=_positive_int, default=1, help="processes for --seeds with Sarsa(lambda)"
+    )
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument(

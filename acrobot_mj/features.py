@@ -94,6 +94,16 @@ class StateGrid:
         i4 = 0 if i4 < 0 else top_v if i4 > top_v else i4
         return ((i1 * n_a + i2) * n_v + i3) * n_v + i4
 
+    def indices(self, obs: np.ndarray) -> np.ndarray:
+        """:meth:`index` of each row of ``obs`` ``(n, 4)``, as int64 ``(n,)``: the same numbers
+        (numpy's round, like Python's, rounds halves to even)."""
+        low_a, per_a, n_a, low_v, per_v, n_v = self._consts
+        obs = np.asarray(obs, dtype=np.float64)
+        cells = np.empty(obs.shape, dtype=np.int64)
+        cells[:, :2] = np.clip(np.round((obs[:, :2] - low_a) * per_a), 0, n_a - 1)
+        cells[:, 2:] = np.clip(np.round((obs[:, 2:] - low_v) * per_v), 0, n_v - 1)
+        return ((cells[:, 0] * n_a + cells[:, 1]) * n_v + cells[:, 2]) * n_v + cells[:, 3]
+
     def active(self, obs: Sequence[float]) -> np.ndarray:
         """Active feature indices, shape ``(1,)``."""
         return np.array([self.index(obs)])

@@ -360,11 +360,16 @@ def train_seeds(
     jobs: int = 1,
     resume: bool = False,
 ) -> dict[str, Any]:
-    """Train one run per seed into ``out_dir/seed_S`` (``jobs`` processes), then write
-    ``out_dir/summary.json`` and the learning curve across seeds."""
+    """Train one run per seed into ``out_dir/seed_S``, then write ``out_dir/summary.json`` and
+    the learning curve across seeds. Tabular SARSA trains all seeds in lockstep on one vector env
+    (:func:`train_lockstep`, identical records); Sarsa(lambda), or any resume, runs one seed per
+    process in ``jobs`` processes."""
     out = Path(out_dir)
     tasks = [(config, s, str(out / f"seed_{s}"), resume) for s in seeds]
-    if jobs > 1:
+    if config.algorithm == "sarsa" and not resume:
+        # Tabular SARSA: all seeds in lockstep on one batched vector env (same records).
+        records = train_lockstep(config, seeds, out)
+    elif jobs > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(max_workers=jobs) as pool:
@@ -386,3 +391,116 @@ def train_seeds(
         _reference(config),
     )
     return summary
+
+
+def train_lockstep(
+    config: TrainConfig,
+    seeds: list[int],
+    out_dir: str | Path | None = None,
+    progress: bool = False,
+) -> list[dict[str, Any]]:
+    """Train one tabular SARSA learner per seed together, on one :class:`AcrobotVectorEnv`.
+
+    Learner ``k`` sees exactly what ``train(config, seeds[k])`` would show it: its sub-env is
+    reset with the same per-episode seed and start noise, and
+    :class:`~acrobot_mj.agents.lockstep_sarsa.LockstepSarsa` draws and computes as Sarsa does;
+    so the records (and checkpoints) are identical to the single-env trainer's, up to
+    ``wall_seconds``. Writes ``out_dir/seed_S/`` like :func:`train` (no resume).
+    """
+    from acrobot_mj.agents.lockstep_sarsa import LockstepSarsa
+    from acrobot_mj.vector import AcrobotVectorEnv
+
+    if config.algorithm != "sarsa":
+        raise ValueError(
+            "lockstep training is for tabular SARSA (algorithm 'sarsa'); train "
+            f"{config.algorithm} with one process per seed"
+        )
+    k = len(seeds)
+    env_kwargs = config.env_kwargs()
+    vec = AcrobotVectorEnv(num_envs=k, autoreset_mode="disabled", **env_kwargs)
+    agents = LockstepSarsa(
+        config.make_features(), seeds, 3, config.alpha, config.gamma, config.epsilon
+    )
+    histories = [History() for _ in range(k)]
+    episode = np.zeros(k, dtype=np.int64)
+    length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
+    started = time.perf_counter()
+
+    def restart(mask: np.ndarray) -> np.ndarray:
+        """Reset the masked sub-envs for their next episode, as train() would."""
+        obs = np.zeros((k, 4))
+        noises = {config.start_noise_at(int(episode[i])) for i in np.flatnonzero(mask)}
+        for noise in noises:  # one reset per distinct noise level (one, without a schedule)
+            group = mask & np.array([config.start_noise_at(int(e)) == noise for e in episode])
+            seeds_now = [
+                episode_seed(seeds[i], int(episode[i])) if group[i] else None for i in range(k)
+            ]
+            reset_obs, _ = vec.reset(
+                seed=seeds_now, options={"reset_mask": group, "start_noise": noise}
+            )
+            obs[group] = reset_obs[group]
+        return obs
+
+    active = np.ones(k, dtype=bool)
+    actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
+    ids = np.arange(k)
+    actions[ids] = agents.begin_episodes(ids, restart(active)[ids])
+    bar = Progress(config.episodes * k, f"lockstep sarsa x{k}", progress)
+    while active.any():
+        obs, reward, terminated, truncated, info = vec.step(actions)
+        ids = np.flatnonzero(active)
+        length[ids] += 1
+        total[ids] += reward[ids]
+        next_actions = agents.learn(ids, reward[ids], obs[ids], terminated[ids], truncated[ids])
+        actions[ids] = np.where(next_actions >= 0, next_actions, 1)
+        done = np.zeros(k, dtype=bool)
+        done[ids] = terminated[ids] | truncated[ids]
+        for i in np.flatnonzero(done):
+            histories[i].add(int(length[i]), float(total[i]), bool(info["is_success"][i]))
+        episode[done] += 1
+        length[done], total[done] = 0, 0.0
+        active &= episode < config.episodes
+        again = done & active
+        if again.any():
+            actions[again] = agents.begin_episodes(np.flatnonzero(again), restart(again)[again])
+        if done.any():
+            bar.update(int(episode.sum()), histories[0])
+    elapsed = time.perf_counter() - started
+
+    records = []
+    env = make_env(config)
+    for i, seed in enumerate(seeds):
+        agent = config.make_agent(seed=seed)
+        agent.load_state_dict(agents.state_dict(i))
+        length_g, total_g, success_g = greedy_episode(
+            env, agent, RandomStream(seed), seed=seed, options={"start_noise": 0.0}
+        )
+        record = {
+            "config": config.to_dict(),
+            "seed": seed,
+            "versions": versions(),
+            "episodes_done": len(histories[i]),
+            "steps": int(sum(histories[i].episode_lengths)),
+            "interrupted": False,
+            "wall_seconds": elapsed / k,
+            "lockstep": k,
+            **histories[i].to_dict(),
+            "greedy_from_rest": {"length": length_g, "return": total_g, "success": success_g},
+        }
+        if out_dir is not None:
+            run = Path(out_dir) / f"seed_{seed}"
+            run.mkdir(parents=True, exist_ok=True)
+            save_checkpoint(
+                run / CHECKPOINT_FILE,
+                agents.state_dict(i),
+                _meta(config, seed, histories[i], record["steps"]),
+            )
+            (run / RUN_FILE).write_text(json.dumps(record, indent=1))
+            learning_curve(
+                run / CURVE_FILE,
+                [histories[i].episode_lengths],
+                f"{config.algorithm} ({config.features}), seed {seed}",
+                _reference(config),
+            )
+        records.append(record)
+    return records

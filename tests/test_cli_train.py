@@ -112,3 +112,25 @@ def test_corrupt_checkpoint_gives_a_clear_error(tmp_path, capsys) -> None:
     with pytest.raises(SystemExit):
         main(["evaluate", str(out)])
     assert "truncated or corrupt" in capsys.readouterr().err
+
+
+def test_report_seeds_run_in_lockstep_and_evaluate(tmp_path, capsys) -> None:
+    out = tmp_path / "many"
+    main(
+        [
+            "train",
+            "--preset",
+            "report",
+            "--episodes",
+            "2",
+            "--max-episode-steps",
+            "50",
+            "--seeds",
+            "3",
+            "--out",
+            str(out),
+        ]
+    )
+    record = json.loads((out / "seed_1" / "run.json").read_text())
+    assert record["lockstep"] == 3 and record["episode_lengths"] == [50, 50]
+    assert main(["evaluate", str(out / "seed_1"), "--episodes", "1"]) == 0

@@ -255,3 +255,42 @@ def test_book_preset_learns_the_swing_up() -> None:
         assert np.median(record["episode_lengths"][-10:]) < 150
         assert record["greedy_from_rest"]["success"]
         assert record["greedy_from_rest"]["length"] < 150
+
+
+@pytest.mark.parametrize(
+    "config",
+    [
+        PRESETS["report"].replace(episodes=3, max_episode_steps=200),
+        # 0.2 s decisions reach the goal (terminal updates), with a start-noise schedule.
+        PRESETS["report"].replace(episodes=25, frame_skip=4, start_noise=0.05, noise_until=0.5),
+    ],
+)
+def test_lockstep_learners_equal_single_learners(config, tmp_path) -> None:
+    # Stated and tested: identical, not just alike in distribution (same streams, same resets,
+    # same arithmetic), so the records and the learned tables agree exactly.
+    from acrobot_mj.training import train_lockstep
+
+    seeds = [0, 3, 7]
+    lockstep = train_lockstep(config, seeds, tmp_path / "lock")
+    for seed, record in zip(seeds, lockstep, strict=True):
+        single = train(config, seed=seed, out_dir=tmp_path / f"single{seed}")
+        for key in (
+            "episode_lengths",
+            "episode_returns",
+            "episode_successes",
+            "steps",
+            "greedy_from_rest",
+        ):
+            assert record[key] == single[key], key
+        a = load_checkpoint(tmp_path / "lock" / f"seed_{seed}" / CHECKPOINT_FILE)[1]["q"]
+        b = load_checkpoint(tmp_path / f"single{seed}" / CHECKPOINT_FILE)[1]["q"]
+        np.testing.assert_array_equal(a, b)
+    if config.frame_skip == 4:
+        assert sum(sum(r["episode_successes"]) for r in lockstep) > 20  # terminal updates ran
+
+
+def test_lockstep_refuses_sarsa_lambda() -> None:
+    from acrobot_mj.training import train_lockstep
+
+    with pytest.raises(ValueError, match="tabular"):
+        train_lockstep(PRESETS["book"], [0, 1])
