@@ -1,4 +1,4 @@
-"""Command line: ``acrobot-mj train | evaluate | render | validate | demo | params``."""
+"""Command line: ``acrobot-mj train | evaluate | render | validate | bench | demo | params``."""
 
 from __future__ import annotations
 
@@ -159,6 +159,27 @@ def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     return report
 
 
+def bench_command(args: argparse.Namespace) -> dict[str, Any]:
+    import importlib.util
+
+    suite_path = Path(acrobot_mj.__file__).resolve().parent.parent / "benchmarks" / "suite.py"
+    if not suite_path.is_file():
+        raise FileNotFoundError(
+            f"acrobot-mj bench runs the benchmarks of a source checkout; "
+            f"{suite_path} is not there (clone the repository)"
+        )
+    spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
+    suite = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(suite)
+    result = suite.run(quick=args.quick)
+    print(suite.report(result))
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(result, indent=1))
+        print(f"wrote {args.json}")
+    return result
+
+
 def params_command(args: argparse.Namespace) -> None:
     """Print the physical parameters with units and sources."""
     print(describe())
@@ -236,6 +257,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
     p.set_defaults(func=validate_command)
+
+    p = commands.add_parser(
+        "bench", help="steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling"
+    )
+    p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
+    p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.set_defaults(func=bench_command)
 
     p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
     p.add_argument(

@@ -333,8 +333,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         return obs, {"tip_height": tip, "is_success": False}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        # The hot path: names were resolved to ids once, views into data cached, and the
-        # observation is the only allocation.
+        # The hot path: names resolved to ids once, views into data cached, the observation
+        # the only allocation, and _observe() inlined (a call costs a tenth of the step).
         torque = self._torque_of.get(action) if action.__class__ in _INT_TYPES else None
         self._ctrl[0] = self._torque(action) if torque is None else torque
         m, d, qvel = self.model, self.data, self._qvel
@@ -343,11 +343,19 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             # Velocity limits of the task, after every physics step.
             v1, v2 = qvel.tolist()
             if v1 > MAX_VEL1 or v1 < -MAX_VEL1:
-                qvel[0] = MAX_VEL1 if v1 > 0 else -MAX_VEL1
+                v1 = qvel[0] = MAX_VEL1 if v1 > 0 else -MAX_VEL1
             if v2 > MAX_VEL2 or v2 < -MAX_VEL2:
-                qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
-        obs, tip, finite = self._observe()
-        if not finite:  # the env disables MuJoCo's autoreset, so a bad state cannot hide
+                v2 = qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
+        q1, q2 = self._qpos.tolist()
+        tip = self._l1 * math.sin(q1) + self._l2 * math.sin(q1 + q2)
+        w1 = (q1 + math.pi) % _TWO_PI - math.pi
+        w2 = (q2 + math.pi) % _TWO_PI - math.pi
+        if w1 >= math.pi or w2 >= math.pi:
+            w1, w2 = wrap_angle(q1), wrap_angle(q2)
+        obs = np.array((w1, w2, v1, v2))
+        # False for NaN, infinities and MuJoCo's "huge" values alike (one comparison); the env
+        # disables MuJoCo's autoreset, so a bad state cannot hide.
+        if not abs(q1) + abs(q2) + abs(v1) + abs(v2) < _HUGE:
             self._raise_bad_state()
         terminated = tip > self.goal_height
         reward = self.goal_reward if terminated else self.step_reward

@@ -1,0 +1,216 @@
+"""The speed benchmarks behind ``acrobot-mj bench``: rates measured side by side in one run.
+
+Every measurement returns steps per second; :func:`run` calls them in interleaved rounds (so
+load on a shared machine hits all alike), keeps the median of each, and reports ratios to the
+Gymnasium baselines and to the ``mujoco.batch`` ceiling, a scaling table over the number of
+sub-envs and the peak memory of 1024 lockstep learners. Targets (the scale issue): our env >= 8x
+Acrobot-v1, report SARSA on it >= 5x SARSA on Acrobot-v1, the vector env >= 0.8 of the batch
+ceiling at N = 1024, lockstep SARSA >= 25x SARSA on Acrobot-v1.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import time
+import tracemalloc
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from mujoco.batch import Batch
+
+import acrobot_mj
+from acrobot_mj.compat import make_gymnasium_acrobot
+from acrobot_mj.config import PRESETS
+from acrobot_mj.training import learn_episode, make_env, train_lockstep
+from acrobot_mj.vector import AcrobotVectorEnv
+
+Rate = Callable[[int], float]  # round -> steps per second
+
+
+def env_steps(env: gym.Env, steps: int) -> Rate:
+    def measure(k: int) -> float:
+        env.reset(seed=k)
+        start = time.perf_counter()
+        for i in range(steps):
+            _, _, terminated, truncated, _ = env.step(i % 3)
+            if terminated or truncated:
+                env.reset()
+        return steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def raw_mj_step(steps: int) -> Rate:
+    env = acrobot_mj.AcrobotEnv()
+    model, data = env.model, env.data
+
+    def measure(k: int) -> float:
+        mujoco.mj_resetDataKeyframe(model, data, model.key("hanging").id)
+        start = time.perf_counter()
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+        return steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def batch_ceiling(n: int, steps: int) -> Rate:
+    """Bare ``Batch.step`` on all cores: what the vector env can at best reach."""
+    batch = Batch(acrobot_mj.AcrobotEnv().model, n, nthread=0)
+
+    def measure(k: int) -> float:
+        batch.reset(keyframe=0)
+        start = time.perf_counter()
+        for _ in range(steps):
+            batch.step()
+        return n * steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def vector_env(n: int, steps: int) -> Rate:
+    env = AcrobotVectorEnv(num_envs=n)
+    actions = np.random.default_rng(0).integers(0, 3, (steps, n))
+
+    def measure(k: int) -> float:
+        env.reset(seed=k)
+        start = time.perf_counter()
+        for a in actions:
+            env.step(a)
+        return n * steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def sarsa(env: gym.Env, episodes: int) -> Rate:
+    def measure(k: int) -> float:
+        agent = PRESETS["report"].make_agent(seed=k)
+        steps, start = 0, time.perf_counter()
+        for episode in range(episodes):
+            steps += learn_episode(env, agent, seed=episode)[0]
+        return steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def lockstep_sarsa(learners: int, episodes: int) -> Rate:
+    """Training only (``wall_seconds`` of the records leaves out the final greedy runs)."""
+    config = PRESETS["report"].replace(episodes=episodes)
+
+    def measure(k: int) -> float:
+        records = train_lockstep(
+            config, list(range(k * learners, (k + 1) * learners)), greedy=False
+        )
+        return sum(r["steps"] for r in records) / sum(r["wall_seconds"] for r in records)
+
+    return measure
+
+
+def lockstep_peak_memory(learners: int = 1024) -> float:
+    """Peak memory [MB] that numpy and Python allocate to train ``learners`` report learners
+    for one short episode (Q tables, random blocks, the batch's state)."""
+    tracemalloc.start()
+    train_lockstep(
+        PRESETS["report"].replace(episodes=1, max_episode_steps=20),
+        list(range(learners)),
+        greedy=False,
+    )
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return peak / 1e6
+
+
+def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
+    """Measure everything; returns the medians, ratios, scaling table and memory."""
+    rounds = rounds or (1 if quick else 3)
+    steps = 20_000 if quick else 100_000
+    n = 256 if quick else 1024
+    episodes = 3 if quick else 20
+    rates_of: dict[str, Rate] = {
+        "gymnasium Acrobot-v1 env.step": env_steps(gym.make("Acrobot-v1"), steps),
+        "acrobot_mj env via gymnasium.make": env_steps(make_env(PRESETS["report"]), steps),
+        "raw mj_step loop": raw_mj_step(steps),
+        f"mujoco.batch ceiling, N={n}": batch_ceiling(n, steps // n * 5),
+        f"vector env, N={n}": vector_env(n, steps // n * 5),
+        "SARSA on Gymnasium Acrobot-v1": sarsa(
+            make_gymnasium_acrobot(max_episode_steps=1000), episodes
+        ),
+        "SARSA on acrobot_mj": sarsa(make_env(PRESETS["report"]), episodes),
+        f"lockstep SARSA, K={n}": lockstep_sarsa(n, 1 if quick else 2),
+    }
+    samples: dict[str, list[float]] = {name: [] for name in rates_of}
+    for k in range(rounds):
+        for name, measure in rates_of.items():
+            samples[name].append(measure(k))
+    rates = {name: statistics.median(values) for name, values in samples.items()}
+    env_base = rates["gymnasium Acrobot-v1 env.step"]
+    sarsa_base = rates["SARSA on Gymnasium Acrobot-v1"]
+    ceiling = rates[f"mujoco.batch ceiling, N={n}"]
+    ratios = {
+        "env_vs_gymnasium": rates["acrobot_mj env via gymnasium.make"] / env_base,
+        "sarsa_vs_gymnasium_sarsa": rates["SARSA on acrobot_mj"] / sarsa_base,
+        "vector_env_vs_batch_ceiling": rates[f"vector env, N={n}"] / ceiling,
+        "lockstep_sarsa_vs_gymnasium_sarsa": rates[f"lockstep SARSA, K={n}"] / sarsa_base,
+    }
+    scaling = {}
+    for size in [1, 64, 1024] if quick else [1, 4, 16, 64, 256, 1024, 4096]:
+        work = max(20, steps // size)
+        scaling[size] = {
+            "vector_env": vector_env(size, work)(0),
+            "batch_ceiling": batch_ceiling(size, work)(0),
+        }
+    return {
+        "machine": {
+            "cpus": os.cpu_count(),
+            "processor": platform.processor() or platform.machine(),
+            "python": platform.python_version(),
+            "mujoco": mujoco.__version__,
+            "gymnasium": gym.__version__,
+        },
+        "quick": quick,
+        "rounds": rounds,
+        "rates_steps_per_second": rates,
+        "ratios": ratios,
+        "targets": {
+            "env_vs_gymnasium": 8.0,
+            "sarsa_vs_gymnasium_sarsa": 5.0,
+            "vector_env_vs_batch_ceiling": 0.8,
+            "lockstep_sarsa_vs_gymnasium_sarsa": 25.0,
+        },
+        "scaling_steps_per_second": scaling,
+        "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
+    }
+
+
+def report(result: dict[str, Any]) -> str:
+    """The benchmark's table as text."""
+    rates = result["rates_steps_per_second"]
+    env_base = rates["gymnasium Acrobot-v1 env.step"]
+    sarsa_base = rates["SARSA on Gymnasium Acrobot-v1"]
+    ceiling = next(v for k, v in rates.items() if k.startswith("mujoco.batch"))
+    lines = [f"{'measurement':<36} {'steps/s':>11} {'/ Acrobot-v1':>13} {'/ ceiling':>10}"]
+    for name, rate in rates.items():
+        base = sarsa_base if "SARSA" in name else env_base
+        lines.append(f"{name:<36} {rate:11.0f} {rate / base:13.2f} {rate / ceiling:10.2f}")
+    lines.append("")
+    for key, value in result["ratios"].items():
+        target = result["targets"][key]
+        verdict = "meets" if value >= target else "MISSES"
+        lines.append(f"{key:<36} {value:6.2f}  (target >= {target:g}: {verdict})")
+    lines.append("")
+    lines.append(f"{'N':>6} {'vector env steps/s':>20} {'batch ceiling':>15} {'fraction':>9}")
+    for size, row in result["scaling_steps_per_second"].items():
+        lines.append(
+            f"{size:>6} {row['vector_env']:20.0f} {row['batch_ceiling']:15.0f} "
+            f"{row['vector_env'] / row['batch_ceiling']:9.2f}"
+        )
+    lines.append(
+        f"\npeak memory of 1024 lockstep learners: "
+        f"{result['lockstep_peak_memory_mb_1024_learners']:.1f} MB"
+    )
+    return "\n".join(lines)

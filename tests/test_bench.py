@@ -1,0 +1,21 @@
+"""acrobot-mj bench --quick runs and reports every measurement (speed itself is never asserted:
+the machines are shared and noisy)."""
+
+from __future__ import annotations
+
+import json
+
+from acrobot_mj.cli import main
+
+
+def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--quick", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    result = json.loads(out.read_text())
+    for key in ("env_vs_gymnasium", "sarsa_vs_gymnasium_sarsa", "vector_env_vs_batch_ceiling",
+                "lockstep_sarsa_vs_gymnasium_sarsa"):
+        assert result["ratios"][key] > 0 and key in text
+    assert len(result["rates_steps_per_second"]) == 8
+    assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}
+    assert 1 < result["lockstep_peak_memory_mb_1024_learners"] < 1000
