@@ -82,10 +82,11 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
         raise CheckpointError(f"{path} is not an acrobot_mj checkpoint: it lacks {missing}")
     if str(data["format"]) != FORMAT:
         raise CheckpointError(f"{path} has format {str(data['format'])!r}, expected {FORMAT!r}")
-    if int(data["version"]) != VERSION:
+    version = data["version"]
+    if version.shape != () or version.dtype.kind not in "iu" or int(version) != VERSION:
         raise CheckpointError(
-            f"{path} has format version {int(data['version'])}; this "
-            f"acrobot_mj reads version {VERSION}"
+            f"{path} has format version {version.tolist()!r}; "
+            f"this acrobot_mj reads version {VERSION}"
         )
     stored = str(data.pop("sha256"))
     if _digest(data) != stored:
@@ -94,5 +95,7 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
         meta = json.loads(str(data["meta"]))
     except json.JSONDecodeError as error:
         raise CheckpointError(f"{path} has an unreadable meta document: {error}") from error
+    if not isinstance(meta, dict):
+        raise CheckpointError(f"{path} has a meta document that is not a JSON object")
     arrays = {name: value for name, value in data.items() if name not in _RESERVED}
     return meta, arrays

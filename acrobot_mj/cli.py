@@ -41,10 +41,21 @@ def _config(args: argparse.Namespace) -> TrainConfig:
 
 def train_command(args: argparse.Namespace) -> dict[str, Any]:
     config = _config(args)
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    if args.seeds is None and args.jobs != 1:
+        raise ValueError("--jobs runs several seeds at once: it needs --seeds")
     if args.seeds is not None:
         out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}")
         seeds = list(range(args.seed, args.seed + args.seeds))
-        summary = train_seeds(config, seeds, out, jobs=args.jobs, resume=args.resume)
+        summary = train_seeds(
+            config,
+            seeds,
+            out,
+            jobs=args.jobs,
+            resume=args.resume,
+            progress=progress,
+            overwrite=args.force,
+        )
         g, s = summary["greedy_from_rest_length"], summary["successes"]
         print(
             f"{len(seeds)} seeds -> {out}: successes per run median {s['median']:g} "
@@ -54,8 +65,9 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
         )
         return summary
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
-    progress = sys.stderr.isatty() if args.progress is None else args.progress
-    record = train(config, args.seed, out, resume=args.resume, progress=progress)
+    record = train(
+        config, args.seed, out, resume=args.resume, progress=progress, overwrite=args.force
+    )
     last20 = float(np.median(record["episode_lengths"][-20:]))
     greedy = record["greedy_from_rest"]
     outcome = "goal" if greedy["success"] else "no goal"
@@ -180,6 +192,26 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
+def curves_command(args: argparse.Namespace) -> None:
+    from acrobot_mj.plots import compare_curves
+
+    groups = {}
+    for folder in args.run_dirs:
+        summary_file = Path(folder) / "summary.json"
+        if not summary_file.is_file():
+            raise FileNotFoundError(
+                f"{summary_file} not found: give directories written by acrobot-mj train --seeds"
+            )
+        summary = json.loads(summary_file.read_text())
+        groups[Path(folder).name] = [
+            json.loads((Path(folder) / run / "run.json").read_text())["episode_lengths"]
+            for run in summary["runs"]
+        ]
+    reference = [(63, "best known minimum (63)")] if args.minimum else []
+    compare_curves(args.out, groups, args.title, reference)
+    print(f"wrote {args.out}")
+
+
 def params_command(args: argparse.Namespace) -> None:
     """Print the physical parameters with units and sources."""
     print(describe())
@@ -209,6 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     p.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -258,6 +291,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
     p.set_defaults(func=validate_command)
 
+    p = commands.add_parser("curves", help="learning curves of several --seeds runs, one PNG")
+    p.add_argument("run_dirs", nargs="+", help="directories written by train --seeds")
+    p.add_argument("--out", required=True, help="the PNG file")
+    p.add_argument("--title", default="Learning curves")
+    p.add_argument(
+        "--minimum", action="store_true", help="draw the minimum of 63 decisions (frame_skip 4)"
+    )
+    p.set_defaults(func=curves_command)
+
     p = commands.add_parser(
         "bench", help="steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling"
     )
@@ -290,7 +332,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         args.func(args)
-    except (ValueError, TypeError, FileNotFoundError, CheckpointError, GLBackendError) as error:
+    except (ValueError, TypeError, OSError, CheckpointError, GLBackendError) as error:
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
         parser.exit(

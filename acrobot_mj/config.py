@@ -1,7 +1,7 @@
 """Training configuration: one typed, flat dataclass, the two presets and command-line overrides.
 
 Flat on purpose: every hyperparameter has one short name (``alpha``, ``lam``, ``frame_skip``), the
-name the command line (``--set alpha=0.1``) and sweeps use.
+name the command line (``--alpha 0.1``) and sweeps (``alpha=0.1``) use.
 """
 
 from __future__ import annotations
@@ -90,6 +90,21 @@ class TrainConfig:
                 )
         if self.algorithm == "sarsa" and self.features != "grid":
             raise ValueError("algorithm sarsa is tabular: it needs features='grid'")
+        # Settings that would be recorded but change nothing are refused, naming the reason.
+        defaults = TrainConfig.__dataclass_fields__
+        unused = {
+            "sarsa": ("lam", "traces", "trace_cutoff"),
+            "grid": ("tilings", "subset_tilings", "angle_tiles", "velocity_tiles"),
+            "tiles": ("angle_bins", "velocity_bins", "velocity_centre_max"),
+        }
+        for key in (self.algorithm, self.features):
+            for name in unused.get(key, ()):
+                if getattr(self, name) != defaults[name].default:
+                    raise ValueError(
+                        f"config {name} has no effect with "
+                        f"{'algorithm' if key == self.algorithm else 'features'}"
+                        f"={key!r}"
+                    )
         positive = (
             "angle_bins",
             "velocity_bins",
@@ -108,6 +123,8 @@ class TrainConfig:
             raise ValueError(f"config eval_episodes must be >= 0, got {self.eval_episodes}")
         if not 0.0 <= self.noise_until <= 1.0:
             raise ValueError(f"config noise_until must be in [0, 1], got {self.noise_until}")
+        if not 0.0 <= self.eval_noise <= 1.0:
+            raise ValueError(f"config eval_noise must be in [0, 1], got {self.eval_noise}")
         if not 0.0 <= self.start_noise <= 1.0:
             raise ValueError(f"config start_noise must be in [0, 1], got {self.start_noise}")
         if not self.velocity_centre_max > 0:

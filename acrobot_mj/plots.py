@@ -163,3 +163,34 @@ def learning_curve(
         log_y=True,
         hlines=reference,
     )
+
+
+def compare_curves(
+    path: str | Path,
+    groups: dict[str, Sequence[Sequence[int]]],
+    title: str,
+    reference: Sequence[tuple[float, str]] = (),
+) -> Path:
+    """Median and 25-75 % band across runs of each group of runs, on one log-scale figure."""
+    series = []
+    for label, lengths in groups.items():
+        runs = np.asarray(lengths, dtype=float)
+        low, median, high = np.percentile(runs, [25, 50, 75], axis=0)
+        series.append(
+            Series(
+                f"{label}: median of {len(runs)} seeds, 25-75 % band",
+                np.arange(1, runs.shape[1] + 1),
+                median,
+                low,
+                high,
+            )
+        )
+    return line_plot(
+        path,
+        series,
+        title,
+        "episode",
+        "decisions per episode (log scale)",
+        log_y=True,
+        hlines=reference,
+    )

@@ -91,6 +91,13 @@ def learn_episode(
             return length, float(total), bool(info.get("is_success", terminated))
 
 
+def tie_stream(run_seed: int, episode: int = 0) -> RandomStream:
+    """The stream that breaks ties of greedy episode ``episode`` of run ``run_seed``: the same
+    for the greedy run from rest in ``train``, in ``evaluate`` (its episode 0) and in
+    ``render``, so all three report the same swing-up."""
+    return RandomStream(np.random.SeedSequence([run_seed, episode]))
+
+
 def greedy_episode(
     env: gym.Env,
     agent: Agent,
@@ -175,6 +182,7 @@ def train(
     resume: bool = False,
     progress: bool = False,
     on_episode: Callable[[int, History], None] | None = None,
+    overwrite: bool = False,
 ) -> dict[str, Any]:
     """Train ``config``'s agent with ``seed`` for ``config.episodes`` episodes.
 
@@ -184,9 +192,12 @@ def train(
     any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)`` observations (default: the
     config's acrobot env). Returns the run record.
     """
+    out = Path(out_dir) if out_dir is not None else None
+    if out is not None and not resume and not overwrite:
+        check_fresh(out)
+    env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = make_env(config) if env is None else env
     check_spaces(env)
-    out = Path(out_dir) if out_dir is not None else None
     agent = config.make_agent(seed=seed)
     history, steps = History(), 0
     if resume:
@@ -231,13 +242,14 @@ def train(
         "episodes_done": len(history),
         "steps": steps,
         "interrupted": interrupted,
+        "env": env_name,
         "wall_seconds": elapsed,
         **history.to_dict(),
     }
     if not interrupted:
         # The greedy policy from rest, on the training env (ties broken by a fixed stream).
         length, total, success = greedy_episode(
-            env, agent, RandomStream(seed), seed=seed, options={"start_noise": 0.0}
+            env, agent, tie_stream(seed), seed=seed, options={"start_noise": 0.0}
         )
         record["greedy_from_rest"] = {"length": length, "return": total, "success": success}
     if out is not None:
@@ -260,52 +272,100 @@ def _reference(config: TrainConfig) -> list[tuple[float, str]]:
     return [(best, f"best known minimum ({best})")] if best else []
 
 
-def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[History, int]:
+def check_fresh(out: Path) -> None:
+    """Refuse to write a new run over an existing one."""
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"{out} is a file, not a run directory")
+    taken = [name for name in (RUN_FILE, CHECKPOINT_FILE, "summary.json") if (out / name).exists()]
+    if taken:
+        raise FileExistsError(
+            f"{out} already holds a run ({', '.join(taken)}): resume it, "
+            "choose another directory, or overwrite it on purpose"
+        )
+
+
+def _read_run(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], TrainConfig]:
+    """A training checkpoint's meta (schema checked), arrays and config."""
     meta, arrays = load_checkpoint(path)
-    saved = TrainConfig.from_dict(meta["config"])
+    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int, "history": dict}
+    wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
+    history = meta.get("history", {})
+    if not wrong and (
+        sorted(history) != sorted(History().to_dict())
+        or len({len(v) for v in history.values()}) != 1
+        or len(history["episode_lengths"]) != meta["episodes_done"]
+    ):
+        wrong.append("history")
+    if wrong:
+        raise CheckpointError(f"{path} is not a training checkpoint: bad or missing {wrong}")
+    try:
+        config = TrainConfig.from_dict(meta["config"])
+    except (TypeError, ValueError) as error:
+        raise CheckpointError(f"{path} holds an invalid config: {error}") from error
+    return meta, arrays, config
+
+
+def _load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
+    try:
+        agent.load_state_dict(arrays)
+    except (KeyError, ValueError, TypeError, IndexError) as error:
+        raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
+
+
+def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[History, int]:
+    meta, arrays, saved = _read_run(path)
+    if config.episodes < meta["episodes_done"]:
+        raise CheckpointError(
+            f"{path} already holds {meta['episodes_done']} episodes; resume "
+            f"needs episodes >= that, got {config.episodes}"
+        )
+    if config.noise_until > 0 and config.episodes != saved.episodes:
+        raise CheckpointError(
+            f"{path}: the start-noise schedule depends on episodes "
+            f"({saved.episodes}), so resume cannot change it"
+        )
     differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - {"episodes"}
     if differs:
         raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
     if meta["seed"] != seed:
         raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
-    try:
-        agent.load_state_dict(arrays)
-    except (KeyError, ValueError) as error:
-        raise CheckpointError(f"{path} does not fit this agent: {error}") from error
-    history = History(**meta["history"])
-    if len(history) != meta["episodes_done"]:
-        raise CheckpointError(f"{path} has an inconsistent episode count")
-    return history, int(meta["steps"])
+    _load_into(agent, arrays, path)
+    return History(**meta["history"]), meta["steps"]
 
 
 def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
     """The config, seed and trained agent of a run directory."""
-    meta, arrays = load_checkpoint(Path(run_dir) / CHECKPOINT_FILE)
-    config = TrainConfig.from_dict(meta["config"])
+    path = Path(run_dir) / CHECKPOINT_FILE
+    if not path.exists() and (Path(run_dir) / "summary.json").exists():
+        raise FileNotFoundError(
+            f"{run_dir} holds several seeds (summary.json): give one of its seed_S directories"
+        )
+    meta, arrays, config = _read_run(path)
     agent = config.make_agent(seed=meta["seed"])
-    try:
-        agent.load_state_dict(arrays)
-    except (KeyError, ValueError) as error:
-        raise CheckpointError(f"{run_dir}: checkpoint does not fit its config: {error}") from error
+    _load_into(agent, arrays, path)
     return config, meta["seed"], agent
 
 
 def evaluate(run_dir: str | Path, episodes: int | None = None, seed: int = 0) -> dict[str, Any]:
-    """Greedy episodes of a trained run on its own env settings: episode 0 from rest, the
-    others with ``config.eval_noise`` start noise. Writes and returns ``eval.json``."""
+    """Greedy episodes of a trained run on its own env settings: episode 0 from rest (the same
+    episode as the run's ``greedy_from_rest``), the others with ``config.eval_noise`` start
+    noise drawn with ``seed``. Writes and returns ``eval.json``."""
     run_dir = Path(run_dir)
     config, run_seed, agent = load_agent(run_dir)
     episodes = config.eval_episodes if episodes is None else episodes
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     env = make_env(config)
-    stream = RandomStream(seed)
     history = History()
     for k in range(episodes):
         noise = 0.0 if k == 0 else config.eval_noise
         history.add(
             *greedy_episode(
-                env, agent, stream, seed=episode_seed(seed, k), options={"start_noise": noise}
+                env,
+                agent,
+                tie_stream(run_seed, k),
+                seed=episode_seed(seed, k),
+                options={"start_noise": noise},
             )
         )
     record = {
@@ -321,9 +381,9 @@ def evaluate(run_dir: str | Path, episodes: int | None = None, seed: int = 0) ->
     return record
 
 
-def _train_one(args: tuple[TrainConfig, int, str, bool]) -> dict[str, Any]:
-    config, seed, out_dir, resume = args
-    return train(config, seed, out_dir, resume=resume)
+def _train_one(args: tuple[TrainConfig, int, str, bool, bool]) -> dict[str, Any]:
+    config, seed, out_dir, resume, progress = args
+    return train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True)
 
 
 def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -359,16 +419,21 @@ def train_seeds(
     out_dir: str | Path,
     jobs: int = 1,
     resume: bool = False,
+    progress: bool = False,
+    overwrite: bool = False,
 ) -> dict[str, Any]:
     """Train one run per seed into ``out_dir/seed_S``, then write ``out_dir/summary.json`` and
     the learning curve across seeds. Tabular SARSA trains all seeds in lockstep on one vector env
     (:func:`train_lockstep`, identical records); Sarsa(lambda), or any resume, runs one seed per
     process in ``jobs`` processes."""
     out = Path(out_dir)
-    tasks = [(config, s, str(out / f"seed_{s}"), resume) for s in seeds]
+    if not resume and not overwrite:
+        for path in (out, *(out / f"seed_{s}" for s in seeds)):
+            check_fresh(path)
+    tasks = [(config, s, str(out / f"seed_{s}"), resume, progress and jobs == 1) for s in seeds]
     if config.algorithm == "sarsa" and not resume:
         # Tabular SARSA: all seeds in lockstep on one batched vector env (same records).
-        records = train_lockstep(config, seeds, out)
+        records = train_lockstep(config, seeds, out, progress=progress)
     elif jobs > 1:
         from concurrent.futures import ProcessPoolExecutor
 
@@ -487,7 +552,7 @@ def train_lockstep(
         }
         if greedy:
             length_g, total_g, success_g = greedy_episode(
-                env, agent, RandomStream(seed), seed=seed, options={"start_noise": 0.0}
+                env, agent, tie_stream(seed), seed=seed, options={"start_noise": 0.0}
             )
             record["greedy_from_rest"] = {
                 "length": length_g,

@@ -173,12 +173,11 @@ def render_run(
     captions: bool = True,
 ) -> dict[str, Any]:
     """A video of a trained run's greedy policy from rest, on the run's own env settings."""
-    from acrobot_mj.agents import RandomStream
-    from acrobot_mj.training import load_agent, make_env
+    from acrobot_mj.training import load_agent, make_env, tie_stream
 
     config, run_seed, agent = load_agent(run_dir)
     env = make_env(config, render_mode="rgb_array", width=width, height=height, camera=camera)
-    stream = RandomStream(seed)
+    stream = tie_stream(run_seed)  # as the run's greedy_from_rest and evaluate's episode 0
     try:
         record = record_episode(
             env,

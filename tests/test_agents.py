@@ -113,12 +113,13 @@ def test_trace_cutoff_drops_small_traces() -> None:
     assert np.count_nonzero(agent.traces) == 1 and agent.traces.max() == 0.5
 
 
-def test_sarsa_lambda_with_grid_and_lambda_0_is_tabular_sarsa() -> None:
+@pytest.mark.parametrize("epsilon", [0.001, 0.0])
+def test_sarsa_lambda_with_grid_and_lambda_0_is_tabular_sarsa(epsilon) -> None:
     # One active feature and lambda = 0: the same algorithm, and with the same seed the same
     # random draws, so the learned values agree exactly (alpha = 0.5 keeps them dyadic).
     env = gym.make(acrobot_mj.ENV_ID)
-    tabular = Sarsa(StateGrid(), alpha=0.5, epsilon=0.001, seed=3)
-    linear = SarsaLambda(StateGrid(), alpha=0.5, lam=0.0, epsilon=0.001, seed=3)
+    tabular = Sarsa(StateGrid(), alpha=0.5, epsilon=epsilon, seed=3)
+    linear = SarsaLambda(StateGrid(), alpha=0.5, lam=0.0, epsilon=epsilon, seed=3)
     for episode in range(3):
         a = learn_episode(env, tabular, seed=episode)
         b = learn_episode(env, linear, seed=episode)
@@ -176,3 +177,16 @@ def test_sarsa_lambda_refuses_bad_trace_options() -> None:
         SarsaLambda(StateGrid(), traces="dutch")
     with pytest.raises(ValueError, match="trace_cutoff"):
         SarsaLambda(StateGrid(), trace_cutoff=1.0)
+
+
+@pytest.mark.parametrize(
+    "make", [lambda: Sarsa(Chain(), seed=0), lambda: SarsaLambda(Chain(), seed=0)]
+)
+def test_learn_outside_an_episode_is_refused(make) -> None:
+    agent = make()
+    with pytest.raises(RuntimeError, match="begin_episode"):
+        agent.learn(-1.0, [0], False, False)
+    agent.begin_episode([0])
+    agent.learn(-1.0, [1], terminated=True, truncated=False)
+    with pytest.raises(RuntimeError, match="begin_episode"):  # the episode is over
+        agent.learn(-1.0, [1], False, False)

@@ -13,8 +13,12 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
     assert main(["bench", "--quick", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     result = json.loads(out.read_text())
-    for key in ("env_vs_gymnasium", "sarsa_vs_gymnasium_sarsa", "vector_env_vs_batch_ceiling",
-                "lockstep_sarsa_vs_gymnasium_sarsa"):
+    for key in (
+        "env_vs_gymnasium",
+        "sarsa_vs_gymnasium_sarsa",
+        "vector_env_vs_batch_ceiling",
+        "lockstep_sarsa_vs_gymnasium_sarsa",
+    ):
         assert result["ratios"][key] > 0 and key in text
     assert len(result["rates_steps_per_second"]) == 8
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}

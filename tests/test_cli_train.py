@@ -134,3 +134,64 @@ def test_report_seeds_run_in_lockstep_and_evaluate(tmp_path, capsys) -> None:
     record = json.loads((out / "seed_1" / "run.json").read_text())
     assert record["lockstep"] == 3 and record["episode_lengths"] == [50, 50]
     assert main(["evaluate", str(out / "seed_1"), "--episodes", "1"]) == 0
+
+
+def test_curves_of_several_seed_runs(tmp_path, capsys) -> None:
+    for name in ("a", "b"):
+        main(
+            [
+                "train",
+                "--preset",
+                "book",
+                "--episodes",
+                "3",
+                "--seeds",
+                "2",
+                "--out",
+                str(tmp_path / name),
+            ]
+        )
+    out = tmp_path / "curves.png"
+    assert (
+        main(["curves", str(tmp_path / "a"), str(tmp_path / "b"), "--out", str(out), "--minimum"])
+        == 0
+    )
+    assert out.read_bytes()[:4] == b"\x89PNG"
+    with pytest.raises(SystemExit):
+        main(["curves", str(tmp_path / "a" / "seed_0"), "--out", str(out)])
+    assert "summary.json" in capsys.readouterr().err
+
+
+def test_refuses_to_overwrite_a_run(tmp_path, capsys) -> None:
+    out = tmp_path / "run"
+    main(["train", "--preset", "book", "--episodes", "1", "--out", str(out)])
+    with pytest.raises(SystemExit):
+        main(["train", "--preset", "book", "--episodes", "1", "--out", str(out)])
+    assert "already holds a run" in capsys.readouterr().err
+    assert main(["train", "--preset", "book", "--episodes", "1", "--out", str(out), "--force"]) == 0
+
+
+def test_greedy_from_rest_agrees_across_train_evaluate_and_render(tmp_path) -> None:
+    # The same tie-breaking stream for the run's greedy episode, evaluate's episode 0 and the
+    # video, for any seed (the report preset has many ties: untouched cells are all zero).
+    for seed in (1, 2):
+        out = tmp_path / f"r{seed}"
+        main(
+            [
+                "train",
+                "--preset",
+                "report",
+                "--frame-skip",
+                "4",
+                "--episodes",
+                "30",
+                "--seed",
+                str(seed),
+                "--out",
+                str(out),
+            ]
+        )
+        record = json.loads((out / "run.json").read_text())
+        main(["evaluate", str(out), "--episodes", "1"])
+        evaluation = json.loads((out / "eval.json").read_text())
+        assert evaluation["episode_lengths"][0] == record["greedy_from_rest"]["length"]

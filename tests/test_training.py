@@ -182,7 +182,13 @@ def test_train_seeds_summary(tmp_path) -> None:
     summary = train_seeds(TINY_BOOK.replace(episodes=3), [0, 1], tmp_path, jobs=1)
     assert summary["seeds"] == [0, 1]
     assert (tmp_path / "seed_0" / "run.json").exists() and (tmp_path / "summary.json").exists()
-    assert summary["greedy_from_rest_length"]["min"] <= summary["greedy_from_rest_length"]["max"]
+    per_seed = [json.loads((tmp_path / f"seed_{s}" / "run.json").read_text()) for s in (0, 1)]
+    assert summary["successes"]["median"] == np.median(
+        [sum(r["episode_successes"]) for r in per_seed]
+    )
+    assert summary["greedy_from_rest_length"]["max"] == max(
+        r["greedy_from_rest"]["length"] for r in per_seed
+    )
 
 
 def test_config_overrides_are_typed_and_checked() -> None:

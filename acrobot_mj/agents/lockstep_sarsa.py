@@ -60,7 +60,10 @@ class LockstepSarsa:
     def _policy(self, ids: np.ndarray, states: np.ndarray) -> np.ndarray:
         """Epsilon-greedy actions, ties broken at random: Sarsa._policy for each learner."""
         actions = np.empty(ids.size, dtype=np.int64)
-        explore = self._draw(ids) < self.epsilon
+        if self.epsilon > 0.0:
+            explore = self._draw(ids) < self.epsilon
+        else:  # Sarsa draws nothing for the epsilon test then
+            explore = np.zeros(ids.size, dtype=bool)
         if explore.any():
             actions[explore] = (self._draw(ids[explore]) * self.n_actions).astype(np.int64)
         greedy = ~explore

@@ -11,10 +11,10 @@
         until s is terminal
 
 Details the report leaves open, fixed here: epsilon-greedy picks a uniformly random action (any
-of the three) with probability epsilon, else a greedy one with ties broken at random; at the goal
-(a terminal state, whose values are 0) the target is the reward alone, with no bootstrap; at a
-truncation (the 1000-step limit, not a terminal state) the update still bootstraps from
-``Q(s', a')``.
+of the three) with probability epsilon (one draw per decision when epsilon > 0), else a greedy
+one with ties broken at random; at the goal (a terminal state, whose values are 0) the target is
+the reward alone, with no bootstrap; at a truncation (the 1000-step limit, not a terminal state)
+the update still bootstraps from ``Q(s', a')``.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ class Sarsa:
     def _policy(self, s: int) -> int:
         """Epsilon-greedy in Q(s, .) with the agent's own stream."""
         stream = self.stream
-        if stream.random() < self.epsilon:
+        if self.epsilon > 0.0 and stream.random() < self.epsilon:
             return stream.below(self.n_actions)
         return stream.argmax(self._q[s])
 
@@ -75,6 +75,8 @@ class Sarsa:
 
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
         """Update Q(s, a) from ``(r, s')``; return a' (``None`` once the episode is over)."""
+        if self._s < 0:
+            raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
         row = self._q[self._s]
         if terminated:
             target = reward  # the terminal state's values are zero: no bootstrap

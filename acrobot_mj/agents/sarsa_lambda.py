@@ -7,7 +7,8 @@
         choose a' epsilon-greedy in Q(s', .);  delta += gamma Q(s', a')
         w += alpha delta z;  z *= gamma lambda
 
-With the report's grid (one active feature) and lambda = 0 this is exactly tabular SARSA.
+With the report's grid (one active feature) and lambda = 0 this is exactly tabular SARSA (the
+same random draws too, for any epsilon).
 
 Traces are kept sparse: only the (action, feature) pairs touched in the episode so far, and
 those decayed below ``trace_cutoff`` are dropped (Sutton's own acrobot and mountain-car code drops
@@ -105,6 +106,8 @@ class SarsaLambda:
 
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
         """One Sarsa(lambda) step from ``(r, s')``; return a' (``None`` once it is over)."""
+        if self._a < 0:
+            raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
         pairs = self._a * self.num_features + self._active
         # TD error, first part: r - Q(s, a) with the current weights.
         delta = reward - self._w[pairs].sum()
