@@ -151,7 +151,7 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
     print(
         f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
-        f"{outcome} in {record['length']} steps"
+        f"{outcome} in {record['length']} actions"
     )
     return record
 

@@ -70,8 +70,10 @@ def line_plot(
     log_y: bool = False,
     size: tuple[int, int] = (800, 500),
     hlines: Sequence[tuple[float, str]] = (),
+    arrows: np.ndarray | None = None,
 ) -> Path:
-    """Draw ``series`` (lines with optional bands) and labelled horizontal reference lines."""
+    """Draw ``series`` (lines with optional bands), labelled horizontal reference lines and
+    a field of ``arrows`` (rows ``x, y, dx, dy`` in data units, drawn grey with a tick)."""
     width, height = size
     left, right, top, bottom = 80, 20, 40, 60
     image = Image.new("RGB", size, "white")
@@ -82,10 +84,15 @@ def line_plot(
         v = np.asarray(v, dtype=float)
         return np.log10(np.maximum(v, 1e-12)) if log_y else v
 
-    xs = np.concatenate([np.asarray(s.x, float) for s in series])
+    xs = np.concatenate(
+        [np.asarray(s.x, float) for s in series]
+        + ([np.asarray(arrows, float)[:, 0]] if arrows is not None else [])
+    )
     parts = [fy(v) for s in series for v in (s.y, s.low, s.high) if v is not None]
     if hlines:
         parts.append(fy([v for v, _ in hlines]))
+    if arrows is not None:
+        parts.append(fy(np.asarray(arrows, float)[:, 1]))
     ys = np.concatenate(parts)
     x0, x1 = float(xs.min()), float(xs.max())
     y0, y1 = float(np.nanmin(ys)), float(np.nanmax(ys))
@@ -116,6 +123,13 @@ def line_plot(
     ImageDraw.Draw(label).text((height / 2, 2), ylabel, fill="black", font=font, anchor="ma")
     image.paste(label.rotate(90, expand=True), (4, 0), label.rotate(90, expand=True))
 
+    if arrows is not None:
+        for x, y, dx, dy in np.asarray(arrows, dtype=float):
+            (tail_x, head_x), (tail_y, head_y) = px([x, x + dx]), py([y, y + dy])
+            draw.line([tail_x, tail_y, head_x, head_y], fill=(170, 170, 170), width=1)
+            draw.ellipse(
+                [head_x - 1.5, head_y - 1.5, head_x + 1.5, head_y + 1.5], fill=(150, 150, 150)
+            )
     for value, text in hlines:
         y = float(py([value])[0])
         draw.line([left, y, width - right, y], fill=(90, 90, 90), width=1)

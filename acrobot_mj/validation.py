@@ -311,12 +311,23 @@ def phase_figures(actions_fs4: list[int], out: Path) -> list[str]:
         x0 = np.array([-np.pi / 2 + offset, 0.0, 0.0, 0.0])
         xs = integrators.simulate(x0, np.zeros(200), "rk4", dt=0.02, clip=False)
         series.append(Series(f"released at q1 = -pi/2 + {offset}", xs[:, 0], xs[:, 2]))
+    # The flow (dq1, ddq1) on the slice q2 = 0, dq2 = 0, scaled to a fixed arrow length.
+    q1, dq1 = np.meshgrid(np.linspace(-np.pi, np.pi / 2, 15), np.linspace(-4.5, 4.5, 11))
+    q = np.stack([q1.ravel(), np.zeros(q1.size)], 1)
+    dq = np.stack([dq1.ravel(), np.zeros(q1.size)], 1)
+    ddq1 = dynamics.forward_dynamics(q, dq, 0.0)[:, 0]
+    # Equal arrow lengths on screen: normalise by the axes' spans (about 4.7 rad, 9 rad/s).
+    u, v = dq1.ravel() / 4.7, ddq1 / 9.0
+    norm = np.hypot(u, v) + 1e-12
+    field = np.stack([q1.ravel(), dq1.ravel(), 0.05 * 4.7 * u / norm, 0.05 * 9.0 * v / norm], 1)
     line_plot(
         out / "phase_portrait.png",
         series,
-        "Zero-torque flow from rest, q2 = 0 at release (10 s each)",
+        "Zero-torque flow: arrows (dq1, ddq1) at "
+        "q2 = dq2 = 0; lines released from rest, q2 = 0 (10 s)",
         "q1 [rad] (unwrapped)",
         "dq1 [rad/s]",
+        arrows=field,
     )
     x, xs = control.HANGING.copy(), [control.HANGING.copy()]
     for action in actions_fs4:
