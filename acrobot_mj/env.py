@@ -27,6 +27,7 @@ INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtInteg
 RESET_OPTIONS = ("start_noise",)
 
 _TWO_PI = 2.0 * math.pi
+_mj_step = mujoco.mj_step  # a global name lookup is cheaper than a module attribute
 #: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
 _HUGE = 1e10
 #: set_state refuses larger angles [rad]: at 1e6 rad a double resolves 1e-10 rad, no finer.
@@ -41,7 +42,7 @@ _BAD_STATE_WARNINGS = (
 
 
 def wrap_angle(angle: float) -> float:
-    """Wrap an angle [rad] into ``[-pi, pi)``."""
+    """Wrap an angle [rad] into ``[-pi, pi)`` (the env applies it only to angles outside)."""
     wrapped = (angle + math.pi) % _TWO_PI - math.pi
     return wrapped - _TWO_PI if wrapped >= math.pi else wrapped
 
@@ -184,6 +185,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         model_path: str | Path | None = None,
     ) -> None:
         self._frame_skip = _check_int("frame_skip", frame_skip, 1)
+        self._substeps = range(self._frame_skip)
         if not isinstance(integrator, str) or integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
         self._integrator = integrator
@@ -338,8 +340,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         torque = self._torque_of.get(action) if action.__class__ in _INT_TYPES else None
         self._ctrl[0] = self._torque(action) if torque is None else torque
         m, d, qvel = self.model, self.data, self._qvel
-        for _ in range(self._frame_skip):
-            mujoco.mj_step(m, d)
+        for _ in self._substeps:
+            _mj_step(m, d)
             # Velocity limits of the task, after every physics step.
             v1, v2 = qvel.tolist()
             if v1 > MAX_VEL1 or v1 < -MAX_VEL1:
@@ -348,10 +350,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                 v2 = qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
         q1, q2 = self._qpos.tolist()
         tip = self._l1 * math.sin(q1) + self._l2 * math.sin(q1 + q2)
-        w1 = (q1 + math.pi) % _TWO_PI - math.pi
-        w2 = (q2 + math.pi) % _TWO_PI - math.pi
-        if w1 >= math.pi or w2 >= math.pi:
-            w1, w2 = wrap_angle(q1), wrap_angle(q2)
+        # Angles in [-pi, pi) are observed exactly as they are; others are wrapped.
+        w1 = q1 if -math.pi <= q1 < math.pi else wrap_angle(q1)
+        w2 = q2 if -math.pi <= q2 < math.pi else wrap_angle(q2)
         obs = np.array((w1, w2, v1, v2))
         # False for NaN, infinities and MuJoCo's "huge" values alike (one comparison); the env
         # disables MuJoCo's autoreset, so a bad state cannot hide.
@@ -366,11 +367,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         q1, q2 = self._qpos.tolist()
         v1, v2 = self._qvel.tolist()
         tip = self._l1 * math.sin(q1) + self._l2 * math.sin(q1 + q2)
-        # Wrap angles into [-pi, pi) (wrap_angle inlined for speed).
-        w1 = (q1 + math.pi) % _TWO_PI - math.pi
-        w2 = (q2 + math.pi) % _TWO_PI - math.pi
-        if w1 >= math.pi or w2 >= math.pi:
-            w1, w2 = wrap_angle(q1), wrap_angle(q2)
+        # Angles in [-pi, pi) are observed exactly as they are; others are wrapped.
+        w1 = q1 if -math.pi <= q1 < math.pi else wrap_angle(q1)
+        w2 = q2 if -math.pi <= q2 < math.pi else wrap_angle(q2)
         obs = np.array((w1, w2, v1, v2))
         # False for NaN, infinities and MuJoCo's "huge" values alike (one comparison).
         return obs, tip, abs(q1) + abs(q2) + abs(v1) + abs(v2) < _HUGE

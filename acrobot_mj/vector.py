@@ -211,11 +211,18 @@ class AcrobotVectorEnv(VectorEnv):
     def _observe(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         q, v = self._qpos, self._qvel
         obs = np.empty((self.num_envs, 4))
-        obs[:, :2] = (q + math.pi) % (2 * math.pi) - math.pi
-        obs[:, :2][obs[:, :2] >= math.pi] -= 2 * math.pi  # the single env's half-open interval
+        obs[:, :2] = q
         obs[:, 2:] = v
+        # As the single env: angles in [-pi, pi) as they are, the others wrapped.
+        outside = (q < -math.pi) | (q >= math.pi)
+        if outside.any():
+            wrapped = (q[outside] + math.pi) % (2 * math.pi) - math.pi
+            wrapped[wrapped >= math.pi] -= 2 * math.pi
+            obs[:, :2][outside] = wrapped
         tip = self._l1 * np.sin(q[:, 0]) + self._l2 * np.sin(q[:, 0] + q[:, 1])
-        finite = np.abs(q).sum(1) + np.abs(v).sum(1) < _HUGE
+        finite = np.ones(self.num_envs, dtype=bool)
+        if not (np.abs(q).max() < _HUGE and np.abs(v).max() < _HUGE):  # NaN fails too
+            finite = np.abs(q).sum(1) + np.abs(v).sum(1) < _HUGE
         return obs, tip, finite
 
     def _info(self, tip: np.ndarray, success: np.ndarray) -> dict[str, Any]:
