@@ -1,4 +1,4 @@
-"""Command line: ``acrobot-mj train | evaluate | render | validate | bench | demo | params``."""
+"""Command line: ``acrobot-mj train | evaluate | render | validate | bench | sweep | ...``."""
 
 from __future__ import annotations
 
@@ -192,6 +192,26 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
+def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
+    from acrobot_mj.sweep import load_sweep, run_sweep, summary_table
+
+    spec = load_sweep(args.sweep_file)
+    out = Path(args.out or f"runs/sweep__{Path(args.sweep_file).stem}")
+    summary = run_sweep(
+        spec,
+        out,
+        backend=args.backend,
+        address=args.address,
+        jobs=args.jobs,
+        ray_num_cpus=args.num_cpus,
+    )
+    print(summary_table(summary), end="")
+    print(
+        f"{summary['trials']} trials -> {out}/trials; wrote summary.json, summary.md, summary.png"
+    )
+    return summary
+
+
 def curves_command(args: argparse.Namespace) -> None:
     from acrobot_mj.plots import compare_curves
 
@@ -290,6 +310,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
     p.set_defaults(func=validate_command)
+
+    p = commands.add_parser(
+        "sweep",
+        help="seeds x a grid of hyperparameters from a TOML file, resumable",
+        description="Run every trial (grid point x seed) of SWEEP_FILE that has no run.json yet, "
+        "then summarise. Local: lockstep for tabular SARSA, processes otherwise. Ray: one task "
+        "per trial on ray.init(address=...) (a local instance without --address).",
+    )
+    p.add_argument("sweep_file", help="the sweep's TOML file")
+    p.add_argument("--backend", choices=("local", "ray"), default="local")
+    p.add_argument("--address", help="Ray cluster address (e.g. auto or ray://host:10001)")
+    p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
+    p.add_argument("--jobs", type=_positive_int, help="local processes (default: all cores)")
+    p.add_argument("--num-cpus", type=_positive_int, help="CPUs of a local Ray instance")
+    p.set_defaults(func=sweep_command)
 
     p = commands.add_parser("curves", help="learning curves of several --seeds runs, one PNG")
     p.add_argument("run_dirs", nargs="+", help="directories written by train --seeds")

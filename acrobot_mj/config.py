@@ -123,6 +123,13 @@ class TrainConfig:
             raise ValueError(f"config eval_episodes must be >= 0, got {self.eval_episodes}")
         if not 0.0 <= self.noise_until <= 1.0:
             raise ValueError(f"config noise_until must be in [0, 1], got {self.noise_until}")
+        if not 0.0 < self.alpha <= 1.0:
+            raise ValueError(f"config alpha must be in (0, 1], got {self.alpha}")
+        for name in ("gamma", "epsilon", "lam"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"config {name} must be in [0, 1], got {getattr(self, name)}")
+        if not 0.0 <= self.trace_cutoff < 1.0:
+            raise ValueError(f"config trace_cutoff must be in [0, 1), got {self.trace_cutoff}")
         if not 0.0 <= self.eval_noise <= 1.0:
             raise ValueError(f"config eval_noise must be in [0, 1], got {self.eval_noise}")
         if not 0.0 <= self.start_noise <= 1.0:

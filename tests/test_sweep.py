@@ -1,0 +1,108 @@
+"""Sweeps: the grid expansion, resume, failing trials, and a tiny sweep on a local Ray."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from acrobot_mj.cli import main
+from acrobot_mj.sweep import load_sweep, parse_sweep, run_sweep
+
+TINY = """
+preset = "report"
+episodes = 2
+max_episode_steps = 30
+seeds = [0, 1]
+[grid]
+alpha = [0.1, 0.5]
+frame_skip = [1, 4]
+"""
+
+
+def test_grid_expansion() -> None:
+    spec = parse_sweep(TINY)
+    trials = spec.trials()
+    assert len(trials) == 8  # 2 alphas x 2 frame skips x 2 seeds
+    assert trials[0].name == "alpha=0.1__frame_skip=1__seed=0"
+    assert [(t.point["alpha"], t.point["frame_skip"], t.seed) for t in trials[:4]] == [
+        (0.1, 1, 0),
+        (0.1, 1, 1),
+        (0.1, 4, 0),
+        (0.1, 4, 1),
+    ]
+    assert {t.config.episodes for t in trials} == {2}
+    assert trials[-1].config.alpha == 0.5 and trials[-1].config.max_episode_steps == 30
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("preset = 'best'", "preset"),
+        ("seeds = []", "seeds"),
+        ("colour = 1", "unknown keys"),
+        ("[grid]\nalpah = [0.1]", "grid key 'alpah'"),
+        ("[grid]\nalpha = 0.1", "non-empty list"),
+        ("[grid]\nalpha = [2.0]", "alpha"),
+        ("seeds = [0", "not valid TOML"),
+    ],
+)
+def test_bad_sweep_files(text, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        parse_sweep(text)
+
+
+def test_local_sweep_resumes_and_records_failures(tmp_path) -> None:
+    spec = parse_sweep(TINY)
+    summary = run_sweep(spec, tmp_path)
+    runs = sorted((tmp_path / "trials").glob("*/run.json"))
+    assert len(runs) == 8 and summary["trials"] == 8
+    assert all(row["runs"] == 2 for row in summary["points"])
+    # Resume: finished trials are skipped (their files are not rewritten), a missing one reruns.
+    stamps = {p: p.stat().st_mtime_ns for p in runs}
+    victim = runs[3]
+    victim.unlink()
+    run_sweep(spec, tmp_path)
+    assert victim.exists()
+    assert all(p.stat().st_mtime_ns == t for p, t in stamps.items() if p != victim)
+    for name in ("summary.json", "summary.md", "summary.png"):
+        assert (tmp_path / name).exists()
+
+
+def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch) -> None:
+    # Sarsa(lambda) trials run one per process; make seed 1 fail inside its worker.
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('preset = "book"\nepisodes = 1\nseeds = [0, 1, 2]\n[grid]\nlam = [0.9]\n')
+    spec = load_sweep(sweep)
+    import acrobot_mj.sweep as sweep_module
+
+    original = sweep_module._run_trial
+
+    def flaky(config, seed, run_dir):
+        if seed == 1:
+            config = {**config, "alpha": -1.0}  # refused by TrainConfig: a real failure
+        return original(config, seed, run_dir)
+
+    monkeypatch.setattr(sweep_module, "_run_trial", flaky)
+    summary = sweep_module.run_sweep(spec, tmp_path / "out", jobs=1)
+    trials = tmp_path / "out" / "trials"
+    error = json.loads((trials / "lam=0.9__seed=1" / "error.json").read_text())
+    assert "alpha" in error["error"]
+    assert (trials / "lam=0.9__seed=0" / "run.json").exists()
+    assert (trials / "lam=0.9__seed=2" / "run.json").exists()
+    assert summary["points"][0]["failed_seeds"] == [1] and summary["points"][0]["runs"] == 2
+
+
+@pytest.mark.slow
+def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
+    pytest.importorskip("ray", reason="needs the ray extra")
+    sweep = tmp_path / "tiny.toml"
+    sweep.write_text(TINY.replace("frame_skip = [1, 4]", "frame_skip = [4]"))
+    out = tmp_path / "ray"
+    assert (
+        main(["sweep", str(sweep), "--backend", "ray", "--num-cpus", "2", "--out", str(out)]) == 0
+    )
+    runs = sorted((out / "trials").glob("*/run.json"))
+    assert len(runs) == 4  # one run record per trial
+    assert {json.loads(p.read_text())["seed"] for p in runs} == {0, 1}
+    assert "4 trials" in capsys.readouterr().out
