@@ -124,22 +124,32 @@ def _trial_dir(out: Path, trial: Trial) -> Path:
     return out / "trials" / trial.name
 
 
-def _run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
-    """One trial (in a worker process or a Ray task): train, or record the error."""
+def _train_or_error(config: dict[str, Any], seed: int, run_dir: str | None) -> dict[str, Any]:
+    """Train one trial (writing its run directory if given), or describe its error."""
     from acrobot_mj.training import train
 
     try:
         return train(TrainConfig.from_dict(config), seed, run_dir, overwrite=True)
     except Exception as error:  # a failing trial is recorded, the others go on
-        record = {
+        return {
             "error": repr(error),
             "traceback": traceback.format_exc(),
             "seed": seed,
             "config": config,
         }
-        Path(run_dir).mkdir(parents=True, exist_ok=True)
-        (Path(run_dir) / "error.json").write_text(json.dumps(record, indent=1))
-        return record
+
+
+def _write_error(run_dir: Path, record: dict[str, Any]) -> None:
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "error.json").write_text(json.dumps(record, indent=1))
+
+
+def _run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
+    """One trial in this process or a local worker process: its files, or error.json."""
+    record = _train_or_error(config, seed, run_dir)
+    if "error" in record:
+        _write_error(Path(run_dir), record)
+    return record
 
 
 def run_sweep(
@@ -180,7 +190,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
                 _run_trial(t.config.to_dict(), t.seed, str(_trial_dir(out, t)))
             continue
         for t, record in zip(group, records, strict=True):
-            _write_lockstep_run(out, t, record)
+            _write_run(out, t, record)
     rest = [t for t in todo if t.config.algorithm != "sarsa"]
     if jobs == 1:  # in this process, one after the other
         for t in rest:
@@ -195,7 +205,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
             future.result()
 
 
-def _write_lockstep_run(out: Path, trial: Trial, record: dict[str, Any]) -> None:
+def _write_run(out: Path, trial: Trial, record: dict[str, Any]) -> None:
     run = _trial_dir(out, trial)
     run.mkdir(parents=True, exist_ok=True)
     (run / "run.json").write_text(json.dumps(record, indent=1))
@@ -211,13 +221,18 @@ def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | 
         kwargs = {"address": address} if address else {"num_cpus": num_cpus}
         ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
     try:
-        task = ray.remote(_run_trial)
-        pending = [
-            task.remote(t.config.to_dict(), t.seed, str(_trial_dir(out, t).resolve())) for t in todo
-        ]
-        while pending:  # each trial writes its own run.json as it finishes
+        # Tasks return their records and this process writes them as each finishes: the
+        # workers need no file system shared with the driver.
+        task = ray.remote(_train_or_error)
+        trial_of = {task.remote(t.config.to_dict(), t.seed, None): t for t in todo}
+        pending = list(trial_of)
+        while pending:
             done, pending = ray.wait(pending, num_returns=1)
-            ray.get(done)
+            trial, record = trial_of[done[0]], ray.get(done[0])
+            if "error" in record:
+                _write_error(_trial_dir(out, trial), record)
+            else:
+                _write_run(out, trial, record)
     finally:
         if started_here:
             ray.shutdown()
