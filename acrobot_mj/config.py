@@ -202,40 +202,29 @@ def _field_type(f: dataclasses.Field) -> type:
 
 FIELD_NAMES = tuple(f.name for f in fields(TrainConfig))
 
+# The report, exactly: tabular SARSA on the 5x5x3x3 grid, 0.05 s decisions, 200 episodes.
+_REPORT = TrainConfig()
+# Sutton and Barto's acrobot: Sarsa(lambda), 48 tilings, alpha 0.2/48, lambda 0.9, epsilon 0,
+# weights 0, a decision every 0.2 s, 500 episodes, and their reward: -1 on every step, the last
+# one included (with the report's +100 the zero weights stop being optimistic near the goal, and
+# exploration dies there).
+_BOOK = TrainConfig(
+    algorithm="sarsa_lambda",
+    features="tiles",
+    alpha=0.2 / 48,
+    epsilon=0.0,
+    lam=0.9,
+    frame_skip=4,
+    episodes=500,
+    goal_reward=-1.0,
+)
 PRESETS: dict[str, TrainConfig] = {
-    # The report, exactly: tabular SARSA on the 5x5x3x3 grid, 0.05 s decisions, 200 episodes.
-    "report": TrainConfig(),
-    # Sutton and Barto's acrobot: Sarsa(lambda), 48 tilings, alpha 0.2/48, lambda 0.9,
-    # epsilon 0, weights 0, a decision every 0.2 s, 500 episodes, and their reward: -1 on every
-    # step, the last one included (with the report's +100 the zero weights stop being optimistic
-    # near the goal, and exploration dies there).
-    "book": TrainConfig(
-        algorithm="sarsa_lambda",
-        features="tiles",
-        alpha=0.2 / 48,
-        epsilon=0.0,
-        lam=0.9,
-        frame_skip=4,
-        episodes=500,
-        goal_reward=-1.0,
-    ),
-    # Not the book: the book's learner with finer tiles (12 per angle, 14 per velocity, still 48
+    "report": _REPORT,
+    "book": _BOOK,
+    # Not the book: its learner with finer tiles (12 per angle, 14 per velocity, still 48
     # tilings) and a start-noise schedule (U(-0.2, 0.2) falling to 0 by 80 % of training) for
     # more exploration. See the README's results for why and what it buys.
-    "tuned": TrainConfig(
-        algorithm="sarsa_lambda",
-        features="tiles",
-        alpha=0.2 / 48,
-        epsilon=0.0,
-        lam=0.9,
-        frame_skip=4,
-        episodes=500,
-        goal_reward=-1.0,
-        angle_tiles=12,
-        velocity_tiles=14,
-        start_noise=0.2,
-        noise_until=0.8,
-    ),
+    "tuned": _BOOK.replace(angle_tiles=12, velocity_tiles=14, start_noise=0.2, noise_until=0.8),
 }
 
 

@@ -159,15 +159,10 @@ def learning_curve(
 ) -> Path:
     """Decisions per episode (log scale) against episode: one run as a line, several runs as
     the median with the 25-75 % band across runs."""
+    if len(lengths) > 1:
+        return compare_curves(path, {"": lengths}, title, reference)
     runs = np.asarray(lengths, dtype=float)
-    episodes = np.arange(1, runs.shape[1] + 1)
-    if len(runs) == 1:
-        series = [Series("one run", episodes, runs[0])]
-    else:
-        low, median, high = np.percentile(runs, [25, 50, 75], axis=0)
-        series = [
-            Series(f"median of {len(runs)} runs (band: 25-75 %)", episodes, median, low, high)
-        ]
+    series = [Series("one run", np.arange(1, runs.shape[1] + 1), runs[0])]
     return line_plot(
         path,
         series,
@@ -192,7 +187,7 @@ def compare_curves(
         low, median, high = np.percentile(runs, [25, 50, 75], axis=0)
         series.append(
             Series(
-                f"{label}: median of {len(runs)} seeds, 25-75 % band",
+                f"{label + ': ' if label else ''}median of {len(runs)} seeds, 25-75 % band",
                 np.arange(1, runs.shape[1] + 1),
                 median,
                 low,
