@@ -23,6 +23,14 @@ from acrobot_mj.render import GLBackendError
 from acrobot_mj.training import evaluate, train, train_seeds, versions
 
 
+def _write_json(path: str | None, data: dict[str, Any]) -> None:
+    """Write ``data`` to ``path`` (when given) and say so."""
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(json.dumps(data, indent=1))
+        print(f"wrote {path}")
+
+
 def _positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -123,10 +131,7 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
         "episode_successes": [episode.success],
         "episodes": [episode.to_dict()],
     }
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(record, indent=1))
-        print(f"wrote {args.json}")
+    _write_json(args.json, record)
     return record
 
 
@@ -186,10 +191,7 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     spec.loader.exec_module(suite)
     result = suite.run(quick=args.quick)
     print(suite.report(result))
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=1))
-        print(f"wrote {args.json}")
+    _write_json(args.json, result)
     return result
 
 

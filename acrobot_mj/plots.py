@@ -162,7 +162,12 @@ def learning_curve(
     if len(lengths) > 1:
         return compare_curves(path, {"": lengths}, title, reference)
     runs = np.asarray(lengths, dtype=float)
-    series = [Series("one run", np.arange(1, runs.shape[1] + 1), runs[0])]
+    return _curves(
+        path, [Series("one run", np.arange(1, runs.shape[1] + 1), runs[0])], title, reference
+    )
+
+
+def _curves(path, series, title, reference) -> Path:
     return line_plot(
         path,
         series,
@@ -194,12 +199,4 @@ def compare_curves(
                 high,
             )
         )
-    return line_plot(
-        path,
-        series,
-        title,
-        "episode",
-        "decisions per episode (log scale)",
-        log_y=True,
-        hlines=reference,
-    )
+    return _curves(path, series, title, reference)
