@@ -375,10 +375,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise  # the whole traceback, for bug reports
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
-        parser.exit(
-            130,
-            f"acrobot-mj {args.command}: {interrupt or 'interrupted'}; continue with --resume\n",
-        )
+        hint = "; continue with --resume" if args.command == "train" else ""
+        parser.exit(130, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
     return 0
 
 

@@ -312,8 +312,9 @@ def _load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
         raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
 
 
-def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[History, int]:
-    meta, arrays, saved = _read_run(path)
+def _check_resume(
+    path: Path, meta: dict[str, Any], saved: TrainConfig, config: TrainConfig, seed: int
+) -> None:
     if config.episodes < meta["episodes_done"]:
         raise CheckpointError(
             f"{path} already holds {meta['episodes_done']} episodes; resume "
@@ -329,6 +330,11 @@ def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[
         raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
     if meta["seed"] != seed:
         raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+
+
+def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[History, int]:
+    meta, arrays, saved = _read_run(path)
+    _check_resume(path, meta, saved, config, seed)
     _load_into(agent, arrays, path)
     return History(**meta["history"]), meta["steps"]
 
@@ -431,9 +437,9 @@ def train_seeds(
         for path in (out, *(out / f"seed_{s}" for s in seeds)):
             check_fresh(path)
     tasks = [(config, s, str(out / f"seed_{s}"), resume, progress and jobs == 1) for s in seeds]
-    if config.algorithm == "sarsa" and not resume:
+    if config.algorithm == "sarsa":
         # Tabular SARSA: all seeds in lockstep on one batched vector env (same records).
-        records = train_lockstep(config, seeds, out, progress=progress)
+        records = train_lockstep(config, seeds, out, progress=progress, resume=resume)
     elif jobs > 1:
         from concurrent.futures import ProcessPoolExecutor
 
@@ -458,12 +464,54 @@ def train_seeds(
     return summary
 
 
+def _lockstep_loop(
+    vec,
+    agents,
+    config,
+    histories,
+    episode,
+    length,
+    total,
+    active,
+    actions,
+    restart,
+    snapshot,
+    checkpoint,
+    bar,
+) -> None:
+    """Step every active learner until each has done ``config.episodes`` episodes."""
+    k = len(histories)
+    while active.any():
+        obs, reward, terminated, truncated, info = vec.step(actions)
+        ids = np.flatnonzero(active)
+        length[ids] += 1
+        total[ids] += reward[ids]
+        next_actions = agents.learn(ids, reward[ids], obs[ids], terminated[ids], truncated[ids])
+        actions[ids] = np.where(next_actions >= 0, next_actions, 1)
+        done = np.zeros(k, dtype=bool)
+        done[ids] = terminated[ids] | truncated[ids]
+        episode[done] += 1
+        for i in np.flatnonzero(done):
+            histories[i].add(int(length[i]), float(total[i]), bool(info["is_success"][i]))
+            snapshot(i)  # before its next episode draws anything
+            if episode[i] % config.checkpoint_every == 0:
+                checkpoint(i)
+        length[done], total[done] = 0, 0.0
+        active &= episode < config.episodes
+        again = done & active
+        if again.any():
+            actions[again] = agents.begin_episodes(np.flatnonzero(again), restart(again)[again])
+        if done.any():
+            bar.update(int(episode.sum()), histories[0])
+
+
 def train_lockstep(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path | None = None,
     progress: bool = False,
     greedy: bool = True,
+    resume: bool = False,
 ) -> list[dict[str, Any]]:
     """Train one tabular SARSA learner per seed together, on one :class:`AcrobotVectorEnv`.
 
@@ -472,7 +520,9 @@ def train_lockstep(
     :class:`~acrobot_mj.agents.lockstep_sarsa.LockstepSarsa` draws and computes as Sarsa does;
     so the records (and checkpoints) are identical to the single-env trainer's, up to
     ``wall_seconds`` (the training time shared out). Writes ``out_dir/seed_S/`` like
-    :func:`train` (no resume); ``greedy=False`` skips the final greedy run from rest.
+    :func:`train`, with each learner's checkpoint every ``checkpoint_every`` of its episodes, at
+    the end and on Ctrl-C; ``resume`` continues from them; ``greedy=False`` skips the final greedy
+    run from rest.
     """
     from acrobot_mj.agents.lockstep_sarsa import LockstepSarsa
     from acrobot_mj.vector import AcrobotVectorEnv
@@ -491,6 +541,31 @@ def train_lockstep(
     histories = [History() for _ in range(k)]
     episode = np.zeros(k, dtype=np.int64)
     length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
+    out = Path(out_dir) if out_dir is not None else None
+    if resume:
+        if out is None:
+            raise ValueError("resume needs the sweep's or run's directory (out_dir)")
+        for i, seed in enumerate(seeds):
+            path = out / f"seed_{seed}" / CHECKPOINT_FILE
+            meta, arrays, saved = _read_run(path)
+            _check_resume(path, meta, saved, config, seed)
+            agents.load_state(i, arrays)
+            histories[i] = History(**meta["history"])
+            episode[i] = meta["episodes_done"]
+    # Each learner's state after its last completed episode: what its checkpoint holds.
+    snapshots: dict[int, tuple] = {}
+
+    def snapshot(i: int) -> None:
+        if out is not None:
+            steps_i = int(sum(histories[i].episode_lengths))
+            snapshots[i] = (agents.state_dict(i), _meta(config, seeds[i], histories[i], steps_i))
+
+    def checkpoint(i: int) -> None:
+        if i in snapshots:
+            save_checkpoint(out / f"seed_{seeds[i]}" / CHECKPOINT_FILE, *snapshots[i])
+
+    for i in range(k):
+        snapshot(i)
     started = time.perf_counter()
 
     def restart(mask: np.ndarray) -> np.ndarray:
@@ -508,30 +583,37 @@ def train_lockstep(
             obs[group] = reset_obs[group]
         return obs
 
-    active = np.ones(k, dtype=bool)
+    active = episode < config.episodes
     actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
-    ids = np.arange(k)
+    ids = np.flatnonzero(active)
     actions[ids] = agents.begin_episodes(ids, restart(active)[ids])
     bar = Progress(config.episodes * k, f"lockstep sarsa x{k}", progress)
-    while active.any():
-        obs, reward, terminated, truncated, info = vec.step(actions)
-        ids = np.flatnonzero(active)
-        length[ids] += 1
-        total[ids] += reward[ids]
-        next_actions = agents.learn(ids, reward[ids], obs[ids], terminated[ids], truncated[ids])
-        actions[ids] = np.where(next_actions >= 0, next_actions, 1)
-        done = np.zeros(k, dtype=bool)
-        done[ids] = terminated[ids] | truncated[ids]
-        for i in np.flatnonzero(done):
-            histories[i].add(int(length[i]), float(total[i]), bool(info["is_success"][i]))
-        episode[done] += 1
-        length[done], total[done] = 0, 0.0
-        active &= episode < config.episodes
-        again = done & active
-        if again.any():
-            actions[again] = agents.begin_episodes(np.flatnonzero(again), restart(again)[again])
-        if done.any():
-            bar.update(int(episode.sum()), histories[0])
+    try:
+        _lockstep_loop(
+            vec,
+            agents,
+            config,
+            histories,
+            episode,
+            length,
+            total,
+            active,
+            actions,
+            restart,
+            snapshot,
+            checkpoint,
+            bar,
+        )
+    except KeyboardInterrupt:
+        for i in range(k):
+            checkpoint(i)
+        raise KeyboardInterrupt(
+            "interrupted; each learner's checkpoint holds its last completed episode"
+        ) from None
+    for i in range(k):
+        checkpoint(i)
+    elapsed = time.perf_counter() - started
+
     elapsed = time.perf_counter() - started
 
     records = []

@@ -302,3 +302,35 @@ def test_lockstep_refuses_sarsa_lambda() -> None:
 
     with pytest.raises(ValueError, match="tabular"):
         train_lockstep(PRESETS["book"], [0, 1])
+
+
+def test_lockstep_checkpoints_and_resume_exactly(tmp_path, monkeypatch) -> None:
+    from acrobot_mj.training import train_lockstep
+    from acrobot_mj.vector import AcrobotVectorEnv
+
+    config = PRESETS["report"].replace(episodes=12, frame_skip=4, checkpoint_every=3)
+    seeds = [0, 5]
+    whole = train_lockstep(config, seeds, tmp_path / "whole")
+    # Interrupt in the middle of episodes (Ctrl-C inside vec.step), then resume.
+    calls = {"n": 0}
+    step = AcrobotVectorEnv.step
+
+    def interrupting(self, actions):
+        calls["n"] += 1
+        if calls["n"] == 1500:
+            raise KeyboardInterrupt
+        return step(self, actions)
+
+    monkeypatch.setattr(AcrobotVectorEnv, "step", interrupting)
+    with pytest.raises(KeyboardInterrupt, match="checkpoint"):
+        train_lockstep(config, seeds, tmp_path / "split")
+    monkeypatch.setattr(AcrobotVectorEnv, "step", step)
+    done = [
+        load_checkpoint(tmp_path / "split" / f"seed_{s}" / CHECKPOINT_FILE)[0]["episodes_done"]
+        for s in seeds
+    ]
+    assert 0 < min(done) and max(done) < 12  # stopped part-way, each at an episode boundary
+    resumed = train_lockstep(config, seeds, tmp_path / "split", resume=True)
+    for a, b in zip(whole, resumed, strict=True):
+        for key in ("episode_lengths", "episode_returns", "episode_successes", "greedy_from_rest"):
+            assert a[key] == b[key], key

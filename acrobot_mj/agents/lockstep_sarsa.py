@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from acrobot_mj.agents.random_stream import BLOCK
+from acrobot_mj.agents.random_stream import BLOCK, checked_values
 from acrobot_mj.features import StateGrid
 
 
@@ -117,3 +117,16 @@ class LockstepSarsa:
             "stream.block": block.copy(),
             "stream.next": np.array(0),
         }
+
+    def load_state(self, k: int, state: dict[str, np.ndarray]) -> None:
+        """Give learner ``k`` a state in Sarsa's format (from its checkpoint)."""
+        q = checked_values(state, "q", self.q.shape[1:])
+        bit_state = json.loads(str(state["stream.bit_generator"]))
+        block = np.asarray(state["stream.block"], dtype=np.float64)
+        rest = block[int(state["stream.next"]) :]  # the unread draws, read before a refill
+        if rest.size > BLOCK:
+            raise ValueError("random state has a block longer than the stream's")
+        self._generators[k].bit_generator.state = bit_state
+        self.q[k] = q
+        self._block[k, BLOCK - rest.size :] = rest
+        self._next[k] = BLOCK - rest.size
