@@ -91,12 +91,17 @@ def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
     if not (
         isinstance(seeds, list)
         and seeds
-        and all(isinstance(s, int) for s in seeds)
         and len(set(seeds)) == len(seeds)
+        and all(type(s) is int and s >= 0 for s in seeds)
     ):
-        raise ValueError(f"{source}: seeds must be a non-empty list of distinct integers")
+        raise ValueError(
+            f"{source}: seeds must be a non-empty list of distinct integers >= 0, got {seeds!r}"
+        )
+    extra = data.get("overrides", {})
+    if not isinstance(extra, dict):
+        raise ValueError(f"{source}: [overrides] must be a table of config keys")
     overrides = {k: v for k, v in data.items() if k in FIELD_NAMES}
-    overrides.update(data.get("overrides", {}))
+    overrides.update(extra)
     if "episodes" in data:
         overrides["episodes"] = data["episodes"]
     grid = data.get("grid", {})
@@ -107,9 +112,16 @@ def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
             raise ValueError(f"{source}: grid key {key!r} is not a config key")
         if not isinstance(values, list) or not values:
             raise ValueError(f"{source}: grid {key} must be a non-empty list")
+    for key, values in grid.items():
+        if len({json.dumps(v) for v in values}) != len(values) or len(set(map(str, values))) != len(
+            values
+        ):
+            raise ValueError(f"{source}: grid {key} repeats a value: {values!r}")
     spec = SweepSpec(preset, seeds, grid, overrides)
-    for trial in spec.trials():  # every combination must be a valid config
-        trial.config.replace()
+    trials = spec.trials()  # building them checks every config
+    # Tuples compare numbers by value (1 == 1.0), so equal configs collapse here.
+    if len({(tuple(sorted(t.config.to_dict().items())), t.seed) for t in trials}) != len(trials):
+        raise ValueError(f"{source}: two grid points give the same config (e.g. 1 and 1.0)")
     return spec
 
 
@@ -149,6 +161,8 @@ def _run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any
     record = _train_or_error(config, seed, run_dir)
     if "error" in record:
         _write_error(Path(run_dir), record)
+    else:
+        (Path(run_dir) / "error.json").unlink(missing_ok=True)
     return record
 
 
@@ -166,7 +180,18 @@ def run_sweep(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     trials = spec.trials()
-    todo = [t for t in trials if not (_trial_dir(out, t) / "run.json").exists()]
+    todo = []
+    for t in trials:
+        run = _trial_dir(out, t) / "run.json"
+        if not run.exists():
+            todo.append(t)
+            continue
+        record = json.loads(run.read_text())
+        if record.get("config") != t.config.to_dict() or record.get("seed") != t.seed:
+            raise ValueError(
+                f"{run} holds another sweep's trial (a different config or seed): "
+                "give this sweep its own --out"
+            )
     if backend == "local":
         _run_local(todo, out, jobs)
     else:
@@ -209,6 +234,7 @@ def _write_run(out: Path, trial: Trial, record: dict[str, Any]) -> None:
     run = _trial_dir(out, trial)
     run.mkdir(parents=True, exist_ok=True)
     (run / "run.json").write_text(json.dumps(record, indent=1))
+    (run / "error.json").unlink(missing_ok=True)  # an earlier failure of this trial
 
 
 def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | None) -> None:
@@ -228,7 +254,15 @@ def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | 
         pending = list(trial_of)
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
-            trial, record = trial_of[done[0]], ray.get(done[0])
+            trial = trial_of[done[0]]
+            try:
+                record = ray.get(done[0])
+            except Exception as error:  # the worker itself died (crash, out of memory)
+                record = {
+                    "error": repr(error),
+                    "seed": trial.seed,
+                    "config": trial.config.to_dict(),
+                }
             if "error" in record:
                 _write_error(_trial_dir(out, trial), record)
             else:

@@ -70,7 +70,11 @@ class AcrobotVectorEnv(VectorEnv):
         self.num_envs = _check_int("num_envs", num_envs, 1)
         self.max_episode_steps = _check_int("max_episode_steps", max_episode_steps, 1)
         names = {"next_step": AutoresetMode.NEXT_STEP, "disabled": AutoresetMode.DISABLED}
-        mode = names.get(autoreset_mode, autoreset_mode)
+        mode = (
+            names.get(autoreset_mode, autoreset_mode)
+            if isinstance(autoreset_mode, (str, AutoresetMode))
+            else None
+        )
         if mode not in names.values():
             raise ValueError(
                 f"autoreset_mode must be 'next_step' or 'disabled', got {autoreset_mode!r}"
@@ -125,6 +129,8 @@ class AcrobotVectorEnv(VectorEnv):
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        if options is not None and not isinstance(options, dict):
+            raise TypeError(f"reset options must be a dict, got {options!r}")
         options = dict(options or {})
         mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)))
         if mask.shape != (self.num_envs,) or mask.dtype != bool:
@@ -138,9 +144,12 @@ class AcrobotVectorEnv(VectorEnv):
         if "start_noise" in options:
             noise = _check_float("start_noise", options["start_noise"], 0.0, 1.0)
         if seed is not None:
-            seeds = (
-                [seed + i for i in range(self.num_envs)] if isinstance(seed, int) else list(seed)
-            )
+            if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+                seeds = [int(seed) + i for i in range(self.num_envs)]
+            elif isinstance(seed, (list, tuple, np.ndarray)):
+                seeds = [None if s is None else int(s) for s in seed]
+            else:
+                raise TypeError(f"seed must be an integer or one seed per sub-env, got {seed!r}")
             if len(seeds) != self.num_envs:
                 raise ValueError(f"give one seed per sub-env ({self.num_envs}), got {len(seeds)}")
             for i in np.flatnonzero(mask):

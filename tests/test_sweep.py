@@ -45,6 +45,11 @@ def test_grid_expansion() -> None:
         ("[grid]\nalpha = 0.1", "non-empty list"),
         ("[grid]\nalpha = [2.0]", "alpha"),
         ("seeds = [0", "not valid TOML"),
+        ("seeds = [-1]", "seeds"),
+        ("seeds = [true]", "seeds"),
+        ("overrides = 3", "overrides"),
+        ("[grid]\nalpha = [0.5, 0.5]", "repeats"),
+        ("[grid]\nalpha = [1, 1.0]", "same config"),
     ],
 )
 def test_bad_sweep_files(text, match) -> None:
@@ -106,3 +111,11 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
     assert len(runs) == 4  # one run record per trial
     assert {json.loads(p.read_text())["seed"] for p in runs} == {0, 1}
     assert "4 trials" in capsys.readouterr().out
+
+
+def test_a_changed_sweep_does_not_reuse_another_sweeps_trials(tmp_path) -> None:
+    one = TINY.replace("frame_skip = [1, 4]", "frame_skip = [4]")
+    run_sweep(parse_sweep(one), tmp_path)
+    changed = parse_sweep(one.replace("episodes = 2", "episodes = 3"))
+    with pytest.raises(ValueError, match="another sweep's trial"):
+        run_sweep(changed, tmp_path)
