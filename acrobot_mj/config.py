@@ -249,14 +249,3 @@ def parse_value(name: str, text: str) -> Any:
     except (ValueError, ZeroDivisionError) as error:
         raise ValueError(f"config {name} needs a {kind.__name__}, got {text!r}") from error
     return text
-
-
-def parse_overrides(items: list[str]) -> dict[str, Any]:
-    """``["alpha=0.1", "lam=0.9"]`` -> ``{"alpha": 0.1, "lam": 0.9}``, typed and validated."""
-    overrides = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        if not sep:
-            raise ValueError(f"override {item!r} must look like NAME=VALUE")
-        overrides[name.strip()] = parse_value(name.strip(), text.strip())
-    return overrides

@@ -464,47 +464,6 @@ def train_seeds(
     return summary
 
 
-def _lockstep_loop(
-    vec,
-    agents,
-    config,
-    histories,
-    episode,
-    length,
-    total,
-    active,
-    actions,
-    restart,
-    snapshot,
-    checkpoint,
-    bar,
-) -> None:
-    """Step every active learner until each has done ``config.episodes`` episodes."""
-    k = len(histories)
-    while active.any():
-        obs, reward, terminated, truncated, info = vec.step(actions)
-        ids = np.flatnonzero(active)
-        length[ids] += 1
-        total[ids] += reward[ids]
-        next_actions = agents.learn(ids, reward[ids], obs[ids], terminated[ids], truncated[ids])
-        actions[ids] = np.where(next_actions >= 0, next_actions, 1)
-        done = np.zeros(k, dtype=bool)
-        done[ids] = terminated[ids] | truncated[ids]
-        episode[done] += 1
-        for i in np.flatnonzero(done):
-            histories[i].add(int(length[i]), float(total[i]), bool(info["is_success"][i]))
-            snapshot(i)  # before its next episode draws anything
-            if episode[i] % config.checkpoint_every == 0:
-                checkpoint(i)
-        length[done], total[done] = 0, 0.0
-        active &= episode < config.episodes
-        again = done & active
-        if again.any():
-            actions[again] = agents.begin_episodes(np.flatnonzero(again), restart(again)[again])
-        if done.any():
-            bar.update(int(episode.sum()), histories[0])
-
-
 def train_lockstep(
     config: TrainConfig,
     seeds: list[int],
@@ -589,21 +548,28 @@ def train_lockstep(
     actions[ids] = agents.begin_episodes(ids, restart(active)[ids])
     bar = Progress(config.episodes * k, f"lockstep sarsa x{k}", progress)
     try:
-        _lockstep_loop(
-            vec,
-            agents,
-            config,
-            histories,
-            episode,
-            length,
-            total,
-            active,
-            actions,
-            restart,
-            snapshot,
-            checkpoint,
-            bar,
-        )
+        while active.any():
+            obs, reward, terminated, truncated, info = vec.step(actions)
+            ids = np.flatnonzero(active)
+            length[ids] += 1
+            total[ids] += reward[ids]
+            next_actions = agents.learn(ids, reward[ids], obs[ids], terminated[ids], truncated[ids])
+            actions[ids] = np.where(next_actions >= 0, next_actions, 1)
+            done = np.zeros(k, dtype=bool)
+            done[ids] = terminated[ids] | truncated[ids]
+            episode[done] += 1
+            for i in np.flatnonzero(done):
+                histories[i].add(int(length[i]), float(total[i]), bool(info["is_success"][i]))
+                snapshot(i)  # before its next episode draws anything
+                if episode[i] % config.checkpoint_every == 0:
+                    checkpoint(i)
+            length[done], total[done] = 0, 0.0
+            active &= episode < config.episodes
+            again = done & active
+            if again.any():
+                actions[again] = agents.begin_episodes(np.flatnonzero(again), restart(again)[again])
+            if done.any():
+                bar.update(int(episode.sum()), histories[0])
     except KeyboardInterrupt:
         for i in range(k):
             checkpoint(i)

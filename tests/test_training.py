@@ -9,7 +9,7 @@ import pytest
 
 from acrobot_mj.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.compat import make_gymnasium_acrobot
-from acrobot_mj.config import PRESETS, TrainConfig, parse_overrides
+from acrobot_mj.config import PRESETS, TrainConfig, parse_value
 from acrobot_mj.training import (
     CHECKPOINT_FILE,
     evaluate,
@@ -19,6 +19,14 @@ from acrobot_mj.training import (
     train_seeds,
 )
 
+#: What a resumed or lockstep run must reproduce exactly (wall_seconds aside).
+RECORD_KEYS = (
+    "episode_lengths",
+    "episode_returns",
+    "episode_successes",
+    "steps",
+    "greedy_from_rest",
+)
 TINY_BOOK = PRESETS["book"].replace(episodes=6, checkpoint_every=2, eval_episodes=2)
 
 
@@ -138,13 +146,7 @@ def test_resume_after_interrupt_matches_an_uninterrupted_run(tmp_path) -> None:
     meta, _ = load_checkpoint(tmp_path / "split" / CHECKPOINT_FILE)
     assert meta["episodes_done"] == 3
     resumed = train(TINY_BOOK, seed=4, out_dir=tmp_path / "split", resume=True)
-    for key in (
-        "episode_lengths",
-        "episode_returns",
-        "episode_successes",
-        "steps",
-        "greedy_from_rest",
-    ):
+    for key in RECORD_KEYS:
         assert resumed[key] == whole[key]
     a = load_checkpoint(tmp_path / "whole" / CHECKPOINT_FILE)[1]
     b = load_checkpoint(tmp_path / "split" / CHECKPOINT_FILE)[1]
@@ -192,15 +194,18 @@ def test_train_seeds_summary(tmp_path) -> None:
 
 
 def test_config_overrides_are_typed_and_checked() -> None:
-    assert parse_overrides(["alpha=0.2/48", "episodes=3", "subset_tilings=false"]) == {
+    assert {
+        k: parse_value(k, v)
+        for k, v in [("alpha", "0.2/48"), ("episodes", "3"), ("subset_tilings", "false")]
+    } == {
         "alpha": 0.2 / 48,
         "episodes": 3,
         "subset_tilings": False,
     }
     with pytest.raises(ValueError, match="unknown config key 'alpah'"):
-        parse_overrides(["alpah=0.1"])
+        parse_value("alpah", "0.1")
     with pytest.raises(ValueError, match="episodes needs a int"):
-        parse_overrides(["episodes=many"])
+        parse_value("episodes", "many")
     with pytest.raises(ValueError, match="algorithm"):
         TrainConfig(algorithm="q_learning")
     with pytest.raises(ValueError, match="tabular"):
@@ -282,13 +287,7 @@ def test_lockstep_learners_equal_single_learners(config, tmp_path) -> None:
     lockstep = train_lockstep(config, seeds, tmp_path / "lock")
     for seed, record in zip(seeds, lockstep, strict=True):
         single = train(config, seed=seed, out_dir=tmp_path / f"single{seed}")
-        for key in (
-            "episode_lengths",
-            "episode_returns",
-            "episode_successes",
-            "steps",
-            "greedy_from_rest",
-        ):
+        for key in RECORD_KEYS:
             assert record[key] == single[key], key
         a = load_checkpoint(tmp_path / "lock" / f"seed_{seed}" / CHECKPOINT_FILE)[1]["q"]
         b = load_checkpoint(tmp_path / f"single{seed}" / CHECKPOINT_FILE)[1]["q"]
@@ -332,5 +331,5 @@ def test_lockstep_checkpoints_and_resume_exactly(tmp_path, monkeypatch) -> None:
     assert 0 < min(done) and max(done) < 12  # stopped part-way, each at an episode boundary
     resumed = train_lockstep(config, seeds, tmp_path / "split", resume=True)
     for a, b in zip(whole, resumed, strict=True):
-        for key in ("episode_lengths", "episode_returns", "episode_successes", "greedy_from_rest"):
+        for key in RECORD_KEYS:
             assert a[key] == b[key], key
