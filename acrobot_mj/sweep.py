@@ -205,7 +205,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
     # Tabular SARSA: one lockstep run per grid point (its seeds together on one vector env).
     by_point: dict[str, list[Trial]] = {}
     for trial in todo:
-        if trial.config.algorithm == "sarsa":
+        if trial.config.lockstep:
             by_point.setdefault(trial.name.rsplit("__seed=", 1)[0], []).append(trial)
     for group in by_point.values():
         try:
@@ -216,7 +216,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
             continue
         for t, record in zip(group, records, strict=True):
             _write_run(out, t, record)
-    rest = [t for t in todo if t.config.algorithm != "sarsa"]
+    rest = [t for t in todo if not t.config.lockstep]
     if jobs == 1:  # in this process, one after the other
         for t in rest:
             _run_trial(t.config.to_dict(), t.seed, str(_trial_dir(out, t)))

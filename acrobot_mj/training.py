@@ -26,6 +26,7 @@ from acrobot_mj.agents import RandomStream, Sarsa, SarsaLambda
 from acrobot_mj.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.config import TrainConfig
 from acrobot_mj.plots import learning_curve
+from acrobot_mj.shaping import EnergyShaping
 
 RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE = (
     "run.json",
@@ -51,9 +52,18 @@ def versions() -> dict[str, str]:
 
 
 def make_env(config: TrainConfig, **overrides: Any) -> gym.Env:
-    """The training env of ``config`` (through ``gymnasium.make``, so with its TimeLimit)."""
+    """The training env of ``config`` (through ``gymnasium.make``, so with its TimeLimit, and
+    with its reward shaping if any)."""
     kwargs = {**config.env_kwargs(), **overrides}
-    return gym.make(acrobot_mj.ENV_ID, **kwargs)
+    return shape_rewards(gym.make(acrobot_mj.ENV_ID, **kwargs), config)
+
+
+def shape_rewards(env: gym.Env, config: TrainConfig) -> gym.Env:
+    """``env`` with ``config``'s energy shaping (unchanged without it). Records report the
+    unshaped returns (``info["unshaped_reward"]``)."""
+    if config.energy_shaping == 0.0:
+        return env
+    return EnergyShaping(env, config.energy_shaping, config.gamma)
 
 
 def episode_seed(seed: int, episode: int) -> int:
@@ -85,7 +95,7 @@ def learn_episode(
     while True:
         obs, reward, terminated, truncated, info = step(action)
         length += 1
-        total += reward
+        total += info.get("unshaped_reward", reward)
         action = learn(reward, obs, terminated, truncated)
         if terminated or truncated:
             return length, float(total), bool(info.get("is_success", terminated))
@@ -111,7 +121,7 @@ def greedy_episode(
     while True:
         obs, reward, terminated, truncated, info = env.step(agent.greedy_action(obs, stream))
         length += 1
-        total += reward
+        total += info.get("unshaped_reward", reward)
         if terminated or truncated:
             return length, float(total), bool(info.get("is_success", terminated))
 
@@ -198,6 +208,8 @@ def train(
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = make_env(config) if env is None else env
     check_spaces(env)
+    if env_name != "acrobot_mj (make_env)":
+        env = shape_rewards(env, config)
     agent = config.make_agent(seed=seed)
     history, steps = History(), 0
     if resume:
@@ -429,15 +441,15 @@ def train_seeds(
     overwrite: bool = False,
 ) -> dict[str, Any]:
     """Train one run per seed into ``out_dir/seed_S``, then write ``out_dir/summary.json`` and
-    the learning curve across seeds. Tabular SARSA trains all seeds in lockstep on one vector env
-    (:func:`train_lockstep`, identical records); Sarsa(lambda), or any resume, runs one seed per
+    the learning curve across seeds. Tabular SARSA (unshaped) trains all seeds in lockstep on one
+    vector env (:func:`train_lockstep`, identical records); Sarsa(lambda) runs one seed per
     process in ``jobs`` processes."""
     out = Path(out_dir)
     if not resume and not overwrite:
         for path in (out, *(out / f"seed_{s}" for s in seeds)):
             check_fresh(path)
     tasks = [(config, s, str(out / f"seed_{s}"), resume, progress and jobs == 1) for s in seeds]
-    if config.algorithm == "sarsa":
+    if config.lockstep:
         # Tabular SARSA: all seeds in lockstep on one batched vector env (same records).
         records = train_lockstep(config, seeds, out, progress=progress, resume=resume)
     elif jobs > 1:
@@ -486,10 +498,11 @@ def train_lockstep(
     from acrobot_mj.agents.lockstep_sarsa import LockstepSarsa
     from acrobot_mj.vector import AcrobotVectorEnv
 
-    if config.algorithm != "sarsa":
+    if not config.lockstep:
         raise ValueError(
-            "lockstep training is for tabular SARSA (algorithm 'sarsa'); train "
-            f"{config.algorithm} with one process per seed"
+            "lockstep training is for tabular SARSA (algorithm 'sarsa') without energy "
+            f"shaping; train {config.algorithm} (energy_shaping {config.energy_shaping}) with "
+            "one process per seed"
         )
     k = len(seeds)
     env_kwargs = config.env_kwargs()

@@ -1,0 +1,139 @@
+"""Potential-based energy shaping: the potential's golden values, the telescoping sum that makes
+it policy-invariant, unshaped returns in the records, and bad input."""
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import acrobot_mj
+from acrobot_mj.config import PRESETS, TrainConfig
+from acrobot_mj.policies import pump_policy
+from acrobot_mj.shaping import EnergyShaping, energy_potential
+from acrobot_mj.training import make_env, train, train_lockstep
+
+# Golden values from the definition alone (no dynamics code): at rest the energy is potential
+# only, V = g ((m1 lc1 + m2 l1) sin q1 + m2 lc2 sin(q1 + q2)) = g (1.5 sin q1 + 0.5 sin(q1 + q2)),
+# so hanging is -2 g, upright +2 g, both links horizontal 0: potentials 0, 1 and 1/2.
+# Link 1 horizontal with link 2 hanging: V = -0.5 g, potential (2 - 0.5) / 4 = 0.375.
+GOLDEN = [
+    ((-math.pi / 2, 0.0), 0.0),
+    ((math.pi / 2, 0.0), 1.0),
+    ((0.0, 0.0), 0.5),
+    ((0.0, -math.pi / 2), 0.375),
+]
+# Sums of ~100 terms of size <= 10: a few ulps each, far below 1e-9.
+SUM_TOL = 1e-9
+
+
+@pytest.mark.parametrize(("q", "expected"), GOLDEN)
+def test_potential_golden_values_at_rest(q, expected):
+    assert energy_potential([*q, 0.0, 0.0]) == pytest.approx(expected, abs=1e-12)
+
+
+def test_potential_counts_kinetic_energy():
+    # Hanging, link 1 turning at 1 rad/s with link 2 locked to it: T = (I1 + I2 + m1 lc1^2
+    # + m2 (l1^2 + lc2^2 + 2 l1 lc2)) / 2 = (1 + 1 + 0.25 + 1 + 0.25 + 1) / 2 = 2.25 J, over
+    # E_up - E_hang = 4 g.
+    expected = 2.25 / (4 * 9.81)
+    value = energy_potential([-math.pi / 2, 0.0, 1.0, 0.0])
+    g = acrobot_mj.params.AcrobotParams().g
+    assert value == pytest.approx(2.25 / (4 * g), rel=1e-12)
+    assert value == pytest.approx(expected, rel=1e-2)  # g = 9.81 within 1 %
+
+
+def _episode(env, actions, seed=0):
+    obs, _ = env.reset(seed=seed, options={"start_noise": 0.1})
+    first = obs
+    shaped, unshaped = [], []
+    for a in actions:
+        obs, r, terminated, truncated, info = env.step(a)
+        shaped.append(r)
+        unshaped.append(info["unshaped_reward"])
+        if terminated or truncated:
+            return first, obs, shaped, unshaped, terminated
+    return first, obs, shaped, unshaped, False
+
+
+def test_shaping_telescopes_on_truncation():
+    scale = 10.0
+    env = EnergyShaping(
+        gym.make(acrobot_mj.ENV_ID, frame_skip=4, max_episode_steps=40), scale, gamma=1.0
+    )
+    rng = np.random.default_rng(3)
+    first, last, shaped, unshaped, terminated = _episode(env, rng.integers(0, 3, 40))
+    assert not terminated and len(shaped) == 40
+    expected = scale * (energy_potential(last) - energy_potential(first))
+    assert sum(shaped) - sum(unshaped) == pytest.approx(expected, abs=SUM_TOL)
+
+
+def test_shaping_telescopes_to_minus_start_potential_at_the_goal():
+    # An episode that reaches the goal: the package's pumping rule swings up within 1000.
+    scale = 10.0
+    env = EnergyShaping(gym.make(acrobot_mj.ENV_ID, frame_skip=4), scale)
+    obs, _ = env.reset(seed=0)
+    first, shaped, unshaped = obs, [], []
+    for _ in range(1000):
+        obs, r, terminated, truncated, info = env.step(pump_policy(obs))
+        shaped.append(r)
+        unshaped.append(info["unshaped_reward"])
+        if terminated or truncated:
+            break
+    assert terminated, "the pumping rule should reach the goal"
+    # phi(terminal) = 0: the terms sum to -phi(s0) whatever the policy did.
+    assert sum(shaped) - sum(unshaped) == pytest.approx(
+        -scale * energy_potential(first), abs=SUM_TOL
+    )
+
+
+def test_shaping_rewards_adding_energy():
+    env = EnergyShaping(gym.make(acrobot_mj.ENV_ID, frame_skip=4), 10.0)
+    env.reset(seed=0)  # hanging at rest: any torque adds energy
+    _, reward, _, _, info = env.step(2)
+    assert info["unshaped_reward"] == -1.0
+    assert reward > -1.0
+
+
+def test_records_report_unshaped_returns():
+    config = PRESETS["book"].replace(episodes=3, energy_shaping=10.0, max_episode_steps=50)
+    record = train(config, seed=0)
+    # Book reward: -1 per step, the last included, so the task's return is minus the length.
+    assert record["episode_returns"] == [-float(n) for n in record["episode_lengths"]]
+    assert record["greedy_from_rest"]["return"] == -record["greedy_from_rest"]["length"]
+
+
+def test_shaping_changes_learning_but_not_unshaped_env():
+    base = PRESETS["book"].replace(episodes=2)
+    plain = train(base, seed=1)
+    shaped = train(base.replace(energy_shaping=10.0), seed=1)
+    assert plain["episode_lengths"] != shaped["episode_lengths"]
+    assert not isinstance(make_env(base), EnergyShaping)
+    assert isinstance(make_env(base.replace(energy_shaping=10.0)), EnergyShaping)
+
+
+def test_tabular_sarsa_with_shaping_is_not_run_in_lockstep():
+    config = TrainConfig(episodes=2, energy_shaping=1.0)
+    assert not config.lockstep and TrainConfig().lockstep
+    with pytest.raises(ValueError, match="energy shaping"):
+        train_lockstep(config, [0, 1])
+
+
+@pytest.mark.parametrize("scale", [0.0, -1.0, math.nan, math.inf, "10"])
+def test_wrapper_refuses_bad_scales(scale):
+    with pytest.raises(ValueError, match="scale"):
+        EnergyShaping(gym.make(acrobot_mj.ENV_ID), scale)
+
+
+def test_wrapper_refuses_bad_gamma_and_step_before_reset():
+    with pytest.raises(ValueError, match="gamma"):
+        EnergyShaping(gym.make(acrobot_mj.ENV_ID), 1.0, gamma=1.5)
+    env = EnergyShaping(gym.make(acrobot_mj.ENV_ID), 1.0)
+    with pytest.raises(RuntimeError, match="before reset"):
+        env.step(1)
+
+
+@pytest.mark.parametrize("value", [-1.0, math.nan])
+def test_config_refuses_bad_energy_shaping(value):
+    with pytest.raises((ValueError, TypeError), match="energy_shaping"):
+        TrainConfig(energy_shaping=value)
