@@ -200,11 +200,29 @@ def train(
     at the end and on Ctrl-C) and the learning curve there; with ``resume`` it continues from
     the checkpoint in ``out_dir`` and ends exactly as an uninterrupted run would. ``env`` may be
     any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)`` observations (default: the
-    config's acrobot env). Returns the run record.
+    config's acrobot env). Returns the run record. With ``config.population > 1`` it trains
+    that many learners and keeps one (:mod:`acrobot_mj.population`).
     """
     out = Path(out_dir) if out_dir is not None else None
     if out is not None and not resume and not overwrite:
         check_fresh(out)
+    if config.population > 1:
+        from acrobot_mj.population import train_population
+
+        return train_population(config, seed, out, env, resume, progress, on_episode)
+    return train_agent(config, seed, out, env, resume, progress, on_episode)[0]
+
+
+def train_agent(
+    config: TrainConfig,
+    seed: int,
+    out: Path | None,
+    env: gym.Env | None = None,
+    resume: bool = False,
+    progress: bool = False,
+    on_episode: Callable[[int, History], None] | None = None,
+) -> tuple[dict[str, Any], Agent]:
+    """:func:`train` for one learner (no freshness check); returns the record and the agent."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = make_env(config) if env is None else env
     check_spaces(env)
@@ -276,7 +294,7 @@ def train(
             )
     if interrupted:
         raise KeyboardInterrupt(f"interrupted after {len(history)} episodes; checkpoint saved")
-    return record
+    return record, agent
 
 
 def _reference(config: TrainConfig) -> list[tuple[float, str]]:

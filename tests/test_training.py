@@ -216,7 +216,7 @@ def test_config_overrides_are_typed_and_checked() -> None:
 
 
 def test_start_noise_schedule() -> None:
-    config = PRESETS["tuned"].replace(start_noise=0.2, noise_until=0.8)  # 0 by episode 400
+    config = PRESETS["book"].replace(start_noise=0.2, noise_until=0.8)  # 0 by episode 400
     assert [config.start_noise_at(e) for e in (0, 200, 400, 499)] == [0.2, 0.1, 0.0, 0.0]
     assert PRESETS["book"].start_noise_at(123) == 0.0
     constant = PRESETS["book"].replace(start_noise=0.05)
@@ -239,7 +239,7 @@ def test_noisy_training_starts_follow_the_schedule_and_the_seed() -> None:
             return obs, info
 
     config = PRESETS["tuned"].replace(
-        episodes=5, max_episode_steps=5, start_noise=0.2, noise_until=0.8
+        episodes=5, population=1, max_episode_steps=5, start_noise=0.2, noise_until=0.8
     )
     runs = []
     for seed in (1, 1, 2):
@@ -268,6 +268,22 @@ def test_book_preset_learns_the_swing_up() -> None:
         assert np.median(record["episode_lengths"][-10:]) < 150
         assert record["greedy_from_rest"]["success"]
         assert record["greedy_from_rest"]["length"] < 150
+
+
+@pytest.mark.slow
+def test_tuned_preset_swings_up_near_the_minimum() -> None:
+    # The full tuned preset (10 learners of 50 episodes, about 4 s a seed). Measured over seeds
+    # 0-99: greedy swing-up from rest in 64-83 decisions, 65 for seeds 0-4, 83 of 100 at 70 or
+    # less. The bound of 76 (the target, 1.2 times the minimum of 63) holds for 92 of
+    # those 100 seeds; seeds 0 and 1 are at 65, so a failure here means the learner or its
+    # selection changed, not bad luck.
+    for seed in (0, 1):
+        record = train(PRESETS["tuned"], seed=seed)
+        assert sum(record["episode_successes"]) >= 490  # of 500 episodes
+        assert record["greedy_from_rest"]["success"]
+        assert record["greedy_from_rest"]["length"] <= 76
+        pop = record["population"]
+        assert pop["scores"][pop["kept"]] == min(pop["scores"])
 
 
 @pytest.mark.parametrize(

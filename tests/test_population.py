@@ -1,0 +1,74 @@
+"""Population runs: several learners share the budget, the best by its own training episodes
+is kept, and the run directory works like any other (evaluate, resume, load_agent)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from acrobot_mj.config import PRESETS, TrainConfig
+from acrobot_mj.population import WINDOW, learner_seed, score
+from acrobot_mj.training import evaluate, load_agent, train, train_agent
+
+# Three learners of four episodes of at most 400 decisions: with seed 2 their scores differ
+# (about 377, 389 and 327) and the last one is kept, so picking the first would fail.
+CONFIG = PRESETS["book"].replace(episodes=4, population=3, max_episode_steps=400)
+
+
+def test_score_is_the_median_of_the_last_window():
+    lengths = [1000] * 5 + list(range(WINDOW))  # the last WINDOW: 0 .. WINDOW - 1
+    assert score(lengths) == pytest.approx((WINDOW - 1) / 2)
+    assert score([7, 9]) == 8.0
+
+
+def test_learner_seeds_differ_and_are_fixed():
+    seeds = [learner_seed(5, k) for k in range(4)]
+    assert len(set(seeds)) == 4
+    assert seeds == [learner_seed(5, k) for k in range(4)]
+    assert learner_seed(6, 0) not in seeds
+
+
+def test_population_run_keeps_the_best_learner(tmp_path):
+    record = train(CONFIG, seed=2, out_dir=tmp_path)
+    pop = record["population"]
+    assert pop["learners"] == 3 and len(pop["seeds"]) == 3
+    # The top-level lists are every learner's episodes in order.
+    assert len(record["episode_lengths"]) == record["episodes_done"] == 12
+    subs = [json.loads((tmp_path / f"learner_{k}" / "run.json").read_text()) for k in range(3)]
+    assert record["episode_lengths"] == [n for s in subs for n in s["episode_lengths"]]
+    assert record["steps"] == sum(s["steps"] for s in subs)
+    scores = [score(s["episode_lengths"]) for s in subs]
+    assert pop["scores"] == scores
+    assert len(set(scores)) == 3
+    assert pop["kept"] == int(np.argmin(scores)) != 0
+    # The top-level checkpoint is the kept learner's agent (trained again here, alone); the
+    # learners' own checkpoints are gone.
+    _, kept = train_agent(CONFIG.replace(population=1), learner_seed(2, pop["kept"]), None)
+    config, seed, agent = load_agent(tmp_path)
+    assert config == CONFIG and seed == 2
+    np.testing.assert_array_equal(agent.w, kept.w)
+    assert not list(tmp_path.glob("learner_*/checkpoint.npz"))
+    # evaluate's episode 0 is the record's greedy run from rest.
+    ev = evaluate(tmp_path, episodes=1)
+    assert ev["episode_lengths"][0] == record["greedy_from_rest"]["length"]
+
+
+def test_population_runs_are_deterministic_and_resume_to_the_same_record(tmp_path):
+    first = train(CONFIG, seed=4, out_dir=tmp_path / "a")
+    second = train(CONFIG, seed=4)
+    resumed = train(CONFIG, seed=4, out_dir=tmp_path / "a", resume=True)  # finished: trains again
+    # Interrupted after learner 0 and half of learner 1 (their checkpoints are still there).
+    part = tmp_path / "b"
+    single = CONFIG.replace(population=1)
+    train(single, seed=learner_seed(4, 0), out_dir=part / "learner_0")
+    train(single.replace(episodes=2), seed=learner_seed(4, 1), out_dir=part / "learner_1")
+    continued = train(CONFIG, seed=4, out_dir=part, resume=True)
+    for other in (second, resumed, continued):
+        for key in ("episode_lengths", "episode_returns", "greedy_from_rest", "population"):
+            assert other[key] == first[key], key
+
+
+def test_population_refuses_bad_sizes_and_lockstep():
+    with pytest.raises(ValueError, match="population"):
+        TrainConfig(population=0)
+    assert not TrainConfig(population=2).lockstep
