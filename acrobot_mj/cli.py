@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 
 import acrobot_mj
 from acrobot_mj.checkpoint import CheckpointError
@@ -20,7 +19,7 @@ from acrobot_mj.config import FIELD_NAMES, PRESETS, TrainConfig, parse_value
 from acrobot_mj.params import describe
 from acrobot_mj.policies import POLICY_NAMES, make_policy, run_episode
 from acrobot_mj.render import GLBackendError
-from acrobot_mj.training import evaluate, train, train_seeds, versions
+from acrobot_mj.training import evaluate, last20_length, train, train_seeds, versions
 
 
 def _write_json(path: str | None, data: dict[str, Any]) -> None:
@@ -77,14 +76,15 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     record = train(
         config, args.seed, out, resume=args.resume, progress=progress, overwrite=args.force
     )
-    last20 = float(np.median(record["episode_lengths"][-20:]))
     greedy = record["greedy_from_rest"]
     outcome = "goal" if greedy["success"] else "no goal"
+    pop = record.get("population")
+    kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
     print(
         f"trained {record['episodes_done']} episodes ({record['steps']} decisions, "
         f"{record['wall_seconds']:.1f} s) -> {out}: {sum(record['episode_successes'])} reached "
-        f"the goal; last 20 episodes median {last20:g} decisions; greedy from rest: "
-        f"{outcome} in {greedy['length']} decisions"
+        f"the goal; last 20 episodes{kept} median {last20_length(record):g} decisions; greedy "
+        f"from rest: {outcome} in {greedy['length']} decisions"
     )
     return record
 

@@ -422,6 +422,15 @@ def _train_one(args: tuple[TrainConfig, int, str, bool, bool]) -> dict[str, Any]
     return train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True)
 
 
+def last20_length(record: dict[str, Any]) -> float:
+    """Median length of the last 20 training episodes of the learner a run keeps (in a
+    population run: the kept learner's, not the last learner's)."""
+    pop = record.get("population")
+    if pop is not None:
+        return float(pop["scores"][pop["kept"]])
+    return float(np.median(record["episode_lengths"][-20:]))
+
+
 def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
     """Mean and spread across seeds of what a run record reports."""
 
@@ -443,7 +452,7 @@ def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
         "seeds": [r["seed"] for r in records],
         "successes": stats([sum(r["episode_successes"]) for r in records]),
         "runs_with_a_success": sum(any(r["episode_successes"]) for r in records),
-        "last20_median_length": stats([np.median(r["episode_lengths"][-20:]) for r in records]),
+        "last20_median_length": stats([last20_length(r) for r in records]),
         "greedy_from_rest_length": stats([g["length"] for g in greedy]),
         "greedy_from_rest_successes": sum(g["success"] for g in greedy),
     }
