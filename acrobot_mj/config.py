@@ -271,5 +271,6 @@ def parse_value(name: str, text: str) -> Any:
                 return float(numerator) / float(denominator)
             return float(text)
     except (ValueError, ZeroDivisionError) as error:
-        raise ValueError(f"config {name} needs a {kind.__name__}, got {text!r}") from error
+        article = "an" if kind is int else "a"
+        raise ValueError(f"config {name} needs {article} {kind.__name__}, got {text!r}") from error
     return text

@@ -19,6 +19,8 @@ lists are every learner's episodes in order (the whole budget spent); ``populati
 from __future__ import annotations
 
 import json
+import math
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,7 +28,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checkpoint import save_checkpoint
+from acrobot_mj.checkpoint import CheckpointError, save_checkpoint
 from acrobot_mj.config import TrainConfig
 from acrobot_mj.plots import learning_curve
 from acrobot_mj.training import (
@@ -35,6 +37,7 @@ from acrobot_mj.training import (
     RUN_FILE,
     History,
     _meta,
+    _read_run,
     _reference,
     greedy_episode,
     make_env,
@@ -57,6 +60,21 @@ def score(lengths: list[int]) -> float:
     return float(np.median(lengths[-WINDOW:]))
 
 
+def _check_population_resume(out: Path | None, config: TrainConfig, seed: int) -> None:
+    """Refuse to resume into a directory whose run has another config or seed."""
+    if out is None:
+        raise ValueError("resume needs the run directory (out_dir)")
+    path = out / CHECKPOINT_FILE
+    if not path.exists():
+        return  # unfinished: each learner checks its own checkpoint
+    meta, _, saved = _read_run(path)
+    differs = sorted(k for k, v in saved.to_dict().items() if v != getattr(config, k))
+    if differs:
+        raise CheckpointError(f"{path} was written with a different config ({differs})")
+    if meta["seed"] != seed:
+        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+
+
 def train_population(
     config: TrainConfig,
     seed: int,
@@ -67,19 +85,32 @@ def train_population(
     on_episode: Callable[[int, History], None] | None = None,
 ) -> dict[str, Any]:
     """Train ``config.population`` learners and keep the best; see the module docstring."""
+    if resume:
+        _check_population_resume(out, config, seed)
+    elif out is not None:
+        for old in sorted(out.glob("learner_*")):  # an overwritten run's learners
+            if old.is_dir():
+                shutil.rmtree(old)
     single = config.replace(population=1)
-    records, agents = [], []
+    records, scores = [], []
+    agent = None
     for k in range(config.population):
         sub = out / f"learner_{k}" if out is not None else None
         again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
-        record, agent = train_agent(
-            single, learner_seed(seed, k), sub, env, again, progress, on_episode
-        )
+        try:
+            record, learner = train_agent(
+                single, learner_seed(seed, k), sub, env, again, progress, on_episode
+            )
+        except KeyboardInterrupt as error:
+            raise KeyboardInterrupt(
+                f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
+            ) from error
         records.append(record)
-        agents.append(agent)
-    scores = [score(r["episode_lengths"]) for r in records]
-    best = int(np.argmin(scores))  # ties: the first
-    agent = agents[best]
+        scores.append(score(record["episode_lengths"]))
+        if scores[-1] < min(scores[:-1], default=math.inf):
+            agent = learner  # only the best so far stays in memory
+    best = int(np.argmin(scores))  # ties: the first, as kept above
+    assert agent is not None
 
     history = History()
     for r in records:

@@ -274,6 +274,8 @@ def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | 
 
 def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
     """Final greedy performance per grid point (median and spread over seeds)."""
+    from acrobot_mj.training import last20_length
+
     out = Path(out)
     points: dict[str, dict[str, Any]] = {}
     for trial in spec.trials():
@@ -296,7 +298,7 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
             greedy = record.get("greedy_from_rest", {})
             entry["greedy"].append(greedy.get("length", float("nan")))
             entry["successes"].append(bool(greedy.get("success", False)))
-            entry["last20"].append(float(np.median(record["episode_lengths"][-20:])))
+            entry["last20"].append(last20_length(record))
         elif (run / "error.json").exists():
             entry["failed"].append(trial.seed)
     rows = []

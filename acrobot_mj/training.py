@@ -306,7 +306,8 @@ def check_fresh(out: Path) -> None:
     """Refuse to write a new run over an existing one."""
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"{out} is a file, not a run directory")
-    taken = [name for name in (RUN_FILE, CHECKPOINT_FILE, "summary.json") if (out / name).exists()]
+    names = (RUN_FILE, CHECKPOINT_FILE, "summary.json", "learner_0")  # learner_0: a population
+    taken = [name for name in names if (out / name).exists()]
     if taken:
         raise FileExistsError(
             f"{out} already holds a run ({', '.join(taken)}): resume it, "
@@ -345,6 +346,9 @@ def _load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
 def _check_resume(
     path: Path, meta: dict[str, Any], saved: TrainConfig, config: TrainConfig, seed: int
 ) -> None:
+    differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - {"episodes"}
+    if differs:
+        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
     if config.episodes < meta["episodes_done"]:
         raise CheckpointError(
             f"{path} already holds {meta['episodes_done']} episodes; resume "
@@ -355,9 +359,6 @@ def _check_resume(
             f"{path}: the start-noise schedule depends on episodes "
             f"({saved.episodes}), so resume cannot change it"
         )
-    differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - {"episodes"}
-    if differs:
-        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
     if meta["seed"] != seed:
         raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
 

@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 
+from acrobot_mj.checkpoint import CheckpointError
 from acrobot_mj.config import PRESETS, TrainConfig
 from acrobot_mj.population import WINDOW, learner_seed, score
 from acrobot_mj.training import evaluate, load_agent, train, train_agent
@@ -72,3 +73,46 @@ def test_population_refuses_bad_sizes_and_lockstep():
     with pytest.raises(ValueError, match="population"):
         TrainConfig(population=0)
     assert not TrainConfig(population=2).lockstep
+
+
+def test_resume_refuses_another_runs_directory(tmp_path):
+    train(CONFIG, seed=4, out_dir=tmp_path / "pop")
+    with pytest.raises(CheckpointError, match=r"different config \(\['alpha'\]\)"):
+        train(CONFIG.replace(alpha=0.5), seed=4, out_dir=tmp_path / "pop", resume=True)
+    with pytest.raises(CheckpointError, match="seed 4, not 7"):
+        train(CONFIG, seed=7, out_dir=tmp_path / "pop", resume=True)
+    # A one-learner run is not resumed as a population, nor the other way round.
+    single = CONFIG.replace(population=1)
+    train(single, seed=4, out_dir=tmp_path / "one")
+    with pytest.raises(CheckpointError, match="population"):
+        train(CONFIG, seed=4, out_dir=tmp_path / "one", resume=True)
+    with pytest.raises(CheckpointError, match="population"):
+        train(single, seed=4, out_dir=tmp_path / "pop", resume=True)
+    with pytest.raises(ValueError, match="run directory"):
+        train(CONFIG, seed=4, resume=True)
+
+
+def test_fresh_runs_refuse_a_partial_population_and_force_clears_it(tmp_path):
+    out = tmp_path / "run"
+    train(CONFIG.replace(population=1), seed=learner_seed(4, 0), out_dir=out / "learner_0")
+    with pytest.raises(FileExistsError, match="learner_0"):
+        train(CONFIG, seed=4, out_dir=out)
+    (out / "learner_5").mkdir()  # left over from a bigger population
+    train(CONFIG, seed=4, out_dir=out, overwrite=True)
+    assert sorted(p.name for p in out.glob("learner_*")) == [f"learner_{k}" for k in range(3)]
+
+
+def test_interrupt_names_the_learner_and_resume_finishes_the_same(tmp_path):
+    calls = []
+
+    def stop(episode, history):
+        calls.append(episode)
+        if len(calls) == 6:  # learner 1, its second episode
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt, match="learner 1 of 3"):
+        train(CONFIG, seed=4, out_dir=tmp_path, on_episode=stop)
+    resumed = train(CONFIG, seed=4, out_dir=tmp_path, resume=True)
+    whole = train(CONFIG, seed=4)
+    for key in ("episode_lengths", "greedy_from_rest", "population"):
+        assert resumed[key] == whole[key], key

@@ -204,7 +204,7 @@ def test_config_overrides_are_typed_and_checked() -> None:
     }
     with pytest.raises(ValueError, match="unknown config key 'alpah'"):
         parse_value("alpah", "0.1")
-    with pytest.raises(ValueError, match="episodes needs a int"):
+    with pytest.raises(ValueError, match="episodes needs an int"):
         parse_value("episodes", "many")
     with pytest.raises(ValueError, match="algorithm"):
         TrainConfig(algorithm="q_learning")
