@@ -4,7 +4,8 @@ With epsilon 0 in a deterministic task a Sarsa(lambda) learner settles on one sw
 few dozen episodes, and which one depends on its first episodes (the README's results). Random
 restarts turn that lottery into a choice: ``population`` learners of ``episodes`` episodes each
 (own seeds, own start noise), and the run keeps the learner whose last 20 training episodes had
-the shortest median length. The choice uses training episodes only; no extra evaluation.
+the shortest median length (``training.recent_median``). The choice uses training episodes
+only; no extra evaluation.
 
 A run directory holds ``learner_K/`` (each a run of its own: record, learning curve, and its
 checkpoints while the population trains, so an interrupted run resumes) and, at the top, the
@@ -19,7 +20,6 @@ lists are every learner's episodes in order (the whole budget spent); ``populati
 from __future__ import annotations
 
 import json
-import math
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -28,7 +28,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checkpoint import CheckpointError, save_checkpoint
+from acrobot_mj.checkpoint import save_checkpoint
 from acrobot_mj.config import TrainConfig
 from acrobot_mj.plots import learning_curve
 from acrobot_mj.training import (
@@ -39,15 +39,13 @@ from acrobot_mj.training import (
     _meta,
     _read_run,
     _reference,
+    check_same_run,
     greedy_episode,
-    make_env,
-    shape_rewards,
+    recent_median,
     tie_stream,
     train_agent,
+    training_env,
 )
-
-#: Training episodes at the end of each learner's run whose median length ranks it.
-WINDOW = 20
 
 
 def learner_seed(seed: int, k: int) -> int:
@@ -55,24 +53,14 @@ def learner_seed(seed: int, k: int) -> int:
     return int(np.random.SeedSequence([seed, 0x9E37, k]).generate_state(1)[0])
 
 
-def score(lengths: list[int]) -> float:
-    """The rank of a learner: median length of its last ``WINDOW`` training episodes."""
-    return float(np.median(lengths[-WINDOW:]))
-
-
 def _check_population_resume(out: Path | None, config: TrainConfig, seed: int) -> None:
     """Refuse to resume into a directory whose run has another config or seed."""
     if out is None:
         raise ValueError("resume needs the run directory (out_dir)")
     path = out / CHECKPOINT_FILE
-    if not path.exists():
-        return  # unfinished: each learner checks its own checkpoint
-    meta, _, saved = _read_run(path)
-    differs = sorted(k for k, v in saved.to_dict().items() if v != getattr(config, k))
-    if differs:
-        raise CheckpointError(f"{path} was written with a different config ({differs})")
-    if meta["seed"] != seed:
-        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+    if path.exists():  # else unfinished: each learner checks its own checkpoint
+        meta, _, saved = _read_run(path)
+        check_same_run(path, meta, saved, config, seed)
 
 
 def train_population(
@@ -93,7 +81,7 @@ def train_population(
                 shutil.rmtree(old)
     single = config.replace(population=1)
     records, scores = [], []
-    agent = None
+    best, agent = 0, None
     for k in range(config.population):
         sub = out / f"learner_{k}" if out is not None else None
         again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
@@ -106,11 +94,9 @@ def train_population(
                 f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
             ) from error
         records.append(record)
-        scores.append(score(record["episode_lengths"]))
-        if scores[-1] < min(scores[:-1], default=math.inf):
-            agent = learner  # only the best so far stays in memory
-    best = int(np.argmin(scores))  # ties: the first, as kept above
-    assert agent is not None
+        scores.append(recent_median(record["episode_lengths"]))
+        if agent is None or scores[k] < scores[best]:  # ties: the first
+            best, agent = k, learner  # only the best so far stays in memory
 
     history = History()
     for r in records:
@@ -118,12 +104,11 @@ def train_population(
         for row in zip(*lists, strict=True):
             history.add(*row)
     steps = sum(r["steps"] for r in records)
-    play_env = shape_rewards(env, config) if env is not None else make_env(config)
     length, total, success = greedy_episode(
-        play_env, agent, tie_stream(seed), seed=seed, options={"start_noise": 0.0}
+        training_env(config, env), agent, tie_stream(seed), seed=seed, options={"start_noise": 0.0}
     )
     record: dict[str, Any] = {
-        **{key: value for key, value in records[best].items() if key not in ("seed",)},
+        **records[best],
         "config": config.to_dict(),
         "seed": seed,
         "episodes_done": len(history),
@@ -136,7 +121,7 @@ def train_population(
             "seeds": [r["seed"] for r in records],
             "scores": scores,
             "kept": best,
-            "rule": f"shortest median of the last {WINDOW} training episodes",
+            "rule": "shortest median of the last 20 training episodes",
             "greedy_from_rest_lengths": [r["greedy_from_rest"]["length"] for r in records],
         },
     }

@@ -15,6 +15,7 @@ and so does the policy invariance).
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -25,11 +26,18 @@ from acrobot_mj.dynamics import DEFAULT_PARAMS, potential_energy, total_energy
 from acrobot_mj.params import AcrobotParams
 
 
+@functools.cache
+def _rest_energies(params: AcrobotParams) -> tuple[float, float]:
+    """Energies [J] hanging and upright at rest (computed once per parameter set)."""
+    hanging = float(potential_energy(np.array([-math.pi / 2, 0.0]), params))
+    upright = float(potential_energy(np.array([math.pi / 2, 0.0]), params))
+    return hanging, upright
+
+
 def energy_potential(obs: Any, params: AcrobotParams = DEFAULT_PARAMS) -> float:
     """The normalised energy of ``obs = (q1, q2, dq1, dq2)``: 0 hanging at rest, 1 upright."""
     x = np.asarray(obs, dtype=np.float64)
-    hanging = float(potential_energy(np.array([-math.pi / 2, 0.0]), params))
-    upright = float(potential_energy(np.array([math.pi / 2, 0.0]), params))
+    hanging, upright = _rest_energies(params)
     return (float(total_energy(x[:2], x[2:4], params)) - hanging) / (upright - hanging)
 
 

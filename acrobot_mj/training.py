@@ -58,6 +58,14 @@ def make_env(config: TrainConfig, **overrides: Any) -> gym.Env:
     return shape_rewards(gym.make(acrobot_mj.ENV_ID, **kwargs), config)
 
 
+def training_env(config: TrainConfig, env: gym.Env | None = None) -> gym.Env:
+    """``config``'s env, or the given ``env`` checked and with ``config``'s reward shaping."""
+    if env is None:
+        return make_env(config)
+    check_spaces(env)
+    return shape_rewards(env, config)
+
+
 def shape_rewards(env: gym.Env, config: TrainConfig) -> gym.Env:
     """``env`` with ``config``'s energy shaping (unchanged without it). Records report the
     unshaped returns (``info["unshaped_reward"]``)."""
@@ -162,12 +170,12 @@ class Progress:
         if not self.enabled or (now - self.last < 0.5 and done < self.total):
             return
         self.last = now
-        recent = history.episode_lengths[-20:]
         bar = "#" * int(30 * done / self.total)
         end = "\n" if done >= self.total else ""
         sys.stderr.write(
             f"\r{self.label} [{bar:<30}] {done}/{self.total} episodes, last 20: median "
-            f"{np.median(recent):.0f} decisions, {sum(history.episode_successes)} successes, "
+            f"{recent_median(history.episode_lengths):.0f} decisions, "
+            f"{sum(history.episode_successes)} successes, "
             f"{now - self.start:.0f} s{end}"
         )
         sys.stderr.flush()
@@ -224,10 +232,7 @@ def train_agent(
 ) -> tuple[dict[str, Any], Agent]:
     """:func:`train` for one learner (no freshness check); returns the record and the agent."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
-    env = make_env(config) if env is None else env
-    check_spaces(env)
-    if env_name != "acrobot_mj (make_env)":
-        env = shape_rewards(env, config)
+    env = training_env(config, env)
     agent = config.make_agent(seed=seed)
     history, steps = History(), 0
     if resume:
@@ -343,12 +348,26 @@ def _load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
         raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
 
 
+def check_same_run(
+    path: Path,
+    meta: dict[str, Any],
+    saved: TrainConfig,
+    config: TrainConfig,
+    seed: int,
+    may_differ: tuple[str, ...] = (),
+) -> None:
+    """Refuse a checkpoint written with another config (but ``may_differ``) or seed."""
+    differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - set(may_differ)
+    if differs:
+        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
+    if meta["seed"] != seed:
+        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+
+
 def _check_resume(
     path: Path, meta: dict[str, Any], saved: TrainConfig, config: TrainConfig, seed: int
 ) -> None:
-    differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - {"episodes"}
-    if differs:
-        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
+    check_same_run(path, meta, saved, config, seed, may_differ=("episodes",))
     if config.episodes < meta["episodes_done"]:
         raise CheckpointError(
             f"{path} already holds {meta['episodes_done']} episodes; resume "
@@ -359,8 +378,6 @@ def _check_resume(
             f"{path}: the start-noise schedule depends on episodes "
             f"({saved.episodes}), so resume cannot change it"
         )
-    if meta["seed"] != seed:
-        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
 
 
 def _restore(path: Path, config: TrainConfig, seed: int, agent: Agent) -> tuple[History, int]:
@@ -423,13 +440,18 @@ def _train_one(args: tuple[TrainConfig, int, str, bool, bool]) -> dict[str, Any]
     return train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True)
 
 
+def recent_median(lengths: list[int]) -> float:
+    """Median length of the last 20 episodes of ``lengths``."""
+    return float(np.median(lengths[-20:]))
+
+
 def last20_length(record: dict[str, Any]) -> float:
     """Median length of the last 20 training episodes of the learner a run keeps (in a
     population run: the kept learner's, not the last learner's)."""
     pop = record.get("population")
     if pop is not None:
         return float(pop["scores"][pop["kept"]])
-    return float(np.median(record["episode_lengths"][-20:]))
+    return recent_median(record["episode_lengths"])
 
 
 def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:

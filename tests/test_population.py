@@ -8,18 +8,18 @@ import pytest
 
 from acrobot_mj.checkpoint import CheckpointError
 from acrobot_mj.config import PRESETS, TrainConfig
-from acrobot_mj.population import WINDOW, learner_seed, score
-from acrobot_mj.training import evaluate, load_agent, train, train_agent
+from acrobot_mj.population import learner_seed
+from acrobot_mj.training import evaluate, load_agent, recent_median, train, train_agent
 
 # Three learners of four episodes of at most 400 decisions: with seed 2 their scores differ
 # (about 377, 389 and 327) and the last one is kept, so picking the first would fail.
 CONFIG = PRESETS["book"].replace(episodes=4, population=3, max_episode_steps=400)
 
 
-def test_score_is_the_median_of_the_last_window():
-    lengths = [1000] * 5 + list(range(WINDOW))  # the last WINDOW: 0 .. WINDOW - 1
-    assert score(lengths) == pytest.approx((WINDOW - 1) / 2)
-    assert score([7, 9]) == 8.0
+def test_learners_are_ranked_by_the_median_of_their_last_20_episodes():
+    lengths = [1000] * 5 + list(range(20))  # the last 20: 0 .. 19, median 9.5
+    assert recent_median(lengths) == 9.5
+    assert recent_median([7, 9]) == 8.0
 
 
 def test_learner_seeds_differ_and_are_fixed():
@@ -38,7 +38,7 @@ def test_population_run_keeps_the_best_learner(tmp_path):
     subs = [json.loads((tmp_path / f"learner_{k}" / "run.json").read_text()) for k in range(3)]
     assert record["episode_lengths"] == [n for s in subs for n in s["episode_lengths"]]
     assert record["steps"] == sum(s["steps"] for s in subs)
-    scores = [score(s["episode_lengths"]) for s in subs]
+    scores = [recent_median(s["episode_lengths"]) for s in subs]
     assert pop["scores"] == scores
     assert len(set(scores)) == 3
     assert pop["kept"] == int(np.argmin(scores)) != 0
