@@ -1,39 +1,36 @@
 """acrobot-mj: the Acrobot swing-up on MuJoCo.
 
-``import acrobot_mj`` registers the Gymnasium environment ``acrobot_mj/Acrobot-v0``
-(:class:`acrobot_mj.env.AcrobotEnv`, truncated at 1000 actions).
+``import acrobot_mj`` registers every task's Gymnasium environment (``acrobot_mj/Acrobot-v0``:
+:class:`acrobot_mj.envs.env.AcrobotEnv` with the height goal, truncated at 1000 actions).
+
+The packages, bottom up (each imports only those below it): :mod:`.physics` (parameters,
+dynamics, integrators; no simulator), :mod:`.control` (model-based references), :mod:`.envs`
+(tasks, the MuJoCo env and vector env, the episode loop), :mod:`.agents` (features and
+learners), :mod:`.report` (figures, videos, validation), :mod:`.train` (configs, runs,
+records, sweeps) and :mod:`.cli`.
 """
 
 from __future__ import annotations
 
-# First, before anything imports mujoco: pick a headless OpenGL backend (render.py).
-from acrobot_mj.render import configure_gl
+# First, before anything imports mujoco: pick a headless OpenGL backend (envs/gl.py).
+from acrobot_mj.envs.gl import configure_gl
 
 configure_gl()
 
-import gymnasium  # noqa: E402
+from acrobot_mj.envs.tasks import TASKS, HeightGoal  # noqa: E402  registers the tasks
+from acrobot_mj.physics.params import AcrobotParams  # noqa: E402
+from acrobot_mj.version import __version__  # noqa: E402
 
-from acrobot_mj.params import AcrobotParams  # noqa: E402
+ENV_ID = HeightGoal.env_id
+MAX_EPISODE_STEPS = HeightGoal.max_episode_steps
 
-__version__ = "0.1.0"
-ENV_ID = "acrobot_mj/Acrobot-v0"
-MAX_EPISODE_STEPS = 1000
-
-__all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "AcrobotEnv", "AcrobotParams", "__version__"]
-
-if ENV_ID not in gymnasium.registry:
-    gymnasium.register(
-        id=ENV_ID,
-        entry_point="acrobot_mj.env:AcrobotEnv",
-        vector_entry_point="acrobot_mj.vector:AcrobotVectorEnv",
-        max_episode_steps=MAX_EPISODE_STEPS,
-    )
+__all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "TASKS", "AcrobotEnv", "AcrobotParams", "__version__"]
 
 
 def __getattr__(name: str):
     # AcrobotEnv on first use, so `import acrobot_mj` stays light for the analytic model.
     if name == "AcrobotEnv":
-        from acrobot_mj.env import AcrobotEnv
+        from acrobot_mj.envs.env import AcrobotEnv
 
         return AcrobotEnv
     raise AttributeError(f"module 'acrobot_mj' has no attribute {name!r}")

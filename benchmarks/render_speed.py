@@ -21,8 +21,8 @@ from pathlib import Path
 import gymnasium as gym
 
 import acrobot_mj
-from acrobot_mj.policies import random_policy
-from acrobot_mj.video import VideoWriter, caption, record_episode
+from acrobot_mj.control.baselines import random_policy
+from acrobot_mj.report.video import VideoWriter, caption, record_episode
 
 
 def main() -> None:

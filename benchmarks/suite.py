@@ -3,7 +3,7 @@
 Every measurement returns steps per second; :func:`run` calls them in interleaved rounds (so
 load on a shared machine hits all alike), keeps the median of each, and reports ratios to the
 Gymnasium baselines and to the ``mujoco.batch`` ceiling, a scaling table over the number of
-sub-envs and the peak memory of 1024 lockstep learners. Targets (the scale issue): our env >= 8x
+sub-envs and the peak memory of 1024 lockstep learners. Targets: our env >= 8x
 Acrobot-v1, report SARSA on it >= 5x SARSA on Acrobot-v1, the vector env >= 0.8 of the batch
 ceiling at N = 1024, lockstep SARSA >= 25x SARSA on Acrobot-v1.
 """
@@ -24,10 +24,12 @@ import numpy as np
 from mujoco.batch import Batch
 
 import acrobot_mj
-from acrobot_mj.compat import make_gymnasium_acrobot
-from acrobot_mj.config import PRESETS
-from acrobot_mj.training import learn_episode, make_env, train_lockstep
-from acrobot_mj.vector import AcrobotVectorEnv
+from acrobot_mj.agents.registry import make_agent
+from acrobot_mj.envs.compat import make_gymnasium_acrobot
+from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.train.episodes import learn_episode, make_env
+from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.presets import PRESETS
 
 Rate = Callable[[int], float]  # round -> steps per second
 
@@ -89,10 +91,10 @@ def vector_env(n: int, steps: int) -> Rate:
 
 def sarsa(env: gym.Env, episodes: int) -> Rate:
     def measure(k: int) -> float:
-        agent = PRESETS["report"].make_agent(seed=k)
+        agent = make_agent(PRESETS["report"], seed=k)
         steps, start = 0, time.perf_counter()
         for episode in range(episodes):
-            steps += learn_episode(env, agent, seed=episode)[0]
+            steps += learn_episode(env, agent, seed=episode).length
         return steps / (time.perf_counter() - start)
 
     return measure

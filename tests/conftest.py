@@ -14,8 +14,8 @@ import acrobot_mj  # noqa: F401  before mujoco: it picks the GL backend mujoco r
 import mujoco
 # isort: on
 
-from acrobot_mj.assets import model_path
-from acrobot_mj.params import AcrobotParams
+from acrobot_mj.envs.assets import model_path
+from acrobot_mj.physics.params import AcrobotParams
 
 #: Number of random states for the cross-checks (the issue asks for at least 100).
 N_STATES = 200

@@ -8,8 +8,10 @@ import pytest
 
 import acrobot_mj
 from acrobot_mj.agents import RandomStream, Sarsa, SarsaLambda
-from acrobot_mj.features import StateGrid
-from acrobot_mj.training import learn_episode
+from acrobot_mj.agents.features import StateGrid
+from acrobot_mj.agents.registry import make_features
+from acrobot_mj.train.episodes import learn_episode
+from acrobot_mj.train.presets import PRESETS
 
 # All values below are dyadic (alpha = 0.5, lambda = 0.5, integer rewards), so the floating-
 # point results are exact and the comparisons use ==.
@@ -131,7 +133,7 @@ def test_sarsa_lambda_with_grid_and_lambda_0_is_tabular_sarsa(epsilon) -> None:
     "make",
     [
         lambda seed: Sarsa(StateGrid(), seed=seed),
-        lambda seed: SarsaLambda(acrobot_mj.config.PRESETS["book"].make_features(), seed=seed),
+        lambda seed: SarsaLambda(make_features(PRESETS["book"]), seed=seed),
     ],
 )
 def test_same_seed_same_learned_values(make) -> None:

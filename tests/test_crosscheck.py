@@ -12,8 +12,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from acrobot_mj import dynamics, integrators
-from acrobot_mj.params import AcrobotParams
+from acrobot_mj.physics import dynamics, integrators
+from acrobot_mj.physics.params import AcrobotParams
 from tests.conftest import random_states
 
 REL = 1e-10

@@ -14,8 +14,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import acrobot_mj
-from acrobot_mj import integrators
-from acrobot_mj.env import MAX_VEL1, MAX_VEL2, AcrobotEnv, wrap_angle
+from acrobot_mj.envs.env import AcrobotEnv
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.angles import wrap_angle
 
 HANGING = [-math.pi / 2, 0.0, 0.0, 0.0]
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from acrobot_mj.features import StateGrid, TileCoder, book_tile_coder
+from acrobot_mj.agents.features import StateGrid, TileCoder, book_tile_coder
 
 PI = math.pi
 

@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from acrobot_mj.assets import REQUIRED_NAMES, load_model, model_path
-from acrobot_mj.params import AcrobotParams, describe
+from acrobot_mj.envs.assets import REQUIRED_NAMES, load_model, model_path
+from acrobot_mj.physics.params import AcrobotParams, describe
 
 # Values are written in the XML as the same decimal literals as in params.py, so after parsing
 # they are the same doubles; 1e-12 only absorbs the compiler's frame arithmetic (e.g. rotating

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import acrobot_mj
-from acrobot_mj.assets import load_model, models_dir
+from acrobot_mj.envs.assets import load_model, models_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -46,7 +46,7 @@ def test_models_load_from_an_installed_wheel(tmp_path: Path) -> None:
         cwd=tmp_path,
     )
     probe = (
-        "import acrobot_mj, gymnasium as gym; from acrobot_mj.assets import models_dir;"
+        "import acrobot_mj, gymnasium as gym; from acrobot_mj.envs.assets import models_dir;"
         "env = gym.make('acrobot_mj/Acrobot-v0'); env.reset(seed=0); env.step(2);"
         "print(acrobot_mj.__file__); print(models_dir())"
     )

@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from acrobot_mj import dynamics, integrators
+from acrobot_mj.physics import dynamics, integrators
 from tests.conftest import random_states
 
 STARTS = np.array(

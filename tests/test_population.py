@@ -6,10 +6,15 @@ import json
 import numpy as np
 import pytest
 
-from acrobot_mj.checkpoint import CheckpointError
-from acrobot_mj.config import PRESETS, TrainConfig
-from acrobot_mj.population import learner_seed
-from acrobot_mj.training import evaluate, load_agent, recent_median, train, train_agent
+from acrobot_mj.train.checkpoint import CheckpointError
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.learner import train_agent
+from acrobot_mj.train.population import learner_seed
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.rundir import load_agent
+from acrobot_mj.train.stats import recent_median
+from acrobot_mj.train.trainer import train
 
 # Three learners of four episodes of at most 400 decisions: with seed 2 their scores differ
 # (about 377, 389 and 327) and the last one is kept, so picking the first would fail.

@@ -21,8 +21,8 @@ import acrobot_mj  # before mujoco: it picks the GL backend mujoco reads on impo
 import mujoco
 
 # isort: on
-from acrobot_mj import render
-from acrobot_mj.assets import model_path
+from acrobot_mj.envs import gl as render
+from acrobot_mj.envs.assets import model_path
 
 BACKENDS = ("egl", "osmesa")
 W, H = 240, 240
@@ -31,8 +31,8 @@ W, H = 240, 240
 # without captions (so that only the acrobot changes between frames).
 PROBE = f"""
 import json, numpy as np, mujoco, gymnasium as gym, acrobot_mj
-from acrobot_mj import render
-from acrobot_mj.video import render_policy
+from acrobot_mj.envs import gl as render
+from acrobot_mj.report.video import render_policy
 env = gym.make(acrobot_mj.ENV_ID, render_mode="rgb_array", width={W}, height={H})
 env.reset(seed=0)
 u = env.unwrapped

@@ -8,10 +8,13 @@ import numpy as np
 import pytest
 
 import acrobot_mj
-from acrobot_mj.config import PRESETS, TrainConfig
-from acrobot_mj.policies import pump_policy
-from acrobot_mj.shaping import EnergyShaping, energy_potential
-from acrobot_mj.training import make_env, train, train_lockstep
+from acrobot_mj.control.baselines import pump_policy
+from acrobot_mj.envs.shaping import EnergyShaping, energy_potential
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episodes import make_env
+from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.trainer import train
 
 # Golden values from the definition alone (no dynamics code): at rest the energy is potential
 # only, V = g ((m1 lc1 + m2 l1) sin q1 + m2 lc2 sin(q1 + q2)) = g (1.5 sin q1 + 0.5 sin(q1 + q2)),

@@ -7,7 +7,8 @@ import json
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.sweep import load_sweep, parse_sweep, run_sweep
+from acrobot_mj.train.sweep import run_sweep
+from acrobot_mj.train.sweep_spec import load_sweep, parse_sweep
 
 TINY = """
 preset = "report"
@@ -79,7 +80,7 @@ def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch
     sweep = tmp_path / "s.toml"
     sweep.write_text('preset = "book"\nepisodes = 1\nseeds = [0, 1, 2]\n[grid]\nlam = [0.9]\n')
     spec = load_sweep(sweep)
-    import acrobot_mj.sweep as sweep_module
+    import acrobot_mj.train.sweep as sweep_module
 
     original = sweep_module._run_trial
 

@@ -7,17 +7,15 @@ import json
 import numpy as np
 import pytest
 
-from acrobot_mj.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
-from acrobot_mj.compat import make_gymnasium_acrobot
-from acrobot_mj.config import PRESETS, TrainConfig, parse_value
-from acrobot_mj.training import (
-    CHECKPOINT_FILE,
-    evaluate,
-    load_agent,
-    make_env,
-    train,
-    train_seeds,
-)
+from acrobot_mj.envs.compat import make_gymnasium_acrobot
+from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+from acrobot_mj.train.config import TrainConfig, parse_value
+from acrobot_mj.train.episodes import make_env
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.rundir import CHECKPOINT_FILE, load_agent
+from acrobot_mj.train.seeds import train_seeds
+from acrobot_mj.train.trainer import train
 
 #: What a resumed or lockstep run must reproduce exactly (wall_seconds aside).
 RECORD_KEYS = (
@@ -297,7 +295,7 @@ def test_tuned_preset_swings_up_near_the_minimum() -> None:
 def test_lockstep_learners_equal_single_learners(config, tmp_path) -> None:
     # Stated and tested: identical, not just alike in distribution (same streams, same resets,
     # same arithmetic), so the records and the learned tables agree exactly.
-    from acrobot_mj.training import train_lockstep
+    from acrobot_mj.train.lockstep import train_lockstep
 
     seeds = [0, 3, 7]
     lockstep = train_lockstep(config, seeds, tmp_path / "lock")
@@ -313,15 +311,15 @@ def test_lockstep_learners_equal_single_learners(config, tmp_path) -> None:
 
 
 def test_lockstep_refuses_sarsa_lambda() -> None:
-    from acrobot_mj.training import train_lockstep
+    from acrobot_mj.train.lockstep import train_lockstep
 
     with pytest.raises(ValueError, match="tabular"):
         train_lockstep(PRESETS["book"], [0, 1])
 
 
 def test_lockstep_checkpoints_and_resume_exactly(tmp_path, monkeypatch) -> None:
-    from acrobot_mj.training import train_lockstep
-    from acrobot_mj.vector import AcrobotVectorEnv
+    from acrobot_mj.envs.vector import AcrobotVectorEnv
+    from acrobot_mj.train.lockstep import train_lockstep
 
     config = PRESETS["report"].replace(episodes=12, frame_skip=4, checkpoint_every=3)
     seeds = [0, 5]

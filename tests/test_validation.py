@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 import acrobot_mj
-from acrobot_mj import control, dynamics
 from acrobot_mj.cli import main
+from acrobot_mj.control import energy, lqr, search
+from acrobot_mj.control.model import UPRIGHT
+from acrobot_mj.physics import dynamics
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +97,7 @@ def test_minimum_time_sequences_replay_to_the_goal_in_the_env(report) -> None:
 @pytest.mark.slow
 def test_full_search_matches_the_best_known_minimum() -> None:
     # The best known: 63 decisions at frame_skip 4 (so 252 steps at frame_skip 1).
-    result = control.min_time_search(frame_skip=4, width=20_000)
+    result = search.min_time_search(frame_skip=4, width=20_000)
     assert result.decisions <= 63
     assert _play(result.actions, 4)[:2] == (result.decisions, True)
 
@@ -104,7 +106,7 @@ def test_energy_pumping_raises_energy_monotonically() -> None:
     # dE/dt = tau dq2 >= 0 while E < E*: in continuous time the energy never falls. With the
     # torque held over an RK4 step the only losses come from dq2 changing sign inside a step,
     # O(dt^2): measured 2.8e-4 J at dt = 0.01 s and 2.3e-6 J at 0.001 s.
-    coarse, fine = control.pumping_energies(1e-2), control.pumping_energies(1e-3)
+    coarse, fine = energy.pumping_energies(1e-2), energy.pumping_energies(1e-3)
     assert fine[0] == pytest.approx(-19.6, abs=0.01) and fine[-1] >= 19.6 - 1e-9
     worst_coarse, worst_fine = -np.diff(coarse).min(), -np.diff(fine).min()
     assert worst_fine <= 1e-5  # |tau| max|ddq2| dt^2 / 2 with |ddq2| < 20 rad/s^2
@@ -125,13 +127,13 @@ def test_lqr_recovers_inside_its_basin_and_nothing_beats_the_bound(report) -> No
     # DESIGN.md's independent figure: no bounded controller recovers beyond about 0.084 rad.
     assert bound == pytest.approx(0.084, abs=5e-4)
     assert 0.005 < high < bound and -bound < low < -0.005
-    lqr = control.LQR()
-    inside = control.UPRIGHT + np.array(
+    controller = lqr.LQR()
+    inside = UPRIGHT + np.array(
         [[0.5 * high, 0, 0, 0], [0.5 * low, 0, 0, 0], [0.9 * high, 0, 0, 0]]
     )
-    assert control.balances(lqr, inside).all()
-    outside = control.UPRIGHT + np.array([[1.1 * bound, 0, 0, 0], [-1.1 * bound, 0, 0, 0]])
-    assert not control.balances(lqr, outside).any()
+    assert lqr.balances(controller, inside).all()
+    outside = UPRIGHT + np.array([[1.1 * bound, 0, 0, 0], [-1.1 * bound, 0, 0, 0]])
+    assert not lqr.balances(controller, outside).any()
 
 
 @pytest.mark.parametrize(("factor", "escapes"), [(0.95, False), (1.05, True)])
@@ -140,11 +142,11 @@ def test_the_bound_is_where_the_best_effort_stops_helping(factor, escapes) -> No
     # unstable mode back as hard as |tau| <= 1 allows (tau = -sign(z w.B)) from a pure q1 offset
     # of 0.95 and 1.05 times the bound. Below it the mode shrinks to zero, above it the mode
     # grows whatever the torque. (RK4 at 1 ms on the linear model: the margin is 5 %.)
-    a, b = dynamics.linearize(control.UPRIGHT[:2], control.UPRIGHT[2:])
+    a, b = dynamics.linearize(UPRIGHT[:2], UPRIGHT[2:])
     values, left = np.linalg.eig(a.T)
     slow = np.argmin(np.where(values.real > 1e-9, values.real, np.inf))
     w = left[:, slow].real
-    x = np.array([factor * control.unstable_mode_bound()[f"{values[slow].real:.4f}"], 0, 0, 0])
+    x = np.array([factor * lqr.unstable_mode_bound()[f"{values[slow].real:.4f}"], 0, 0, 0])
     dt, z0 = 1e-3, w @ x
 
     def f(x):

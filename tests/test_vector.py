@@ -9,7 +9,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import acrobot_mj
-from acrobot_mj.vector import AcrobotVectorEnv
+from acrobot_mj.envs.vector import AcrobotVectorEnv
 
 
 def test_make_vec_returns_the_batched_env() -> None:

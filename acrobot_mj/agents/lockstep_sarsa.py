@@ -13,8 +13,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from acrobot_mj.agents.features import StateGrid
 from acrobot_mj.agents.random_stream import BLOCK, checked_values
-from acrobot_mj.features import StateGrid
 
 
 class LockstepSarsa:

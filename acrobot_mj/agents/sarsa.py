@@ -23,8 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.agents.features import StateGrid
+from acrobot_mj.agents.lockstep_sarsa import LockstepSarsa
+from acrobot_mj.agents.protocol import AgentSpec
 from acrobot_mj.agents.random_stream import RandomStream, checked_values
-from acrobot_mj.features import StateGrid
 
 
 class Sarsa:
@@ -104,3 +106,13 @@ class Sarsa:
         q = checked_values(state, "q", (self.grid.num_features, self.n_actions))
         self.stream.load_state_dict(state, prefix="stream.")
         self._q = q.tolist()
+
+
+SPEC = AgentSpec(
+    name="sarsa",
+    doc="one-step tabular SARSA (the report), with lockstep training of many seeds",
+    uses=("alpha", "gamma", "epsilon"),
+    features=("grid",),
+    build=lambda grid, c, seed, n: Sarsa(grid, n, c.alpha, c.gamma, c.epsilon, seed=seed),
+    lockstep=lambda grid, c, seeds: LockstepSarsa(grid, seeds, 3, c.alpha, c.gamma, c.epsilon),
+)

@@ -21,8 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.agents.features import StateGrid, TileCoder
+from acrobot_mj.agents.protocol import AgentSpec
 from acrobot_mj.agents.random_stream import RandomStream, checked_values
-from acrobot_mj.features import StateGrid, TileCoder
 
 TRACES = ("replacing", "accumulating")
 
@@ -185,3 +186,26 @@ class SarsaLambda:
         self.stream.load_state_dict(state, prefix="stream.")
         self._w = w.ravel().copy()
         self._clear_traces()
+
+
+def _build(features: StateGrid | TileCoder, c: Any, seed: Any, n_actions: int) -> SarsaLambda:
+    return SarsaLambda(
+        features,
+        n_actions,
+        c.alpha,
+        c.gamma,
+        c.lam,
+        c.epsilon,
+        c.traces,
+        c.trace_cutoff,
+        seed=seed,
+    )
+
+
+SPEC = AgentSpec(
+    name="sarsa_lambda",
+    doc="linear Sarsa(lambda) with eligibility traces (Sutton and Barto)",
+    uses=("alpha", "gamma", "epsilon", "lam", "traces", "trace_cutoff"),
+    features=("grid", "tiles"),
+    build=_build,
+)

@@ -1,0 +1,71 @@
+"""The registry of algorithms and features: how a config becomes a learner.
+
+Built in: ``sarsa`` (:mod:`.sarsa`, with lockstep training) and ``sarsa_lambda``
+(:mod:`.sarsa_lambda`) over ``grid`` and ``tiles`` features (:mod:`.features`). A new algorithm
+is one module in ``agents/`` with an :class:`~acrobot_mj.agents.protocol.AgentSpec` plus one
+:func:`register_agent` call; a new hyperparameter is also a field of the training config.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from acrobot_mj.agents import sarsa, sarsa_lambda
+from acrobot_mj.agents.features import FEATURE_SPECS
+from acrobot_mj.agents.protocol import Agent, AgentSpec, Features, FeatureSpec
+
+AGENTS: dict[str, AgentSpec] = {}
+FEATURES: dict[str, FeatureSpec] = {}
+
+
+def register_agent(spec: AgentSpec) -> AgentSpec:
+    """Add an algorithm to :data:`AGENTS` (its features must be registered)."""
+    _register(AGENTS, spec, "algorithm")
+    unknown = sorted(set(spec.features) - set(FEATURES))
+    if unknown:
+        del AGENTS[spec.name]
+        raise ValueError(f"algorithm {spec.name!r} names unknown features {unknown}")
+    return spec
+
+
+def register_features(spec: FeatureSpec) -> FeatureSpec:
+    """Add a kind of features to :data:`FEATURES`."""
+    return _register(FEATURES, spec, "features")
+
+
+def _register(table: dict[str, Any], spec: Any, what: str) -> Any:
+    known = table.get(spec.name)
+    if known is not None and known is not spec:
+        raise ValueError(f"{what} {spec.name!r} is already registered")
+    table[spec.name] = spec
+    return spec
+
+
+def agent_spec(name: str) -> AgentSpec:
+    """The spec of algorithm ``name``; the error lists the known ones."""
+    if name not in AGENTS:
+        raise ValueError(f"unknown algorithm {name!r}; known: {sorted(AGENTS)}")
+    return AGENTS[name]
+
+
+def feature_spec(name: str) -> FeatureSpec:
+    """The spec of features ``name``; the error lists the known ones."""
+    if name not in FEATURES:
+        raise ValueError(f"unknown features {name!r}; known: {sorted(FEATURES)}")
+    return FEATURES[name]
+
+
+def make_features(config: Any) -> Features:
+    """The features of ``config`` (``config.features`` names them)."""
+    return feature_spec(config.features).build(config)
+
+
+def make_agent(config: Any, seed: Any, n_actions: int = 3) -> Agent:
+    """The learner of ``config`` (``config.algorithm``), its random stream seeded with ``seed``."""
+    return agent_spec(config.algorithm).build(make_features(config), config, seed, n_actions)
+
+
+for _spec in FEATURE_SPECS:
+    register_features(_spec)
+register_agent(sarsa.SPEC)
+register_agent(sarsa_lambda.SPEC)

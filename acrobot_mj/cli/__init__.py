@@ -1,0 +1,55 @@
+"""Command line: ``acrobot-mj train | evaluate | render | validate | bench | sweep | curves |
+demo | params``. A thin layer: each command parses its arguments and calls library functions
+(:mod:`.learning`, :mod:`.tools`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+
+from acrobot_mj.cli import learning, tools
+from acrobot_mj.envs.gl import GLBackendError
+from acrobot_mj.train.checkpoint import CheckpointError
+from acrobot_mj.version import __version__
+
+COMMANDS = (
+    learning.add_train,
+    learning.add_evaluate,
+    tools.add_render,
+    tools.add_validate,
+    learning.add_sweep,
+    learning.add_curves,
+    tools.add_bench,
+    tools.add_demo,
+    tools.add_params,
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="acrobot-mj", description=__doc__)
+    parser.add_argument("--version", action="version", version=__version__)
+    commands = parser.add_subparsers(dest="command", required=True)
+    for add in COMMANDS:
+        add(commands)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        args.func(args)
+    except (ValueError, TypeError, OSError, CheckpointError, GLBackendError) as error:
+        if os.environ.get("ACROBOT_MJ_DEBUG"):
+            raise  # the whole traceback, for bug reports
+        parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
+    except KeyboardInterrupt as interrupt:
+        hint = "; continue with --resume" if args.command == "train" else ""
+        parser.exit(130, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,213 @@
+"""``acrobot-mj train | evaluate | sweep | curves``: parsers and handlers (library calls only)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+from acrobot_mj.cli.common import positive_int
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.report.plots import compare_curves
+from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.records import recent_score
+from acrobot_mj.train.rundir import EVAL_FILE, RUN_FILE, SUMMARY_FILE
+from acrobot_mj.train.seeds import train_seeds
+from acrobot_mj.train.sweep import run_sweep, summary_table
+from acrobot_mj.train.sweep_spec import load_sweep
+from acrobot_mj.train.trainer import train
+
+
+def config_of(args: argparse.Namespace) -> TrainConfig:
+    """The preset with every ``--<field>`` given on the command line applied."""
+    overrides = {
+        name: parse_value(name, getattr(args, name))
+        for name in FIELD_NAMES
+        if getattr(args, name) is not None
+    }
+    return PRESETS[args.preset].replace(**overrides)
+
+
+def add_train(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser(
+        "train",
+        help="train a learner, write run.json, checkpoint and learning curve",
+        description="Train the report's or the book's learner. Every config field can be "
+        "overridden with --FIELD VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
+    )
+    p.add_argument("--preset", choices=sorted(PRESETS), default="report")
+    p.add_argument("--seed", type=int, default=0, help="seed (the first one with --seeds)")
+    p.add_argument(
+        "--seeds",
+        type=positive_int,
+        help="train K seeds and write summary.json; tabular SARSA runs them in "
+        "lockstep on one batched vector env, Sarsa(lambda) one per process",
+    )
+    p.add_argument(
+        "--jobs", type=positive_int, default=1, help="processes for --seeds with Sarsa(lambda)"
+    )
+    p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
+    p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
+    group = p.add_argument_group("config overrides (defaults: the preset's)")
+    for f in fields(TrainConfig):
+        group.add_argument(
+            f"--{f.name.replace('_', '-')}", dest=f.name, metavar="VALUE", help=f.metadata["doc"]
+        )
+    p.set_defaults(func=train_command)
+
+
+def train_command(args: argparse.Namespace) -> dict[str, Any]:
+    config = config_of(args)
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    if args.seeds is None and args.jobs != 1:
+        raise ValueError("--jobs runs several seeds at once: it needs --seeds")
+    if args.seeds is not None:
+        return _train_seeds(args, config, progress)
+    out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
+    record = train(
+        config, args.seed, out, resume=args.resume, progress=progress, overwrite=args.force
+    )
+    task = get_task(config.task)
+    greedy, unit = record["greedy_from_rest"], task.score.unit
+    outcome = "goal" if greedy["success"] else "no goal"
+    pop = record.get("population")
+    kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
+    print(
+        f"trained {record['episodes_done']} episodes ({record['steps']} decisions, "
+        f"{record['wall_seconds']:.1f} s) -> {out}: {sum(record['episode_successes'])} "
+        f"{task.success_text}; last 20 episodes{kept} median {recent_score(record):g} {unit}; "
+        f"greedy from rest: {outcome} in {greedy['length']} decisions"
+    )
+    return record
+
+
+def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) -> dict:
+    out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}")
+    seeds = list(range(args.seed, args.seed + args.seeds))
+    summary = train_seeds(
+        config,
+        seeds,
+        out,
+        jobs=args.jobs,
+        resume=args.resume,
+        progress=progress,
+        overwrite=args.force,
+    )
+    score = get_task(config.task).score
+    g, s = summary[f"greedy_from_rest_{score.quantity}"], summary["successes"]
+    print(
+        f"{len(seeds)} seeds -> {out}: successes per run median {s['median']:g} "
+        f"(min {s['min']:g}, max {s['max']:g}); greedy {score.unit} from rest median "
+        f"{g['median']:g} (IQR {g['q25']:g}-{g['q75']:g}), "
+        f"{summary['greedy_from_rest_successes']}/{len(seeds)} {get_task(config.task).success_text}"
+    )
+    return summary
+
+
+def add_evaluate(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser("evaluate", help="greedy episodes of a trained run -> eval.json")
+    p.add_argument("run_dir", help="a directory written by acrobot-mj train")
+    p.add_argument("--episodes", type=positive_int, help="default: the run's eval_episodes")
+    p.add_argument("--seed", type=int, default=0, help="seed of start noise and tie-breaking")
+    p.set_defaults(func=evaluate_command)
+
+
+def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
+    record = evaluate(args.run_dir, args.episodes, seed=args.seed)
+    lengths, successes = record["episode_lengths"], record["episode_successes"]
+    task = get_task(record["config"]["task"])
+    print(
+        f"{len(lengths)} greedy episodes of {args.run_dir}: {sum(successes)} {task.success_text}; "
+        f"from rest {lengths[0]} decisions"
+        + ("" if successes[0] else " (no goal)")
+        + f"; wrote {Path(args.run_dir) / EVAL_FILE}"
+    )
+    return record
+
+
+def add_sweep(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser(
+        "sweep",
+        help="seeds x a grid of hyperparameters from a TOML file, resumable",
+        description="Run every trial (grid point x seed) of SWEEP_FILE that has no run.json yet, "
+        "then summarise. Local: lockstep for tabular SARSA, processes otherwise. Ray: one task "
+        "per trial on ray.init(address=...) (a local instance without --address).",
+    )
+    p.add_argument("sweep_file", help="the sweep's TOML file")
+    p.add_argument("--backend", choices=("local", "ray"), default="local")
+    p.add_argument("--address", help="Ray cluster address (e.g. auto or ray://host:10001)")
+    p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
+    p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
+    p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
+    p.set_defaults(func=sweep_command)
+
+
+def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
+    spec = load_sweep(args.sweep_file)
+    out = Path(args.out or f"runs/sweep__{Path(args.sweep_file).stem}")
+    summary = run_sweep(
+        spec,
+        out,
+        backend=args.backend,
+        address=args.address,
+        jobs=args.jobs,
+        ray_num_cpus=args.num_cpus,
+    )
+    print(summary_table(summary), end="")
+    print(
+        f"{summary['trials']} trials -> {out}/trials; wrote summary.json, summary.md, summary.png"
+    )
+    return summary
+
+
+def add_curves(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser("curves", help="learning curves of several --seeds runs, one PNG")
+    p.add_argument("run_dirs", nargs="+", help="directories written by train --seeds")
+    p.add_argument("--out", required=True, help="the PNG file")
+    p.add_argument("--title", default="Learning curves")
+    p.add_argument(
+        "--minimum",
+        action="store_true",
+        help="draw the task's reference (the best known minimum: 63 decisions at frame_skip 4)",
+    )
+    p.set_defaults(func=curves_command)
+
+
+def curves_command(args: argparse.Namespace) -> None:
+    groups, config = {}, None
+    for folder in args.run_dirs:
+        summary_file = Path(folder) / SUMMARY_FILE
+        if not summary_file.is_file():
+            raise FileNotFoundError(
+                f"{summary_file} not found: give directories written by acrobot-mj train --seeds"
+            )
+        summary = json.loads(summary_file.read_text())
+        config = TrainConfig.from_dict(summary["config"])
+        score = get_task(config.task).score
+        groups[Path(folder).name] = [
+            score.values(json.loads((Path(folder) / run / RUN_FILE).read_text()))
+            for run in summary["runs"]
+        ]
+    task = get_task(config.task)
+    reference = task.reference(config.frame_skip) if args.minimum else None
+    compare_curves(
+        args.out,
+        groups,
+        args.title,
+        [reference] if reference else [],
+        task.score.label,
+        task.score.log_scale,
+    )
+    print(f"wrote {args.out}")

@@ -1,0 +1,196 @@
+"""``acrobot-mj render | validate | bench | demo | params``: parsers and handlers."""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from acrobot_mj.cli.common import positive_int, write_record
+from acrobot_mj.control.baselines import POLICY_NAMES, make_policy
+from acrobot_mj.envs.episode import PolicyActor, run_episode
+from acrobot_mj.envs.tasks import HeightGoal
+from acrobot_mj.physics.params import describe
+from acrobot_mj.report.video import render_policy
+from acrobot_mj.train.evaluate import render_run
+from acrobot_mj.train.records import History, versions
+
+
+def add_render(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser(
+        "render",
+        help="MP4 of a trained run's greedy policy, or of a fixed policy",
+        description="Render an episode from rest to MP4 at real time (EGL or OSMesa, headless).",
+    )
+    p.add_argument("run_dir", nargs="?", help="a directory written by acrobot-mj train")
+    p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
+    p.add_argument("--out", required=True, help="the .mp4 file (a .json record goes beside it)")
+    p.add_argument("--steps", type=positive_int, help="most steps (default: the whole episode)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the env, ties and --policy random")
+    p.add_argument("--frame-skip", type=positive_int, default=1, help="with --policy only")
+    p.add_argument("--width", type=positive_int, default=480)
+    p.add_argument("--height", type=positive_int, default=480)
+    p.add_argument("--camera", default="side", help="a camera of the model: side or wide")
+    p.add_argument("--strip", metavar="PNG", help="also write a strip of 6 frames")
+    p.add_argument(
+        "--captions",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="time, torque and tip height on each frame",
+    )
+    p.set_defaults(func=render_command)
+
+
+def render_command(args: argparse.Namespace) -> dict[str, Any]:
+    if (args.run_dir is None) == (args.policy is None):
+        raise ValueError("give either a run directory or --policy, not both or neither")
+    common = {
+        "seed": args.seed,
+        "width": args.width,
+        "height": args.height,
+        "camera": args.camera,
+        "strip": args.strip,
+        "captions": args.captions,
+    }
+    if args.run_dir is not None:
+        record = render_run(args.run_dir, args.out, max_steps=args.steps, **common)
+    else:
+        record = render_policy(
+            args.policy, args.out, steps=args.steps, frame_skip=args.frame_skip, **common
+        )
+    outcome = "reaches the goal" if record["success"] else "does not reach the goal"
+    print(
+        f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
+        f"{outcome} in {record['length']} actions"
+    )
+    return record
+
+
+def add_validate(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser(
+        "validate", help="check the dynamics against MuJoCo; controllers, bounds, minimum time"
+    )
+    p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
+    p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
+    p.set_defaults(func=validate_command)
+
+
+def validate_command(args: argparse.Namespace) -> dict[str, Any]:
+    from acrobot_mj.report.validation import summary_rows, validate  # heavy: on demand
+
+    report = validate(args.out, quick=args.quick)
+    rows = summary_rows(report)
+    width = max(len(what) for what, _ in rows)
+    for what, value in rows:
+        print(f"{what:<{width}}  {value}")
+    print(
+        f"wrote {Path(args.out) / 'validation.json'}, validation.md and "
+        f"{len(report['figures'])} figures ({report['wall_seconds']:.0f} s)"
+    )
+    return report
+
+
+def add_bench(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser(
+        "bench", help="steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling"
+    )
+    p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
+    p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.set_defaults(func=bench_command)
+
+
+def bench_command(args: argparse.Namespace) -> dict[str, Any]:
+    suite_path = Path(__file__).resolve().parents[2] / "benchmarks" / "suite.py"
+    if not suite_path.is_file():
+        raise FileNotFoundError(
+            f"acrobot-mj bench runs the benchmarks of a source checkout; "
+            f"{suite_path} is not there (clone the repository)"
+        )
+    spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
+    suite = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(suite)
+    result = suite.run(quick=args.quick)
+    print(suite.report(result))
+    write_record(args.json, result)
+    return result
+
+
+def add_demo(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
+    p.add_argument(
+        "--policy",
+        choices=POLICY_NAMES,
+        default="pump",
+        help="pump: tau = -sign(dq1); zero: no torque; random: uniform (seeded)",
+    )
+    p.add_argument("--steps", type=positive_int, default=1000, help="most actions to take")
+    p.add_argument("--seed", type=int, default=0, help="seed of the env and the random policy")
+    p.add_argument("--frame-skip", type=positive_int, default=1, help="physics steps per action")
+    p.add_argument("--integrator", choices=("euler", "rk4"), default="euler")
+    p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")
+    p.add_argument("--json", metavar="FILE", help="also write the run record as JSON")
+    p.set_defaults(func=demo)
+
+
+def demo(args: argparse.Namespace) -> dict[str, Any]:
+    """Roll out a fixed policy from rest and print the state as it goes."""
+    env = gym.make(HeightGoal.env_id, frame_skip=args.frame_skip, integrator=args.integrator)
+    states, tips = [], []
+
+    def keep(obs: Any, info: dict[str, Any], *_: Any) -> None:
+        states.append(obs.tolist())
+        tips.append(info["tip_height"])
+
+    def keep_step(action, obs, reward, terminated, truncated, info) -> None:
+        keep(obs, info)
+
+    policy = PolicyActor(make_policy(args.policy, args.seed))
+    episode = run_episode(env, policy, args.seed, None, args.steps, keep, keep_step)
+    dt = env.unwrapped.dt
+    print(
+        f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
+        f"integrator {args.integrator}"
+    )
+    print(f"{'step':>5} {'t [s]':>7} {'q1':>8} {'q2':>8} {'dq1':>8} {'dq2':>8} {'tip [m]':>8}")
+    for k, (state, tip) in enumerate(zip(states, tips, strict=True)):
+        if k % args.every == 0 or k == episode.length:
+            print(f"{k:5d} {k * dt:7.2f} " + " ".join(f"{v:8.3f}" for v in state) + f" {tip:8.3f}")
+    outcome = "reached the goal" if episode.success else "did not reach the goal"
+    print(
+        f"{outcome} after {episode.length} actions ({episode.length * dt:.2f} s), "
+        f"return {episode.episode_return:g}"
+    )
+    history = History()
+    history.add_episode(episode)
+    record = {
+        "command": "demo",
+        "config": {k: v for k, v in vars(args).items() if k not in ("func", "json")},
+        "seed": args.seed,
+        "versions": versions(),
+        **history.to_dict(),
+        "episodes": [{**_episode_dict(episode), "states": states, "tip_heights": tips}],
+    }
+    write_record(args.json, record)
+    return record
+
+
+def _episode_dict(episode: Any) -> dict[str, Any]:
+    return {
+        "length": episode.length,
+        "episode_return": episode.episode_return,
+        "success": episode.success,
+        "truncated": episode.truncated,
+    }
+
+
+def add_params(commands: argparse._SubParsersAction) -> None:
+    p = commands.add_parser("params", help="print the physical parameters, units and sources")
+    p.set_defaults(func=params_command)
+
+
+def params_command(args: argparse.Namespace) -> None:
+    """Print the physical parameters with units and sources."""
+    print(describe())

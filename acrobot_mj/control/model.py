@@ -1,0 +1,52 @@
+"""The env's discrete map on the analytic model, on arrays of states, and its linearisation.
+
+States are ``(q1, q2, dq1, dq2)`` [rad, rad/s] with shape ``(..., 4)``, torques in N m; the
+analytic model matches the MuJoCo env to rounding (``tests/test_crosscheck.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acrobot_mj.physics import dynamics, integrators
+from acrobot_mj.physics.params import AcrobotParams
+
+P = AcrobotParams()
+UPRIGHT = np.array([np.pi / 2, 0.0, 0.0, 0.0])
+HANGING = np.array([-np.pi / 2, 0.0, 0.0, 0.0])
+
+
+def step(
+    x: np.ndarray,
+    tau: np.ndarray,
+    frame_skip: int = 1,
+    method: str = "semi_implicit_euler",
+    p: AcrobotParams = P,
+) -> np.ndarray:
+    """``frame_skip`` physics steps of ``method`` with the task's velocity clipping (the env's
+    step, on arrays of states ``(..., 4)``)."""
+    advance = integrators.STEPS[method]
+    for _ in range(frame_skip):
+        x = integrators.clip_velocity(advance(x, tau, p.dt, p), p)
+    return x
+
+
+def tip_height(x: np.ndarray, p: AcrobotParams = P) -> np.ndarray:
+    """Height of the tip above the pivot [m], shape ``(...)``."""
+    return dynamics.tip_position(np.asarray(x)[..., :2], p)[..., 1]
+
+
+def discrete_model(
+    x0: np.ndarray = UPRIGHT, frame_skip: int = 1, p: AcrobotParams = P
+) -> tuple[np.ndarray, np.ndarray]:
+    """Exact Jacobians of the env's step (semi-implicit Euler, ``frame_skip`` steps) at ``x0``
+    with zero torque, from the analytic continuous Jacobian."""
+    a_c, b_c = dynamics.linearize(x0[:2], x0[2:], 0.0, p)
+    h, eye = p.dt, np.eye(2)
+    aq, av, bu = a_c[2:, :2], a_c[2:, 2:], b_c[2:]
+    a = np.block([[eye + h * h * aq, h * (eye + h * av)], [h * aq, eye + h * av]])
+    b = np.vstack([h * h * bu, h * bu])
+    a_k, b_k = np.eye(4), np.zeros((4, 1))
+    for _ in range(frame_skip):  # torque held over the frame
+        a_k, b_k = a @ a_k, a @ b_k + b
+    return a_k, b_k

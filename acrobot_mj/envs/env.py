@@ -1,0 +1,368 @@
+"""The acrobot as a Gymnasium environment stepping MuJoCo, for any registered task."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+from acrobot_mj.checks import check_bool, check_float, check_int
+from acrobot_mj.envs.assets import link_lengths, load_model
+from acrobot_mj.envs.gl import make_renderer
+from acrobot_mj.envs.spaces import (
+    INT_TYPES,
+    MAX_VEL1,
+    MAX_VEL2,
+    TORQUE_OF,
+    action_space,
+    action_torque,
+    observation_space,
+)
+from acrobot_mj.envs.tasks import SCALAR, Task, get_task
+from acrobot_mj.physics.angles import wrap_angle
+
+INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
+RESET_OPTIONS = ("start_noise",)
+
+_mj_step = mujoco.mj_step  # a global name lookup is cheaper than a module attribute
+#: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
+HUGE = 1e10
+#: set_state refuses larger angles [rad]: at 1e6 rad a double resolves 1e-10 rad, no finer.
+MAX_ANGLE = 1e6
+_BAD_STATE_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+)
+
+
+def make_task(task: str | type[Task], links: tuple[float, float], options: dict[str, Any]) -> Task:
+    """The task ``task`` (a registered name or a Task class) on links ``(l1, l2)`` [m], with its
+    keyword ``options`` (an unknown one raises, naming the task's options)."""
+    cls = task if isinstance(task, type) and issubclass(task, Task) else get_task(task)
+    unknown = sorted(set(options) - {"start_noise", *cls.options})
+    if unknown:
+        raise TypeError(
+            f"unknown arguments {unknown} for task {cls.name!r}; its options: "
+            f"{sorted({'start_noise', *cls.options})}"
+        )
+    return cls(links, **options)
+
+
+class AcrobotEnv(gym.Env[np.ndarray, Any]):
+    r"""The acrobot of the IND E 599 report, simulated by MuJoCo, with a task on top.
+
+    Two links hang from a passive shoulder on a bar; a motor at the elbow (the gymnast's hips)
+    applies a torque. The task (``task``, default ``"height_goal"``, :mod:`acrobot_mj.envs.tasks`)
+    says what is rewarded, when an episode ends and what ``info`` reports; for
+    ``acrobot_mj/Acrobot-v0`` it is Sutton and Barto's height goal
+    (:class:`~acrobot_mj.envs.tasks.height_goal.HeightGoal`: -1 per step, +100 and the end of the
+    episode when the tip rises one link length above the bar, truncated at 1000 actions).
+    Physics and conventions: ``models/acrobot.xml`` and ``docs/design.md``; parameters:
+    :class:`acrobot_mj.physics.params.AcrobotParams` (l1 = l2 = 1 m, lc1 = lc2 = 0.5 m,
+    m1 = m2 = 1 kg, I1 = I2 = 1 kg m^2 about each centre of mass, g = 9.8).
+
+    ## Action Space
+    ``Discrete(3)``: the elbow torque, held for ``frame_skip`` physics steps.
+
+    | Num | Action                 | Unit |
+    |-----|------------------------|------|
+    | 0   | torque -1 on the elbow | N m  |
+    | 1   | torque 0               | N m  |
+    | 2   | torque +1 on the elbow | N m  |
+
+    With ``continuous=True`` it is ``Box(-1, 1, (1,), float32)``: the torque in N m. Actions
+    outside the space (3, -1, 1.5, NaN, a wrong type or shape) raise an error; nothing is clipped.
+
+    ## Observation Space
+    ``Box((4,), float64)``: angles in the report's convention (from the horizontal,
+    counter-clockwise positive, q2 relative to link 1), wrapped into [-pi, pi).
+
+    | Num | Observation                        | Min    | Max    | Unit  |
+    |-----|------------------------------------|--------|--------|-------|
+    | 0   | q1, angle of link 1 from +x        | -pi    | pi     | rad   |
+    | 1   | q2, angle of link 2 from link 1    | -pi    | pi     | rad   |
+    | 2   | dq1, shoulder angular velocity     | -4 pi  | 4 pi   | rad/s |
+    | 3   | dq2, elbow angular velocity        | -9 pi  | 9 pi   | rad/s |
+
+    Velocities are clipped to these limits after every physics step (the report's task).
+    Gymnasium's ``Acrobot-v1`` uses ``theta1 = q1 + pi/2``, ``theta2 = q2`` and the same torque
+    sign, and observes cos and sin of the angles instead.
+
+    ## Rewards, Starting State, Episode End
+    The task's (see its class docstring). Every task starts from a model keyframe (``hanging``
+    at rest) plus, with ``start_noise = s > 0``, ``U(-s, s)`` on each angle and velocity.
+
+    ## Arguments
+    | Argument      | Default       | Meaning                                                  |
+    |---------------|---------------|----------------------------------------------------------|
+    | frame_skip    | 1             | physics steps (0.05 s each) per action; 4 gives 0.2 s    |
+    | integrator    | "euler"       | MuJoCo's semi-implicit ``"euler"`` or ``"rk4"``          |
+    | task          | "height_goal" | a registered task name (or a Task subclass)              |
+    | continuous    | False         | ``Box(-1, 1, (1,))`` torques instead of ``Discrete(3)``  |
+    | render_mode   | None          | ``"rgb_array"``: ``render()`` returns frames (EGL/OSMesa) |
+    | width, height | 480, 480      | frame size [pixels], at most the model's offscreen buffer |
+    | camera        | "side"        | name of a camera in the model (``"side"`` or ``"wide"``)  |
+    | model_path    | None          | an MJCF file to use instead of the packaged ``scene.xml`` |
+    | **options     |               | the task's: ``step_reward``, ``goal_reward``,             |
+    |               |               | ``goal_height``, ``start_noise`` for the height goal      |
+
+    ``reset(options={"start_noise": s})`` overrides ``start_noise`` for that episode only.
+    ``env.unwrapped.model`` and ``env.unwrapped.data`` are the live ``MjModel`` and ``MjData``;
+    ``env.unwrapped.task`` is the task. ``render_fps`` in ``metadata`` is
+    ``1 / (timestep * frame_skip)``, real time.
+
+    ## Example
+    Golden values computed independently by the analytic model (``acrobot_mj.physics``,
+    semi-implicit Euler with the same clipping): ten +1 N m steps from rest, rounded to 1e-9,
+    then the bang-bang law ``tau = -sign(dq1)`` reaching the goal on step 300 with +100:
+
+    >>> import gymnasium as gym
+    >>> import acrobot_mj
+    >>> env = gym.make("acrobot_mj/Acrobot-v0")
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.tolist(), info
+    ([-1.5707963267948966, 0.0, 0.0, 0.0], {'tip_height': -2.0, 'is_success': False})
+    >>> for _ in range(10):
+    ...     obs, reward, terminated, truncated, info = env.step(2)
+    >>> [round(x, 9) for x in obs.tolist()], reward, terminated, truncated
+    ([-1.647489786, 0.204950005, -0.229681209, 0.640375848], -1.0, False, False)
+    >>> obs, info = env.reset()
+    >>> for step in range(1, 1001):
+    ...     obs, reward, terminated, truncated, info = env.step(0 if obs[2] > 0 else 2)
+    ...     if terminated or truncated:
+    ...         break
+    >>> step, reward, terminated, round(info["tip_height"], 9)
+    (300, 100.0, True, 1.044545016)
+
+    ## Version History
+    - v0: first version: the report's task on MuJoCo (semi-implicit Euler, 0.05 s steps),
+      with offscreen ``rgb_array`` rendering.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+
+    def __init__(
+        self,
+        frame_skip: int = 1,
+        integrator: str = "euler",
+        *,
+        task: str | type[Task] = "height_goal",
+        continuous: bool = False,
+        render_mode: str | None = None,
+        width: int = 480,
+        height: int = 480,
+        camera: str = "side",
+        model_path: str | Path | None = None,
+        **task_options: Any,
+    ) -> None:
+        self._frame_skip = check_int("frame_skip", frame_skip, 1)
+        self._substeps = range(self._frame_skip)
+        if not isinstance(integrator, str) or integrator not in INTEGRATORS:
+            raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+        self._integrator = integrator
+        self._continuous = check_bool("continuous", continuous)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        if model_path is not None and not isinstance(model_path, (str, os.PathLike)):
+            raise TypeError(f"model_path must be a path to an MJCF file, got {model_path!r}")
+        self.model = load_model(model_path)
+        self.model.opt.integrator = INTEGRATORS[integrator]
+        # Whatever the file says: a NaN state must stay visible (step raises), not be reset away.
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+        self.data = mujoco.MjData(self.model)
+        self.task = make_task(task, link_lengths(self.model), task_options)
+        self._start_key = mujoco.mj_name2id(
+            self.model, mujoco.mjtObj.mjOBJ_KEY, self.task.start_keyframe
+        )
+        if self._start_key < 0:
+            raise ValueError(f"the model has no keyframe {self.task.start_keyframe!r}")
+        self._bind()
+        self._set_up_rendering(render_mode, width, height, camera)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
+        self.action_space = action_space(continuous)
+        self.observation_space = observation_space()
+        # Fast path of step() for integer actions; empty for continuous actions.
+        self._torque_of = {} if continuous else TORQUE_OF
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
+
+    # -- set-up ----------------------------------------------------------------------------
+
+    def _bind(self) -> None:
+        """Cache views into ``data`` and the task's step rule (redone after unpickling)."""
+        m, d = self.model, self.data
+        qadr = [int(m.joint(name).qposadr[0]) for name in ("shoulder", "elbow")]
+        dadr = [int(m.joint(name).dofadr[0]) for name in ("shoulder", "elbow")]
+        if qadr != [0, 1] or dadr != [0, 1]:
+            raise ValueError(f"expected joints shoulder, elbow at qpos 0, 1; got {qadr}")
+        self._qpos, self._qvel = d.qpos, d.qvel
+        motor = m.actuator("elbow_motor").id
+        self._ctrl = d.ctrl[motor : motor + 1]
+        self._outcome = self.task.outcome(SCALAR)
+
+    def _set_up_rendering(self, render_mode: str | None, width: int, height: int, camera: str):
+        offwidth, offheight = self.model.vis.global_.offwidth, self.model.vis.global_.offheight
+        self.width = check_int("width", width, 1, offwidth)
+        self.height = check_int("height", height, 1, offheight)
+        if (
+            not isinstance(camera, str)
+            or mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0
+        ):
+            names = [self.model.camera(i).name for i in range(self.model.ncam)]
+            raise ValueError(
+                f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
+            )
+        self.camera = camera
+        self.render_mode = render_mode
+        self._renderer = None  # created by the first render() call, released by close()
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for key in ("_qpos", "_qvel", "_ctrl", "_outcome"):
+            state.pop(key)
+        state["_renderer"] = None  # a GL context cannot be copied; the copy makes its own
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind()
+
+    # -- the acrobot -----------------------------------------------------------------------
+
+    # Read-only: the spaces, metadata and model are built from them at construction.
+    frame_skip = property(lambda self: self._frame_skip, doc="Physics steps per action.")
+    integrator = property(lambda self: self._integrator, doc='"euler" or "rk4".')
+    continuous = property(lambda self: self._continuous, doc="Box actions instead of Discrete.")
+    start_noise = property(lambda self: self.task.start_noise, doc="The task's start noise.")
+
+    @property
+    def dt(self) -> float:
+        """Time between actions [s]: ``timestep * frame_skip``."""
+        return self.model.opt.timestep * self._frame_skip
+
+    @property
+    def state(self) -> np.ndarray:
+        """The unwrapped state ``(q1, q2, dq1, dq2)`` [rad, rad/s], a copy."""
+        return np.concatenate([self._qpos, self._qvel])
+
+    def set_state(self, q: Any, dq: Any = (0.0, 0.0)) -> None:
+        """Put the acrobot at angles ``q`` [rad] with velocities ``dq`` [rad/s] (validated)."""
+        q, dq = np.asarray(q, dtype=np.float64), np.asarray(dq, dtype=np.float64)
+        if q.shape != (2,) or dq.shape != (2,):
+            raise ValueError(f"q and dq must have shape (2,), got {q.shape} and {dq.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+            raise ValueError(f"state must be finite, got q={q}, dq={dq}")
+        if np.any(np.abs(q) > MAX_ANGLE):
+            raise ValueError(
+                f"angles q={q} rad are beyond +-{MAX_ANGLE:g} rad, where they lose "
+                "precision; wrap them into [-pi, pi) first"
+            )
+        if abs(dq[0]) > MAX_VEL1 or abs(dq[1]) > MAX_VEL2:
+            raise ValueError(
+                f"dq={dq} exceeds the velocity limits ({MAX_VEL1:.4g}, {MAX_VEL2:.4g}) rad/s"
+            )
+        self._qpos[:] = q
+        self._qvel[:] = dq
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        noise = reset_noise(options, self.task.start_noise)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
+        offsets = self.task.start_offsets(self.np_random, noise)
+        if offsets is not None:
+            self._qpos += offsets[0]
+            self._qvel += offsets[1]
+        q1, q2 = self._qpos.tolist()
+        v1, v2 = self._qvel.tolist()
+        _, _, info = self._outcome(q1, q2, v1, v2)
+        info["is_success"] = False  # a reset is no success
+        return np.array((wrap_angle(q1), wrap_angle(q2), v1, v2)), info
+
+    def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
+        # The hot path: names resolved to ids once, views into data cached, the observation
+        # the only allocation besides the task's info.
+        torque = self._torque_of.get(action) if action.__class__ in INT_TYPES else None
+        self._ctrl[0] = action_torque(action, self._continuous) if torque is None else torque
+        m, d, qvel = self.model, self.data, self._qvel
+        for _ in self._substeps:
+            _mj_step(m, d)
+            # Velocity limits of the task, after every physics step.
+            v1, v2 = qvel.tolist()
+            if v1 > MAX_VEL1 or v1 < -MAX_VEL1:
+                v1 = qvel[0] = MAX_VEL1 if v1 > 0 else -MAX_VEL1
+            if v2 > MAX_VEL2 or v2 < -MAX_VEL2:
+                v2 = qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
+        q1, q2 = self._qpos.tolist()
+        # False for NaN, infinities and MuJoCo's "huge" values alike (one comparison); the env
+        # disables MuJoCo's autoreset, so a bad state cannot hide.
+        if not abs(q1) + abs(q2) + abs(v1) + abs(v2) < HUGE:
+            self._raise_bad_state()
+        # Angles in [-pi, pi) are observed exactly as they are (wrap_angle's first case,
+        # inlined); others are wrapped.
+        w1 = q1 if -math.pi <= q1 < math.pi else wrap_angle(q1)
+        w2 = q2 if -math.pi <= q2 < math.pi else wrap_angle(q2)
+        reward, terminated, info = self._outcome(q1, q2, v1, v2)
+        return np.array((w1, w2, v1, v2)), reward, terminated, False, info
+
+    def _raise_bad_state(self) -> None:
+        reported = [
+            f"{w.name.removeprefix('mjWARN_')} (last at index {self.data.warning[w].lastinfo})"
+            for w in _BAD_STATE_WARNINGS
+            if self.data.warning[w].number
+        ]
+        raise RuntimeError(
+            "the simulation reached a non-finite or huge state"
+            + (f"; MuJoCo reported {', '.join(reported)}" if reported else "")
+            + f"; state now {self.state.tolist()}. Call reset() before stepping again."
+        )
+
+    def render(self) -> np.ndarray | None:
+        """The current frame, ``uint8`` of shape ``(height, width, 3)``, from ``camera``.
+
+        The renderer is created on the first call through :func:`acrobot_mj.envs.gl.make_renderer`
+        (headless EGL or OSMesa; a clear error if neither works) and released by :meth:`close`.
+        """
+        if self.render_mode is None:
+            gym.logger.warn("render() called with render_mode=None: nothing is rendered")
+            return None
+        if self._renderer is None:
+            self._renderer = make_renderer(self.model, self.width, self.height)
+        # Positions of bodies, cameras and lights for the current state (mj_step leaves them
+        # at the start of the last step).
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        self._renderer.update_scene(self.data, camera=self.camera)
+        return self._renderer.render()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def reset_noise(options: Any, default: float, also_known: tuple[str, ...] = ()) -> float:
+    """The start noise of a reset: ``options["start_noise"]`` if given (validated), else
+    ``default``; unknown options or a non-dict raise (``also_known``: options the caller took
+    out before, named in the error)."""
+    if options is not None and not isinstance(options, Mapping):
+        raise TypeError(f"reset options must be a dict, got {options!r}")
+    if not options:
+        return default
+    unknown = sorted(set(options) - set(RESET_OPTIONS))
+    if unknown:
+        known = [*also_known, *RESET_OPTIONS]
+        raise ValueError(f"unknown reset options {unknown}; known: {known}")
+    if "start_noise" in options:
+        return check_float("start_noise", options["start_noise"], 0.0, 1.0)
+    return default

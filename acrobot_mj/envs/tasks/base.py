@@ -1,0 +1,141 @@
+"""What a task is: its start distribution, its reward, termination and success, what ``info``
+reports, and how its results are scored.
+
+A task is a :class:`Task` subclass (one file in this package) plus one registration
+(:func:`acrobot_mj.envs.tasks.register_task`). :class:`~acrobot_mj.envs.env.AcrobotEnv`,
+:class:`~acrobot_mj.envs.vector.AcrobotVectorEnv`, training summaries, population selection,
+sweeps, plots and video captions all ask the task; none of them knows the height goal.
+
+The per-step rule is written once, in :meth:`Task.outcome`, over a small math namespace ``xp``:
+:data:`SCALAR` (Python floats, the single env's hot path) or :data:`ARRAY` (numpy, one row per
+sub-env of the vector env). The same formula serves both, so the two envs cannot drift apart.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from acrobot_mj.checks import check_float
+
+#: ``outcome(q1, q2, dq1, dq2) -> (reward, terminated, info)`` on unwrapped angles [rad] and
+#: velocities [rad/s] after a step; floats with :data:`SCALAR`, arrays with :data:`ARRAY`.
+Outcome = Callable[[Any, Any, Any, Any], tuple[Any, Any, dict[str, Any]]]
+
+
+def _where(condition: bool, if_true: Any, if_false: Any) -> Any:
+    return if_true if condition else if_false
+
+
+class ScalarMath:
+    """numpy's names for the math a task's outcome uses, on Python floats (several times faster
+    than numpy's on one number)."""
+
+    sin = staticmethod(math.sin)
+    cos = staticmethod(math.cos)
+    exp = staticmethod(math.exp)
+    sqrt = staticmethod(math.sqrt)
+    abs = staticmethod(abs)
+    maximum = staticmethod(max)
+    minimum = staticmethod(min)
+    where = staticmethod(_where)
+
+
+SCALAR = ScalarMath()
+ARRAY = np
+
+
+@dataclass(frozen=True)
+class Score:
+    """How a task's episodes are scored: a per-episode quantity and which way is better.
+
+    ``quantity`` is ``"length"`` (decisions) or ``"return"``: the field of a greedy result and,
+    as ``episode_{quantity}s``, the per-episode list of a run record.
+    """
+
+    quantity: str
+    lower_is_better: bool
+    label: str  # what the number is, e.g. "decisions per episode"
+    unit: str  # e.g. "decisions"
+    best_word: str  # "shortest", "highest": the best of several, in words
+    log_scale: bool = False  # plots of it read better on a log axis
+
+    def __post_init__(self) -> None:
+        if self.quantity not in ("length", "return"):
+            raise ValueError(f"score quantity must be 'length' or 'return', got {self.quantity!r}")
+
+    def values(self, record: dict[str, Any]) -> list[float]:
+        """The per-episode scores of a run record."""
+        return record[f"episode_{self.quantity}s"]
+
+    def is_better(self, a: float, b: float) -> bool:
+        """Whether score ``a`` is strictly better than ``b``."""
+        return a < b if self.lower_is_better else a > b
+
+    def best_index(self, scores: Sequence[float]) -> int:
+        """Index of the best of ``scores`` (the first of equals)."""
+        best = 0
+        for k in range(1, len(scores)):
+            if self.is_better(scores[k], scores[best]):
+                best = k
+        return best
+
+
+class Task(ABC):
+    """One acrobot task on the shared physics, actions and observations.
+
+    Subclasses set the class attributes and implement :meth:`outcome` and :meth:`caption`;
+    their constructor takes ``links`` (l1, l2 [m], measured on the model by the env),
+    ``start_noise`` and the keyword options listed in :attr:`options`, each validated.
+    """
+
+    #: Short name: ``TrainConfig.task`` and the ``task`` argument of the envs.
+    name: ClassVar[str]
+    #: The Gymnasium id it is registered under.
+    env_id: ClassVar[str]
+    #: Truncation (Gymnasium's TimeLimit, and the vector env's default).
+    max_episode_steps: ClassVar[int]
+    #: How its results are scored.
+    score: ClassVar[Score]
+    #: Keyword options of the constructor besides ``start_noise`` (also the config fields that
+    #: apply to this task).
+    options: ClassVar[tuple[str, ...]] = ()
+    #: The model keyframe episodes start from.
+    start_keyframe: ClassVar[str] = "hanging"
+    #: Caption of a successful frame in videos, and what success means in words.
+    success_label: ClassVar[str] = "SUCCESS"
+    success_text: ClassVar[str] = "succeeded"
+
+    def __init__(self, links: tuple[float, float], start_noise: float = 0.0) -> None:
+        self.l1, self.l2 = (check_float("link length", v, 0.0) for v in links)
+        self.start_noise = check_float("start_noise", start_noise, 0.0, 1.0)
+
+    def start_offsets(
+        self, rng: np.random.Generator, noise: float
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """What is added to the keyframe's ``qpos`` and ``qvel`` [rad, rad/s] at a reset:
+        ``U(-noise, noise)`` for each angle, then each velocity (None without noise)."""
+        if noise <= 0.0:
+            return None
+        return rng.uniform(-noise, noise, 2), rng.uniform(-noise, noise, 2)
+
+    @abstractmethod
+    def outcome(self, xp: Any) -> Outcome:
+        """The step rule over the math namespace ``xp`` (:data:`SCALAR` or :data:`ARRAY`).
+
+        ``info`` must hold ``is_success``; the envs add nothing else to it.
+        """
+
+    @abstractmethod
+    def caption(self, info: dict[str, Any]) -> str:
+        """A few words on a frame's state for video captions, e.g. ``tip +0.53 m``."""
+
+    @classmethod
+    def reference(cls, frame_skip: int) -> tuple[float, str] | None:
+        """A reference score and its label for plots (e.g. the best known), or None."""
+        return None

@@ -1,0 +1,100 @@
+"""The height goal of Sutton and Barto (and Gymnasium's Acrobot-v1): swing the tip above a line."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.envs.tasks.base import Outcome, Score, Task
+
+
+class HeightGoal(Task):
+    r"""Swing the tip of link 2 above a line one link length over the bar (the report's task).
+
+    ## Rewards
+    ``step_reward`` (-1) on every step and ``goal_reward`` (+100) instead on the step that
+    reaches the goal (the report).
+
+    ## Starting State
+    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)`` (the ``hanging`` keyframe). With
+    ``start_noise = s > 0`` each angle and velocity gets ``U(-s, s)`` added (from the env's
+    ``np_random``, angles first).
+
+    ## Episode End
+    - Termination: the tip is more than ``goal_height`` above the pivot, ``l1 sin(q1) +
+      l2 sin(q1 + q2) > goal_height``, tested once per action, after its last physics step
+      (with ``frame_skip > 1`` a swing that crosses the line and falls back within one action
+      is not counted).
+    - Truncation: 1000 actions, by the ``TimeLimit`` that ``gymnasium.make`` adds.
+
+    ``info`` holds ``tip_height`` [m above the pivot] and ``is_success`` (the goal was reached).
+
+    ## Options
+    | Option      | Default | Meaning                                                         |
+    |-------------|---------|-----------------------------------------------------------------|
+    | step_reward | -1.0    | reward of a step that does not reach the goal                   |
+    | goal_reward | 100.0   | reward of the step that reaches the goal                        |
+    | goal_height | 1.0     | tip height above the pivot that ends the episode [m], < l1 + l2 |
+    | start_noise | 0.0     | half-width of the uniform start noise [rad, rad/s], in [0, 1]   |
+
+    ## Score
+    Decisions to the goal (fewer is better; 1000 when it is not reached).
+    """
+
+    name = "height_goal"
+    env_id = "acrobot_mj/Acrobot-v0"
+    max_episode_steps = 1000
+    score = Score(
+        "length",
+        lower_is_better=True,
+        label="decisions per episode",
+        unit="decisions",
+        best_word="shortest",
+        log_scale=True,
+    )
+    options = ("step_reward", "goal_reward", "goal_height")
+    success_label = "GOAL"
+    success_text = "reached the goal"
+    #: Best-known minimum decisions from rest to the goal (``acrobot-mj validate``'s search).
+    MIN_DECISIONS = {1: 252, 4: 63}
+
+    def __init__(
+        self,
+        links: tuple[float, float],
+        start_noise: float = 0.0,
+        step_reward: float = -1.0,
+        goal_reward: float = 100.0,
+        goal_height: float = 1.0,
+    ) -> None:
+        super().__init__(links, start_noise)
+        self.step_reward = check_float("step_reward", step_reward)
+        self.goal_reward = check_float("goal_reward", goal_reward)
+        reach = self.l1 + self.l2
+        self.goal_height = check_float("goal_height", goal_height, -reach, reach)
+        if abs(self.goal_height) == reach:
+            raise ValueError(
+                f"goal_height must be strictly inside (-{reach:g}, {reach:g}) m: "
+                f"at {self.goal_height:g} m the goal is never or always reached"
+            )
+
+    def outcome(self, xp: Any) -> Outcome:
+        l1, l2, height = self.l1, self.l2, self.goal_height
+        goal_reward, step_reward = self.goal_reward, self.step_reward
+        sin, where = xp.sin, xp.where
+
+        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
+            # Tip height above the pivot [m], then the goal test.
+            tip = l1 * sin(q1) + l2 * sin(q1 + q2)
+            reached = tip > height
+            reward = where(reached, goal_reward, step_reward)
+            return reward, reached, {"tip_height": tip, "is_success": reached}
+
+        return outcome
+
+    def caption(self, info: dict[str, Any]) -> str:
+        return f"tip {float(info['tip_height']):+.2f} m"
+
+    @classmethod
+    def reference(cls, frame_skip: int) -> tuple[float, str] | None:
+        best = cls.MIN_DECISIONS.get(frame_skip)
+        return (best, f"best known minimum ({best})") if best else None

@@ -1,0 +1,131 @@
+"""The physics references the learners are measured against, run in the MuJoCo env: energy
+pumping, the saturated LQR and its basin, the bound for any bounded controller, and the
+minimum-time swing-up (searched on the analytic model, replayed in the env)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.control.energy import energy_pumping_torque, pumping_energies
+from acrobot_mj.control.lqr import LQR, balances, q1_basin, unstable_mode_bound
+from acrobot_mj.control.model import UPRIGHT
+from acrobot_mj.control.search import min_time_search
+from acrobot_mj.envs.episode import PolicyActor, SequenceActor, run_episode
+from acrobot_mj.envs.tasks import HeightGoal
+from acrobot_mj.physics import dynamics
+from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.report.crosscheck import METHODS
+
+P = AcrobotParams()
+
+
+def controllers(quick: bool = False) -> dict[str, Any]:
+    """Energy pumping from rest in the MuJoCo env; saturated LQR at upright, its basin, and the
+    bound for any controller with |tau| <= 1 N m."""
+    env = gym.make(HeightGoal.env_id, continuous=True)
+    energies: list[float] = []
+
+    def record_energy(*_: Any) -> None:
+        state = env.unwrapped.state
+        energies.append(float(dynamics.total_energy(state[:2], state[2:])))
+
+    def pump(obs: np.ndarray) -> np.ndarray:
+        # The law needs the unwrapped state the env holds, not the wrapped observation.
+        tau = float(energy_pumping_torque(env.unwrapped.state))
+        return np.array([tau], dtype=np.float32)
+
+    episode = run_episode(
+        env, PolicyActor(pump), 0, None, 1000, on_reset=record_energy, on_step=record_energy
+    )
+    steps, reached = episode.length, episode.success
+    env_drops = int(np.sum(np.diff(energies) < 0))
+    fine = {dt: np.diff(pumping_energies(dt)).min() for dt in (1e-2, 1e-3)}
+    lqr = LQR()
+    low, high = q1_basin(lqr, upper=0.2, resolution=1e-3 if quick else 1e-4)
+    rng = np.random.default_rng(0)
+    n = 200 if quick else 2000
+    scale = np.array([0.02, 0.02, 0.05, 0.05])
+    starts = UPRIGHT + rng.uniform(-1, 1, (n, 4)) * scale
+    bound = unstable_mode_bound()
+    return {
+        "energy_pumping": {
+            "law": "tau = clip(50 (E* - E) dq2, -1, 1) N m, E* = 19.6 J (upright)",
+            "reference": "the energy approach of Spong, 'The swing up control problem for the "
+            "acrobot', IEEE Control Systems 1995; the same law shape as Fantoni, Lozano and "
+            "Spong's for the Pendubot (IEEE TAC 2000)",
+            "reached_goal": reached,
+            "steps_to_goal": steps,
+            "seconds": steps * P.dt,
+            "energy_start_J": energies[0],
+            "energy_end_J": energies[-1],
+            "env_steps_losing_energy": env_drops,
+            "monotone_check": "RK4 with the torque held over dt: the largest energy drop of a "
+            "step in the pumping phase shrinks as dt^2 (dq2 changing sign within a step), so "
+            "the energy rises monotonically in continuous time",
+            "largest_drop_J_rk4_dt_0.01": float(-min(fine[1e-2], 0.0)),
+            "largest_drop_J_rk4_dt_0.001": float(-min(fine[1e-3], 0.0)),
+        },
+        "lqr": {
+            "gain": lqr.gain[0].tolist(),
+            "q": list(lqr.q),
+            "r": lqr.r,
+            "q1_basin_rad": [low, high],
+            "sampled_box": scale.tolist(),
+            "sampled": n,
+            "sampled_fraction_balanced": float(np.mean(balances(lqr, starts))),
+        },
+        "bound_any_controller_q1_rad": min(bound.values()),
+        "bound_per_unstable_mode": bound,
+    }
+
+
+def minimum_time(quick: bool = False) -> dict[str, Any]:
+    """Beam searches for the fewest decisions to the goal from rest, replayed in the env."""
+    width = 3000 if quick else 20_000
+    results = {}
+    best4 = min_time_search(frame_skip=4, width=width)
+    results["frame_skip_4"] = best4
+    # At frame_skip 1 a sequence may hold a torque for k steps: search with holds of 1, 3, 4.
+    holds = {1: min_time_search(frame_skip=1, width=2000 if quick else 5000)}
+    holds[4] = best4
+    if not quick:
+        holds[3] = min_time_search(frame_skip=3, width=width)
+    per_hold = {k: r.decisions * k for k, r in holds.items() if r.decisions is not None}
+    k_best = min(per_hold, key=per_hold.get)
+    fs1_actions = [a for a in holds[k_best].actions for _ in range(k_best)]
+    replay = {"frame_skip_1": _replay(fs1_actions, 1), "frame_skip_4": _replay(best4.actions, 4)}
+    by_integrator = {}
+    for method in METHODS:
+        result = (
+            best4
+            if method == "semi_implicit_euler"
+            else min_time_search(frame_skip=4, width=width, method=method)
+        )
+        by_integrator[method] = result.decisions
+    return {
+        "min_time_decisions_frame_skip_4": best4.decisions,
+        "min_time_steps_frame_skip_1": len(fs1_actions),
+        "actions_frame_skip_4": best4.actions,
+        "actions_frame_skip_1": fs1_actions,
+        "frame_skip_1_steps_by_hold": per_hold,
+        "beam_width": width,
+        "replayed_in_env": replay,
+        "decisions_frame_skip_4_by_integrator": by_integrator,
+    }
+
+
+def _replay(actions: list[int], frame_skip: int) -> dict[str, Any]:
+    """Play ``actions`` in the MuJoCo env from rest: when does it terminate?"""
+    env = gym.make(HeightGoal.env_id, frame_skip=frame_skip)
+    episode = run_episode(env, SequenceActor(actions), seed=0, max_steps=len(actions))
+    if not (episode.success or episode.truncated):  # it ran out of actions
+        return {"steps": len(actions), "reached_goal": False, "at_last_action": True}
+    return {
+        "steps": episode.length,
+        "reached_goal": episode.success,
+        "at_last_action": episode.length == len(actions),
+        "tip_height": episode.info["tip_height"],
+    }

@@ -1,0 +1,189 @@
+"""Many seeds of one config trained together, in lockstep on one vector env.
+
+Learner ``k`` sees exactly what ``train(config, seeds[k])`` would show it: its sub-env is reset
+with the same per-episode seed and start noise, and the algorithm's lockstep form (for SARSA
+:class:`~acrobot_mj.agents.lockstep_sarsa.LockstepSarsa`) draws and computes as the single agent
+does; so the records and checkpoints are identical to the single-env trainer's, up to
+``wall_seconds`` (the training time shared out).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.agents.registry import AGENTS, agent_spec, make_agent, make_features
+from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episodes import episode_seed, greedy_from_rest, make_env
+from acrobot_mj.train.progress import Progress
+from acrobot_mj.train.records import History, run_record
+from acrobot_mj.train.rundir import (
+    CHECKPOINT_FILE,
+    Checkpoints,
+    read_for_resume,
+    seed_dir,
+    write_run,
+)
+
+
+def train_lockstep(
+    config: TrainConfig,
+    seeds: list[int],
+    out_dir: str | Path | None = None,
+    progress: bool = False,
+    greedy: bool = True,
+    resume: bool = False,
+) -> list[dict[str, Any]]:
+    """Train one learner per seed together, on one :class:`AcrobotVectorEnv`.
+
+    Writes ``out_dir/seed_S/`` like :func:`~acrobot_mj.train.trainer.train`, with each
+    learner's checkpoint every ``checkpoint_every`` of its episodes, at the end and on Ctrl-C;
+    ``resume`` continues from them; ``greedy=False`` skips the final greedy runs from rest.
+    Returns the run records, one per seed.
+    """
+    if not config.lockstep:
+        able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
+        raise ValueError(
+            f"lockstep training needs an algorithm with a lockstep form: {', '.join(able)}, "
+            f"one learner per run and no energy shaping; got {config.algorithm} (population "
+            f"{config.population}, energy_shaping {config.energy_shaping}): train it with one "
+            "process per seed"
+        )
+    out = Path(out_dir) if out_dir is not None else None
+    run = _Lockstep(config, seeds, out)
+    if resume:
+        if out is None:
+            raise ValueError("resume needs the sweep's or run's directory (out_dir)")
+        run.restore()
+    started = time.perf_counter()
+    run.train(progress)
+    elapsed = time.perf_counter() - started
+    return run.records(elapsed, greedy)
+
+
+class _Lockstep:
+    """The state of a lockstep run: the vector env, the learners, and per learner its history,
+    episode count and checkpoint."""
+
+    def __init__(self, config: TrainConfig, seeds: list[int], out: Path | None) -> None:
+        self.config, self.seeds, self.out = config, list(seeds), out
+        k = self.k = len(self.seeds)
+        self.vec = AcrobotVectorEnv(
+            num_envs=k, autoreset_mode="disabled", task=config.task, **config.env_kwargs()
+        )
+        self.learners = agent_spec(config.algorithm).lockstep(
+            make_features(config), config, self.seeds
+        )
+        self.histories = [History() for _ in range(k)]
+        self.episode = np.zeros(k, dtype=np.int64)
+        self.checkpoints = [
+            Checkpoints(None if out is None else seed_dir(out, s) / CHECKPOINT_FILE, config, s)
+            for s in self.seeds
+        ]
+
+    def restore(self) -> None:
+        """Continue every learner from its checkpoint."""
+        for i, seed in enumerate(self.seeds):
+            path = seed_dir(self.out, seed) / CHECKPOINT_FILE
+            self.histories[i], _, arrays = read_for_resume(path, self.config, seed)
+            self.learners.load_state(i, arrays)
+            self.episode[i] = len(self.histories[i])
+
+    def _snapshot(self, i: int) -> None:
+        """Learner ``i``'s state after its last completed episode (before its next one draws)."""
+        history = self.histories[i]
+        self.checkpoints[i].snapshot(lambda: self.learners.state_dict(i), history, history.steps)
+
+    def _restart(self, mask: np.ndarray) -> np.ndarray:
+        """Reset the masked sub-envs for their next episode, as train() would; their actions."""
+        config, k = self.config, self.k
+        obs = np.zeros((k, 4))
+        noise_of = np.array([config.start_noise_at(int(e)) for e in self.episode])
+        for noise in sorted(set(noise_of[mask].tolist())):  # one reset per start-noise level
+            group = mask & (noise_of == noise)
+            seeds_now = [
+                episode_seed(self.seeds[i], int(self.episode[i])) if group[i] else None
+                for i in range(k)
+            ]
+            reset_obs, _ = self.vec.reset(
+                seed=seeds_now, options={"reset_mask": group, "start_noise": noise}
+            )
+            obs[group] = reset_obs[group]
+        ids = np.flatnonzero(mask)
+        return self.learners.begin_episodes(ids, obs[ids])
+
+    def train(self, progress: bool) -> None:
+        """Step every learner with episodes left until all are done; checkpoints as they go."""
+        config, k = self.config, self.k
+        for i in range(k):
+            self._snapshot(i)
+        length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
+        active = self.episode < config.episodes
+        actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
+        actions[active] = self._restart(active)
+        bar = Progress(config.episodes * k, f"lockstep {config.algorithm} x{k}", progress)
+        try:
+            while active.any():
+                obs, reward, terminated, truncated, info = self.vec.step(actions)
+                ids = np.flatnonzero(active)
+                length[ids] += 1
+                total[ids] += reward[ids]
+                learned = self.learners.learn(
+                    ids, reward[ids], obs[ids], terminated[ids], truncated[ids]
+                )
+                actions[ids] = np.where(learned >= 0, learned, 1)
+                done = np.zeros(k, dtype=bool)
+                done[ids] = terminated[ids] | truncated[ids]
+                self._finish_episodes(done, length, total, info["is_success"])
+                length[done], total[done] = 0, 0.0
+                active &= self.episode < config.episodes
+                again = done & active
+                if again.any():
+                    actions[again] = self._restart(again)
+                if done.any():
+                    bar.update(int(self.episode.sum()), self.histories[0])
+        except KeyboardInterrupt:
+            for checkpoint in self.checkpoints:
+                checkpoint.save()
+            raise KeyboardInterrupt(
+                "interrupted; each learner's checkpoint holds its last completed episode"
+            ) from None
+        for checkpoint in self.checkpoints:
+            checkpoint.save()
+
+    def _finish_episodes(
+        self, done: np.ndarray, length: np.ndarray, total: np.ndarray, success: np.ndarray
+    ) -> None:
+        """Record the episodes that just ended, and checkpoint where one is due."""
+        self.episode[done] += 1
+        for i in np.flatnonzero(done):
+            self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
+            self._snapshot(i)
+            if self.episode[i] % self.config.checkpoint_every == 0:
+                self.checkpoints[i].save()
+
+    def records(self, elapsed: float, greedy: bool) -> list[dict[str, Any]]:
+        """Each learner's run record (and run directory), with its greedy episode from rest."""
+        config, records = self.config, []
+        env = make_env(config)
+        for i, seed in enumerate(self.seeds):
+            agent = make_agent(config, seed=seed)
+            agent.load_state_dict(self.learners.state_dict(i))
+            history = self.histories[i]
+            record = run_record(
+                config,
+                seed,
+                history,
+                history.steps,
+                elapsed / self.k,
+                lockstep=self.k,
+                greedy=greedy_from_rest(env, agent, seed) if greedy else None,
+            )
+            if self.out is not None:
+                write_run(seed_dir(self.out, seed), record, f"seed {seed}")
+            records.append(record)
+        return records

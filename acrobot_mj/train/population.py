@@ -1,0 +1,126 @@
+"""Several independent learners sharing one run's episode budget; the best one is kept.
+
+With epsilon 0 in a deterministic task a Sarsa(lambda) learner settles on one swing-up after a
+few dozen episodes, and which one depends on its first episodes (the README's results). Random
+restarts turn that lottery into a choice: ``population`` learners of ``episodes`` episodes each
+(own seeds, own start noise), and the run keeps the learner whose last 20 training episodes had
+the best median score by the run's task (for the height goal: the fewest decisions). The choice
+uses training episodes only (each learner's greedy run from rest is recorded, not used).
+
+A run directory holds ``learner_K/`` (each a run of its own: record, learning curve, and its
+checkpoints while the population trains, so an interrupted run resumes) and, at the top, the
+usual ``run.json``, ``checkpoint.npz`` (the kept learner's agent) and learning curve, so
+``evaluate`` and ``render`` work on it unchanged. Once the top-level checkpoint is written the
+learners' checkpoints are deleted (ten of them would take ten times the disk); resuming a
+finished run trains the learners again and gets the same result. The top-level per-episode
+lists are every learner's episodes in order (the whole budget spent); ``population`` in
+``run.json`` says which learner was kept and why.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episodes import greedy_from_rest, training_env
+from acrobot_mj.train.learner import OnEpisode, train_agent
+from acrobot_mj.train.records import History, run_record
+from acrobot_mj.train.rundir import (
+    CHECKPOINT_FILE,
+    Checkpoints,
+    check_same_run,
+    learner_dir,
+    read_checkpoint,
+    write_run,
+)
+from acrobot_mj.train.stats import RECENT, recent_median
+
+
+def learner_seed(seed: int, k: int) -> int:
+    """The seed of learner ``k`` of run ``seed``."""
+    return int(np.random.SeedSequence([seed, 0x9E37, k]).generate_state(1)[0])
+
+
+def _check_population_resume(out: Path | None, config: TrainConfig, seed: int) -> None:
+    """Refuse to resume into a directory whose run has another config or seed."""
+    if out is None:
+        raise ValueError("resume needs the run directory (out_dir)")
+    path = out / CHECKPOINT_FILE
+    if path.exists():  # else unfinished: each learner checks its own checkpoint
+        meta, _, saved = read_checkpoint(path)
+        check_same_run(path, meta, saved, config, seed)
+
+
+def train_population(
+    config: TrainConfig,
+    seed: int,
+    out: Path | None,
+    env: gym.Env | None = None,
+    resume: bool = False,
+    progress: bool = False,
+    on_episode: OnEpisode | None = None,
+) -> dict[str, Any]:
+    """Train ``config.population`` learners and keep the best; see the module docstring."""
+    if resume:
+        _check_population_resume(out, config, seed)
+    elif out is not None:
+        for old in sorted(out.glob("learner_*")):  # an overwritten run's learners
+            if old.is_dir():
+                shutil.rmtree(old)
+    score = get_task(config.task).score
+    single = config.replace(population=1)
+    records, scores = [], []
+    best, agent = 0, None
+    for k in range(config.population):
+        sub = learner_dir(out, k) if out is not None else None
+        again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
+        try:
+            record, learner = train_agent(
+                single, learner_seed(seed, k), sub, env, again, progress, on_episode
+            )
+        except KeyboardInterrupt as error:
+            raise KeyboardInterrupt(
+                f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
+            ) from error
+        records.append(record)
+        scores.append(recent_median(score.values(record)))
+        if agent is None or score.is_better(scores[k], scores[best]):  # ties: the first
+            best, agent = k, learner  # only the best so far stays in memory
+
+    history = History()
+    for r in records:
+        history.extend(r)
+    steps = sum(r["steps"] for r in records)
+    greedy = greedy_from_rest(training_env(config, env), agent, seed)
+    record = run_record(
+        config,
+        seed,
+        history,
+        steps,
+        sum(r["wall_seconds"] for r in records),
+        interrupted=records[best]["interrupted"],
+        env=records[best].get("env"),
+        greedy=greedy,
+        population={
+            "learners": config.population,
+            "seeds": [r["seed"] for r in records],
+            "scores": scores,
+            "kept": best,
+            "rule": f"{score.best_word} median of the last {RECENT} training episodes",
+            "greedy_from_rest_lengths": [r["greedy_from_rest"]["length"] for r in records],
+        },
+    )
+    if out is not None:
+        kept = Checkpoints(out / CHECKPOINT_FILE, config, seed)
+        kept.snapshot(agent.state_dict, history, steps)
+        kept.save()
+        write_run(out, record, f"{config.population} learners, seed {seed}")
+        for k in range(config.population):
+            (learner_dir(out, k) / CHECKPOINT_FILE).unlink(missing_ok=True)
+    return record

@@ -1,0 +1,127 @@
+"""The run record: one definition of what ``run.json`` and a checkpoint's meta document hold.
+
+A run record has the config, the seed, package versions, progress (episodes, decisions, wall
+time, whether it was interrupted), the per-episode ``episode_lengths``, ``episode_returns`` and
+``episode_successes``, and the greedy episode from rest; population and lockstep runs add their
+own entries.
+"""
+
+from __future__ import annotations
+
+import platform
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+from acrobot_mj.envs.episode import Episode
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.stats import recent_median
+from acrobot_mj.version import __version__
+
+HISTORY_KEYS = ("episode_lengths", "episode_returns", "episode_successes")
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and the packages a result depends on."""
+    return {
+        "python": platform.python_version(),
+        "acrobot_mj": __version__,
+        "mujoco": mujoco.__version__,
+        "gymnasium": gym.__version__,
+        "numpy": np.__version__,
+    }
+
+
+@dataclass
+class History:
+    """Per-episode results so far."""
+
+    episode_lengths: list[int] = field(default_factory=list)
+    episode_returns: list[float] = field(default_factory=list)
+    episode_successes: list[bool] = field(default_factory=list)
+
+    def add(self, length: int, total: float, success: bool) -> None:
+        self.episode_lengths.append(length)
+        self.episode_returns.append(total)
+        self.episode_successes.append(success)
+
+    def add_episode(self, episode: Episode) -> None:
+        self.add(episode.length, episode.episode_return, episode.success)
+
+    def extend(self, record: dict[str, Any]) -> None:
+        """Append a run record's episodes."""
+        for row in zip(*(record[key] for key in HISTORY_KEYS), strict=True):
+            self.add(*row)
+
+    @property
+    def steps(self) -> int:
+        """Decisions taken in all episodes."""
+        return int(sum(self.episode_lengths))
+
+    def __len__(self) -> int:
+        return len(self.episode_lengths)
+
+    def to_dict(self) -> dict[str, list]:
+        return {key: getattr(self, key) for key in HISTORY_KEYS}
+
+
+def greedy_result(episode: Episode) -> dict[str, Any]:
+    """A greedy episode as a record's ``greedy_from_rest`` entry."""
+    return {"length": episode.length, "return": episode.episode_return, "success": episode.success}
+
+
+def run_record(
+    config: TrainConfig,
+    seed: int,
+    history: History,
+    steps: int,
+    wall_seconds: float,
+    *,
+    interrupted: bool = False,
+    env: str | None = None,
+    greedy: Episode | None = None,
+    **extra: Any,
+) -> dict[str, Any]:
+    """The ``run.json`` of one run (``extra``: the entries of population or lockstep runs)."""
+    record: dict[str, Any] = {
+        "config": config.to_dict(),
+        "seed": seed,
+        "versions": versions(),
+        "episodes_done": len(history),
+        "steps": steps,
+        "interrupted": interrupted,
+    }
+    if env is not None:
+        record["env"] = env
+    record["wall_seconds"] = wall_seconds
+    record.update(history.to_dict())
+    if greedy is not None:
+        record["greedy_from_rest"] = greedy_result(greedy)
+    record.update(extra)
+    return record
+
+
+def checkpoint_meta(config: TrainConfig, seed: int, history: History, steps: int) -> dict[str, Any]:
+    """The JSON document of a training checkpoint: enough to resume exactly."""
+    return {
+        "config": config.to_dict(),
+        "seed": seed,
+        "episodes_done": len(history),
+        "steps": steps,
+        "history": {k: list(v) for k, v in history.to_dict().items()},
+        "agent": config.algorithm,
+    }
+
+
+def recent_score(record: dict[str, Any]) -> float:
+    """Median score of the last 20 training episodes of the learner a run keeps (in a
+    population run: the kept learner's, not the last learner's), by the run's task."""
+    pop = record.get("population")
+    if pop is not None:
+        return float(pop["scores"][pop["kept"]])
+    score = get_task(TrainConfig.from_dict(record["config"]).task).score
+    return recent_median(score.values(record))

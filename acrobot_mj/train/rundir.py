@@ -1,0 +1,185 @@
+"""Run directories: their files, the check that a new run does not overwrite an old one, and
+reading a run's checkpoint back (for resume, evaluation and videos), refusing any that does not
+belong to the run asked for.
+
+A run directory holds ``run.json`` (:mod:`.records`), ``checkpoint.npz`` (:mod:`.checkpoint`),
+``learning_curve.png`` and, after evaluation, ``eval.json``; a run of several seeds holds
+``summary.json`` and one ``seed_S/`` run directory per seed; a population run holds
+``learner_K/`` directories besides its own files.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.agents.protocol import Agent
+from acrobot_mj.agents.registry import make_agent
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.files import write_json
+from acrobot_mj.report.plots import learning_curve
+from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.records import HISTORY_KEYS, History, checkpoint_meta
+
+RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE = (
+    "run.json",
+    "eval.json",
+    "checkpoint.npz",
+    "learning_curve.png",
+    "summary.json",
+)
+
+
+def seed_dir(out: Path, seed: int) -> Path:
+    """The run directory of ``seed`` in a run of several seeds."""
+    return out / f"seed_{seed}"
+
+
+def learner_dir(out: Path, k: int) -> Path:
+    """The run directory of learner ``k`` in a population run."""
+    return out / f"learner_{k}"
+
+
+def check_fresh(out: Path) -> None:
+    """Refuse to write a new run over an existing one."""
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"{out} is a file, not a run directory")
+    names = (RUN_FILE, CHECKPOINT_FILE, SUMMARY_FILE, learner_dir(Path(), 0).name)
+    taken = [name for name in names if (out / name).exists()]
+    if taken:
+        raise FileExistsError(
+            f"{out} already holds a run ({', '.join(taken)}): resume it, "
+            "choose another directory, or overwrite it on purpose"
+        )
+
+
+def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], TrainConfig]:
+    """A training checkpoint's meta (schema checked), arrays and config."""
+    meta, arrays = load_checkpoint(path)
+    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int, "history": dict}
+    wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
+    history = meta.get("history", {})
+    if not wrong and (
+        sorted(history) != sorted(HISTORY_KEYS)
+        or len({len(v) for v in history.values()}) != 1
+        or len(history["episode_lengths"]) != meta["episodes_done"]
+    ):
+        wrong.append("history")
+    if wrong:
+        raise CheckpointError(f"{path} is not a training checkpoint: bad or missing {wrong}")
+    try:
+        config = TrainConfig.from_dict(meta["config"])
+    except (TypeError, ValueError) as error:
+        raise CheckpointError(f"{path} holds an invalid config: {error}") from error
+    return meta, arrays, config
+
+
+def load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
+    """Give ``agent`` a checkpoint's arrays, or say the checkpoint does not fit it."""
+    try:
+        agent.load_state_dict(arrays)
+    except (KeyError, ValueError, TypeError, IndexError) as error:
+        raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
+
+
+def check_same_run(
+    path: Path,
+    meta: dict[str, Any],
+    saved: TrainConfig,
+    config: TrainConfig,
+    seed: int,
+    may_differ: tuple[str, ...] = (),
+) -> None:
+    """Refuse a checkpoint written with another config (but ``may_differ``) or seed."""
+    differs = {k for k, v in saved.to_dict().items() if v != getattr(config, k)} - set(may_differ)
+    if differs:
+        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
+    if meta["seed"] != seed:
+        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+
+
+def read_for_resume(
+    path: Path, config: TrainConfig, seed: int
+) -> tuple[History, int, dict[str, np.ndarray]]:
+    """The history, decisions and agent arrays of a checkpoint that ``config`` and ``seed``
+    may continue (more episodes than it holds are allowed, but no change of the schedule)."""
+    meta, arrays, saved = read_checkpoint(path)
+    check_same_run(path, meta, saved, config, seed, may_differ=("episodes",))
+    if config.episodes < meta["episodes_done"]:
+        raise CheckpointError(
+            f"{path} already holds {meta['episodes_done']} episodes; resume "
+            f"needs episodes >= that, got {config.episodes}"
+        )
+    if config.noise_until and config.episodes != saved.episodes:
+        raise CheckpointError(
+            f"{path}: the start-noise schedule depends on episodes "
+            f"({saved.episodes}), so resume cannot change it"
+        )
+    return History(**meta["history"]), meta["steps"], arrays
+
+
+def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
+    """The config, seed and trained agent of a run directory."""
+    path = Path(run_dir) / CHECKPOINT_FILE
+    if not path.exists() and (Path(run_dir) / SUMMARY_FILE).exists():
+        raise FileNotFoundError(
+            f"{run_dir} holds several seeds ({SUMMARY_FILE}): give one of its seed_S directories"
+        )
+    meta, arrays, config = read_checkpoint(path)
+    agent = make_agent(config, seed=meta["seed"])
+    load_into(agent, arrays, path)
+    return config, meta["seed"], agent
+
+
+class Checkpoints:
+    """A learner's checkpoint file: it holds the state after the learner's last completed
+    episode (:meth:`snapshot`), so a run stopped in the middle of an episode resumes exactly
+    (that episode is run again from its start). ``path`` None keeps nothing."""
+
+    def __init__(self, path: Path | None, config: TrainConfig, seed: int) -> None:
+        self.path, self.config, self.seed = path, config, seed
+        self._state: tuple[dict[str, np.ndarray], dict[str, Any]] | None = None
+
+    def snapshot(
+        self, state: Callable[[], dict[str, np.ndarray]], history: History, steps: int
+    ) -> None:
+        """Remember the agent's arrays (``state()``, called only if there is a file to write)
+        and the progress, after a completed episode."""
+        if self.path is not None:
+            self._state = (state(), checkpoint_meta(self.config, self.seed, history, steps))
+
+    def save(self) -> None:
+        """Write the last snapshot (atomically)."""
+        if self.path is not None and self._state is not None:
+            save_checkpoint(self.path, *self._state)
+
+
+def write_run(out: Path, record: dict[str, Any], label: str) -> None:
+    """A finished run's ``run.json`` and learning curve (``label``: which run, for the title)."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / RUN_FILE, record)
+    plot_learning_curves(out / CURVE_FILE, TrainConfig.from_dict(record["config"]), [record], label)
+
+
+def plot_learning_curves(
+    path: Path, config: TrainConfig, records: list[dict[str, Any]], label: str
+) -> None:
+    """The task's score per training episode: one run as a line, several as the median and
+    the 25-75 % band (nothing is drawn for runs without episodes)."""
+    task = get_task(config.task)
+    runs = [task.score.values(r) for r in records if r["episode_lengths"]]
+    if not runs:
+        return
+    reference = task.reference(config.frame_skip)
+    learning_curve(
+        path,
+        runs,
+        f"{config.algorithm} ({config.features}), {label}",
+        [reference] if reference else [],
+        ylabel=task.score.label,
+        log_y=task.score.log_scale,
+    )

@@ -1,0 +1,77 @@
+"""Several seeds of one config: one run directory per seed, a summary across them, and their
+learning curves together. Algorithms with a lockstep form train all seeds at once on one vector
+env (:mod:`.lockstep`, identical records); the others run one seed per process."""
+
+from __future__ import annotations
+
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.files import write_json
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.records import recent_score, versions
+from acrobot_mj.train.rundir import (
+    CURVE_FILE,
+    SUMMARY_FILE,
+    check_fresh,
+    plot_learning_curves,
+    seed_dir,
+)
+from acrobot_mj.train.stats import spread
+from acrobot_mj.train.trainer import train
+
+
+def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, Any]:
+    """Mean and spread across seeds of what the run records report, scored by the task."""
+    quantity = get_task(config.task).score.quantity
+    greedy = [r["greedy_from_rest"] for r in records if "greedy_from_rest" in r]
+    return {
+        "seeds": [r["seed"] for r in records],
+        "successes": spread([sum(r["episode_successes"]) for r in records]),
+        "runs_with_a_success": sum(any(r["episode_successes"]) for r in records),
+        f"last20_median_{quantity}": spread([recent_score(r) for r in records]),
+        f"greedy_from_rest_{quantity}": spread([g[quantity] for g in greedy]),
+        "greedy_from_rest_successes": sum(g["success"] for g in greedy),
+    }
+
+
+def _train_one(args: tuple[TrainConfig, int, str, bool, bool]) -> dict[str, Any]:
+    config, seed, out_dir, resume, progress = args
+    return train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True)
+
+
+def train_seeds(
+    config: TrainConfig,
+    seeds: list[int],
+    out_dir: str | Path,
+    jobs: int = 1,
+    resume: bool = False,
+    progress: bool = False,
+    overwrite: bool = False,
+) -> dict[str, Any]:
+    """Train one run per seed into ``out_dir/seed_S``, then write ``out_dir/summary.json`` and
+    the learning curve across seeds (see the module docstring; ``jobs`` processes)."""
+    out = Path(out_dir)
+    if not resume and not overwrite:
+        for path in (out, *(seed_dir(out, s) for s in seeds)):
+            check_fresh(path)
+    tasks = [(config, s, str(seed_dir(out, s)), resume, progress and jobs == 1) for s in seeds]
+    if config.lockstep:
+        records = train_lockstep(config, seeds, out, progress=progress, resume=resume)
+    elif jobs > 1:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            records = list(pool.map(_train_one, tasks))
+    else:
+        records = [_train_one(task) for task in tasks]
+    summary = {
+        "config": config.to_dict(),
+        "versions": versions(),
+        **summarize(records, config),
+        "runs": [seed_dir(Path(), s).name for s in seeds],
+    }
+    write_json(out / SUMMARY_FILE, summary)
+    plot_learning_curves(out / CURVE_FILE, config, records, f"{len(seeds)} seeds")
+    return summary

@@ -1,0 +1,45 @@
+"""Training one run: a single learner (:mod:`.learner`) or a population of them
+(:mod:`.population`), into a run directory that holds no other run.
+
+A run directory (:mod:`.rundir`) gets ``run.json``, ``checkpoint.npz`` (every
+``checkpoint_every`` episodes, at the end and on Ctrl-C) and ``learning_curve.png``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.learner import OnEpisode, train_agent
+from acrobot_mj.train.population import train_population
+from acrobot_mj.train.rundir import check_fresh
+
+
+def train(
+    config: TrainConfig,
+    seed: int,
+    out_dir: str | Path | None = None,
+    env: gym.Env | None = None,
+    resume: bool = False,
+    progress: bool = False,
+    on_episode: OnEpisode | None = None,
+    overwrite: bool = False,
+) -> dict[str, Any]:
+    """Train ``config``'s agent with ``seed`` for ``config.episodes`` episodes.
+
+    With ``out_dir`` it writes the run record, checkpoints (every ``checkpoint_every`` episodes,
+    at the end and on Ctrl-C) and the learning curve there; with ``resume`` it continues from
+    the checkpoint in ``out_dir`` and ends exactly as an uninterrupted run would. ``env`` may be
+    any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)`` observations (default: the
+    config's acrobot env). Returns the run record. With ``config.population > 1`` it trains
+    that many learners and keeps one (:mod:`acrobot_mj.train.population`).
+    """
+    out = Path(out_dir) if out_dir is not None else None
+    if out is not None and not resume and not overwrite:
+        check_fresh(out)
+    if config.population > 1:
+        return train_population(config, seed, out, env, resume, progress, on_episode)
+    return train_agent(config, seed, out, env, resume, progress, on_episode)[0]

@@ -1,0 +1,85 @@
+"""Golden runs: the numbers of whole training runs, recorded before the package was reorganised
+(``tests/fixtures/golden_runs.json`` says with which commands), must come out identical, and run
+directories written then (``tests/fixtures/run_dirs/``) must still load, evaluate and resume.
+
+Exact equality, no tolerance: training is deterministic given the seed, and the reorganisation
+changed no arithmetic, so any difference is a change of behaviour.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.rundir import load_agent
+from acrobot_mj.train.seeds import train_seeds
+from acrobot_mj.train.trainer import train
+
+FIXTURES = Path(__file__).parent / "fixtures"
+GOLDEN = json.loads((FIXTURES / "golden_runs.json").read_text())
+LISTS = ("episode_lengths", "episode_returns", "episode_successes")
+
+
+def _same_run(record: dict, golden: dict) -> None:
+    for key in (*LISTS, "steps", "episodes_done", "seed", "greedy_from_rest"):
+        assert record[key] == golden[key], key
+
+
+@pytest.mark.slow
+def test_book_preset_seed_0_is_unchanged() -> None:
+    _same_run(train(PRESETS["book"], seed=0), GOLDEN["book_seed0"])
+
+
+@pytest.mark.slow
+def test_tuned_preset_seed_0_is_unchanged() -> None:
+    record = train(PRESETS["tuned"], seed=0)
+    _same_run(record, GOLDEN["tuned_seed0"])
+    assert record["population"] == GOLDEN["tuned_seed0"]["population"]
+
+
+@pytest.mark.parametrize(
+    ("key", "overrides"),
+    [("report_seeds3", {}), ("report_fs4_seeds3", {"frame_skip": 4, "episodes": 50})],
+)
+def test_report_preset_three_seeds_in_lockstep_are_unchanged(key, overrides, tmp_path) -> None:
+    summary = train_seeds(PRESETS["report"].replace(**overrides), [0, 1, 2], tmp_path)
+    for seed, golden in enumerate(GOLDEN[key]):
+        _same_run(json.loads((tmp_path / f"seed_{seed}" / "run.json").read_text()), golden)
+    if key == "report_seeds3":
+        expected = GOLDEN["report_seeds3_summary"]
+        assert {k: summary[k] for k in expected} == expected
+
+
+@pytest.mark.parametrize("name", ["report_fs4", "booksmall"])
+def test_run_directories_written_before_still_load_and_evaluate(name, tmp_path) -> None:
+    # Written by the version before the reorganisation (tabular SARSA at frame_skip 4, 30
+    # episodes; Sarsa(lambda) with one 6x6x8x8 tiling, 5 episodes): the checkpoint loads, its
+    # config reads back, and evaluating it gives the eval.json written then.
+    run = tmp_path / name
+    shutil.copytree(FIXTURES / "run_dirs" / name, run)
+    old_eval = json.loads((run / "eval.json").read_text())
+    config, seed, _ = load_agent(run)
+    # Every setting that applies reads back as written; the old record's values for settings
+    # that do not apply (it wrote defaults for them) read as not set.
+    applied = {k: v for k, v in config.to_dict().items() if v is not None and k != "task"}
+    assert applied == {k: old_eval["config"][k] for k in applied}
+    assert None in config.to_dict().values() and seed == 0
+    record = evaluate(run)
+    for key in LISTS:
+        assert record[key] == old_eval[key], key
+    greedy = json.loads((run / "run.json").read_text())["greedy_from_rest"]
+    assert record["episode_lengths"][0] == greedy["length"]
+
+
+def test_a_checkpoint_written_before_resumes_to_the_same_run(tmp_path) -> None:
+    # The 30-episode run resumed to 50 episodes is seed 0 of the 50-episode lockstep golden run.
+    run = tmp_path / "run"
+    shutil.copytree(FIXTURES / "run_dirs" / "report_fs4", run)
+    config = PRESETS["report"].replace(frame_skip=4, episodes=50)
+    record = train(config, seed=0, out_dir=run, resume=True)
+    _same_run(record, GOLDEN["report_fs4_seeds3"][0])
