@@ -2,7 +2,7 @@
 
 Tolerances: the two compute the same formulas in a different order, so they differ by rounding
 only. Entries are O(1..100) (torques up to ~60 N m at the speed limits), so double rounding gives
-~1e-14 relative; 1e-10 (the issue's bound) leaves four orders of margin while any modelling error
+~1e-14 relative; 1e-10 leaves four orders of margin while any modelling error
 (a wrong sign, a missing term, the report's erratum) shows at 1e-3 or more.
 """
 
@@ -68,7 +68,7 @@ def test_batched_equals_one_at_a_time() -> None:
 
 
 # One step of size 0.05 s: MuJoCo and the analytic model do the same arithmetic up to rounding,
-# so the states agree to ~1e-14 absolute (angles O(1), velocities O(10)); the issue's 1e-12 bound
+# so the states agree to ~1e-14 absolute (angles O(1), velocities O(10)); a 1e-12 bound
 # leaves a 100x margin while a wrong integration order (explicit instead of semi-implicit Euler)
 # is off by dt^2 * qacc ~ 1e-1.
 @pytest.mark.parametrize(
@@ -120,7 +120,7 @@ INTEGRATOR_PAIRS = [
 
 # 1000 steps (50 s) from rest with random actions in {-1, 0, +1} N m. These are the task's own
 # trajectories; they stay at moderate energy (|dq1| < 1.6 rad/s), where the measured gap after
-# 1000 steps is ~3e-14, so the issue's 1e-8 bound holds with a wide margin.
+# 1000 steps is ~3e-14, so a 1e-8 bound holds with a wide margin.
 @pytest.mark.parametrize(("integrator", "method"), INTEGRATOR_PAIRS)
 @pytest.mark.parametrize("seed", range(3))
 def test_1000_step_trajectories(model, data, integrator, method, seed) -> None:

@@ -1,4 +1,4 @@
-"""The Gymnasium environment: API conformance, the task of DESIGN.md section 3, determinism."""
+"""The Gymnasium environment: API conformance, the height goal (docs/design.md), determinism."""
 
 from __future__ import annotations
 

@@ -42,8 +42,8 @@ def test_rk4_conserves_energy_and_drift_shrinks_with_dt() -> None:
 
 
 def test_explicit_euler_pumps_energy_and_semi_implicit_does_not() -> None:
-    # DESIGN.md section 1: the report's forward Euler gains energy at dt = 0.05 s, MuJoCo's
-    # semi-implicit Euler (symplectic) keeps it bounded.
+    # docs/design.md, integrators: the report's forward Euler gains energy at dt = 0.05 s,
+    # MuJoCo's semi-implicit Euler (symplectic) keeps it bounded.
     x0 = np.array([-np.pi / 2 + 0.5, 0.0, 0.0, 0.0])
     e0 = dynamics.total_energy(x0[:2], x0[2:])
     energies = {}
@@ -64,10 +64,11 @@ def test_equilibria_have_zero_acceleration() -> None:
 
 
 def test_design_eigenvalues() -> None:
-    # DESIGN.md section 4: hanging is a centre with +-2.82i, +-1.88i; upright has +-2.82, +-1.88.
+    # docs/design.md, errata: hanging is a centre with +-2.82i, +-1.88i; upright has +-2.82,
+    # +-1.88.
     hanging = np.linalg.eigvals(dynamics.linearize([-np.pi / 2, 0.0])[0])
     upright = np.linalg.eigvals(dynamics.linearize([np.pi / 2, 0.0])[0])
-    # Real parts at hanging are rounding (1e-15); DESIGN's values are given to 2 decimals.
+    # Real parts at hanging are rounding (1e-15); the documented values are given to 2 decimals.
     np.testing.assert_allclose(hanging.real, 0, atol=1e-12)
     np.testing.assert_allclose(np.sort(np.abs(hanging.imag)), [1.88, 1.88, 2.82, 2.82], atol=6e-3)
     np.testing.assert_allclose(np.sort(upright.real), [-2.82, -1.88, 1.88, 2.82], atol=6e-3)
@@ -115,8 +116,8 @@ def test_linearisation_eigenvalues_match_mujoco(model, data, name) -> None:
     mujoco.mjd_transitionFD(model, data, 1e-6, True, a_fd, b_fd, None, None)
     a_c, b_c = dynamics.linearize(data.qpos.copy(), data.qvel.copy(), 0.0)
     a_d, b_d = _semi_implicit_euler_jacobian(a_c, b_c, model.opt.timestep)
-    # Central differences at eps 1e-6 on entries O(1): measured gap 1e-10; 1e-6 as in the
-    # validation issue's bound on eigenvalues.
+    # Central differences at eps 1e-6 on entries O(1): measured gap 1e-10; 1e-6 is the bound
+    # validate reports eigenvalues to.
     np.testing.assert_allclose(a_fd, a_d, atol=1e-6)
     np.testing.assert_allclose(b_fd, b_d, atol=1e-6)
     ev_fd = np.sort_complex(np.linalg.eigvals(a_fd))

@@ -272,7 +272,7 @@ def test_book_preset_learns_the_swing_up() -> None:
 def test_tuned_preset_swings_up_near_the_minimum() -> None:
     # The full tuned preset (10 learners of 50 episodes, about 4 s a seed). Measured over seeds
     # 0-99: greedy swing-up from rest in 64-83 decisions, 65 for seeds 0-4, 83 of 100 at 70 or
-    # less. The bound of 76 (the target, 1.2 times the minimum of 63) holds for 92 of
+    # less. The bound of 76 (the target, 1.2 times the minimum of 63) holds for 92 of
     # those 100 seeds; seeds 0 and 1 are at 65, so a failure here means the learner or its
     # selection changed, not bad luck.
     for seed in (0, 1):

@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import Any, Protocol
 
 from acrobot_mj.files import write_json
+
+
+class Commands(Protocol):
+    """What ``ArgumentParser.add_subparsers()`` returns: each command adds its parser to it."""
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser: ...
 
 
 def positive_int(text: str) -> int:

@@ -9,7 +9,7 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.common import positive_int
+from acrobot_mj.cli.common import Commands, positive_int
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves
 from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
@@ -33,7 +33,7 @@ def config_of(args: argparse.Namespace) -> TrainConfig:
     return PRESETS[args.preset].replace(**overrides)
 
 
-def add_train(commands: argparse._SubParsersAction) -> None:
+def add_train(commands: Commands) -> None:
     p = commands.add_parser(
         "train",
         help="train a learner, write run.json, checkpoint and learning curve",
@@ -116,7 +116,7 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
     return summary
 
 
-def add_evaluate(commands: argparse._SubParsersAction) -> None:
+def add_evaluate(commands: Commands) -> None:
     p = commands.add_parser("evaluate", help="greedy episodes of a trained run -> eval.json")
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
     p.add_argument("--episodes", type=positive_int, help="default: the run's eval_episodes")
@@ -137,7 +137,7 @@ def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
     return record
 
 
-def add_sweep(commands: argparse._SubParsersAction) -> None:
+def add_sweep(commands: Commands) -> None:
     p = commands.add_parser(
         "sweep",
         help="seeds x a grid of hyperparameters from a TOML file, resumable",
@@ -172,7 +172,7 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
     return summary
 
 
-def add_curves(commands: argparse._SubParsersAction) -> None:
+def add_curves(commands: Commands) -> None:
     p = commands.add_parser("curves", help="learning curves of several --seeds runs, one PNG")
     p.add_argument("run_dirs", nargs="+", help="directories written by train --seeds")
     p.add_argument("--out", required=True, help="the PNG file")

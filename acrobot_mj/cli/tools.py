@@ -9,7 +9,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from acrobot_mj.cli.common import positive_int, write_record
+from acrobot_mj.cli.common import Commands, positive_int, write_record
 from acrobot_mj.control.baselines import POLICY_NAMES, make_policy
 from acrobot_mj.envs.episode import PolicyActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
@@ -19,7 +19,7 @@ from acrobot_mj.train.evaluate import render_run
 from acrobot_mj.train.records import History, versions
 
 
-def add_render(commands: argparse._SubParsersAction) -> None:
+def add_render(commands: Commands) -> None:
     p = commands.add_parser(
         "render",
         help="MP4 of a trained run's greedy policy, or of a fixed policy",
@@ -69,7 +69,7 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
     return record
 
 
-def add_validate(commands: argparse._SubParsersAction) -> None:
+def add_validate(commands: Commands) -> None:
     p = commands.add_parser(
         "validate", help="check the dynamics against MuJoCo; controllers, bounds, minimum time"
     )
@@ -93,7 +93,7 @@ def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     return report
 
 
-def add_bench(commands: argparse._SubParsersAction) -> None:
+def add_bench(commands: Commands) -> None:
     p = commands.add_parser(
         "bench", help="steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling"
     )
@@ -118,7 +118,7 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
-def add_demo(commands: argparse._SubParsersAction) -> None:
+def add_demo(commands: Commands) -> None:
     p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
     p.add_argument(
         "--policy",
@@ -186,7 +186,7 @@ def _episode_dict(episode: Any) -> dict[str, Any]:
     }
 
 
-def add_params(commands: argparse._SubParsersAction) -> None:
+def add_params(commands: Commands) -> None:
     p = commands.add_parser("params", help="print the physical parameters, units and sources")
     p.set_defaults(func=params_command)
 

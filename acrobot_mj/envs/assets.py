@@ -14,7 +14,7 @@ import numpy as np
 
 _PACKAGE = Path(__file__).resolve().parent.parent  # acrobot_mj/
 
-#: Names the environment and the tests read the model by (``docs/design.md``, "The model").
+#: Names the environment and the tests read the model by (``docs/design.md``).
 REQUIRED_NAMES: dict[mujoco.mjtObj, tuple[str, ...]] = {
     mujoco.mjtObj.mjOBJ_BODY: ("link1", "link2"),
     mujoco.mjtObj.mjOBJ_JOINT: ("shoulder", "elbow"),

@@ -62,6 +62,80 @@ def _label(value: float) -> str:
     return f"{value:g}" if abs(value) < 1e5 else f"{value:.0e}"
 
 
+@dataclass
+class _Axes:
+    """The plot area and the map from data to pixels (log10 on y if ``log_y``)."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+    log_y: bool
+    width: int
+    height: int
+    left: int = 80
+    right: int = 20
+    top: int = 40
+    bottom: int = 60
+
+    @staticmethod
+    def fy(v: Sequence[float] | np.ndarray, log_y: bool) -> np.ndarray:
+        v = np.asarray(v, dtype=float)
+        return np.log10(np.maximum(v, 1e-12)) if log_y else v
+
+    def px(self, x: Sequence[float] | np.ndarray) -> np.ndarray:
+        span = self.width - self.left - self.right
+        return self.left + (np.asarray(x, float) - self.x0) / (self.x1 - self.x0) * span
+
+    def py(self, y: Sequence[float] | np.ndarray) -> np.ndarray:
+        span = self.height - self.top - self.bottom
+        return (
+            self.height
+            - self.bottom
+            - (self.fy(y, self.log_y) - self.y0) / (self.y1 - self.y0) * span
+        )
+
+
+def _axes_for(series, hlines, arrows, log_y: bool, size: tuple[int, int]) -> _Axes:
+    """Axes spanning every series, band, reference line and arrow (5 % padding on y)."""
+    xs = np.concatenate(
+        [np.asarray(s.x, float) for s in series]
+        + ([np.asarray(arrows, float)[:, 0]] if arrows is not None else [])
+    )
+    parts = [_Axes.fy(v, log_y) for s in series for v in (s.y, s.low, s.high) if v is not None]
+    if hlines:
+        parts.append(_Axes.fy([v for v, _ in hlines], log_y))
+    if arrows is not None:
+        parts.append(_Axes.fy(np.asarray(arrows, float)[:, 1], log_y))
+    ys = np.concatenate(parts)
+    x0, x1 = float(xs.min()), float(xs.max())
+    y0, y1 = float(np.nanmin(ys)), float(np.nanmax(ys))
+    if x1 == x0:
+        x1 = x0 + 1
+    pad = (y1 - y0) * 0.05 or 1.0
+    return _Axes(x0, x1, y0 - pad, y1 + pad, log_y, *size)
+
+
+def _draw_frame(image, draw, axes: _Axes, title: str, xlabel: str, ylabel: str) -> None:
+    """Box, grid, ticks, title and axis labels."""
+    font, small = ImageFont.load_default(size=15), ImageFont.load_default(size=12)
+    a, width, height = axes, axes.width, axes.height
+    draw.rectangle([a.left, a.top, width - a.right, height - a.bottom], outline="black")
+    for t in _ticks(a.x0, a.x1, False):
+        x = float(a.px([t])[0])
+        draw.line([x, a.top, x, height - a.bottom], fill=(230, 230, 230))
+        draw.text((x, height - a.bottom + 4), _label(t), fill="black", font=small, anchor="ma")
+    for t in _ticks(a.y0, a.y1, a.log_y):
+        y = float(a.py([t])[0])
+        draw.line([a.left, y, width - a.right, y], fill=(230, 230, 230))
+        draw.text((a.left - 6, y), _label(t), fill="black", font=small, anchor="rm")
+    draw.text((width / 2, 10), title, fill="black", font=font, anchor="ma")
+    draw.text((width / 2, height - 22), xlabel, fill="black", font=font, anchor="ma")
+    label = Image.new("RGBA", (height, 24), (255, 255, 255, 0))
+    ImageDraw.Draw(label).text((height / 2, 2), ylabel, fill="black", font=font, anchor="ma")
+    image.paste(label.rotate(90, expand=True), (4, 0), label.rotate(90, expand=True))
+
+
 def line_plot(
     path: str | Path,
     series: Sequence[Series],
@@ -75,77 +149,34 @@ def line_plot(
 ) -> Path:
     """Draw ``series`` (lines with optional bands), labelled horizontal reference lines and
     a field of ``arrows`` (rows ``x, y, dx, dy`` in data units, drawn grey with a tick)."""
-    width, height = size
-    left, right, top, bottom = 80, 20, 40, 60
     image = Image.new("RGB", size, "white")
     draw = ImageDraw.Draw(image, "RGBA")
-    font, small = ImageFont.load_default(size=15), ImageFont.load_default(size=12)
-
-    def fy(v: np.ndarray) -> np.ndarray:
-        v = np.asarray(v, dtype=float)
-        return np.log10(np.maximum(v, 1e-12)) if log_y else v
-
-    xs = np.concatenate(
-        [np.asarray(s.x, float) for s in series]
-        + ([np.asarray(arrows, float)[:, 0]] if arrows is not None else [])
-    )
-    parts = [fy(v) for s in series for v in (s.y, s.low, s.high) if v is not None]
-    if hlines:
-        parts.append(fy([v for v, _ in hlines]))
-    if arrows is not None:
-        parts.append(fy(np.asarray(arrows, float)[:, 1]))
-    ys = np.concatenate(parts)
-    x0, x1 = float(xs.min()), float(xs.max())
-    y0, y1 = float(np.nanmin(ys)), float(np.nanmax(ys))
-    if x1 == x0:
-        x1 = x0 + 1
-    pad = (y1 - y0) * 0.05 or 1.0
-    y0, y1 = y0 - pad, y1 + pad
-
-    def px(x: np.ndarray) -> np.ndarray:
-        return left + (np.asarray(x, float) - x0) / (x1 - x0) * (width - left - right)
-
-    def py(y: np.ndarray) -> np.ndarray:
-        return height - bottom - (fy(y) - y0) / (y1 - y0) * (height - top - bottom)
-
-    # Axes, ticks and grid.
-    draw.rectangle([left, top, width - right, height - bottom], outline="black")
-    for t in _ticks(x0, x1, False):
-        x = float(px([t])[0])
-        draw.line([x, top, x, height - bottom], fill=(230, 230, 230))
-        draw.text((x, height - bottom + 4), _label(t), fill="black", font=small, anchor="ma")
-    for t in _ticks(y0, y1, log_y):
-        y = float(py([t])[0])
-        draw.line([left, y, width - right, y], fill=(230, 230, 230))
-        draw.text((left - 6, y), _label(t), fill="black", font=small, anchor="rm")
-    draw.text((width / 2, 10), title, fill="black", font=font, anchor="ma")
-    draw.text((width / 2, height - 22), xlabel, fill="black", font=font, anchor="ma")
-    label = Image.new("RGBA", (height, 24), (255, 255, 255, 0))
-    ImageDraw.Draw(label).text((height / 2, 2), ylabel, fill="black", font=font, anchor="ma")
-    image.paste(label.rotate(90, expand=True), (4, 0), label.rotate(90, expand=True))
-
+    small = ImageFont.load_default(size=12)
+    axes = _axes_for(series, hlines, arrows, log_y, size)
+    _draw_frame(image, draw, axes, title, xlabel, ylabel)
     if arrows is not None:
         for x, y, dx, dy in np.asarray(arrows, dtype=float):
-            (tail_x, head_x), (tail_y, head_y) = px([x, x + dx]), py([y, y + dy])
+            (tail_x, head_x), (tail_y, head_y) = axes.px([x, x + dx]), axes.py([y, y + dy])
             draw.line([tail_x, tail_y, head_x, head_y], fill=(170, 170, 170), width=1)
             draw.ellipse(
                 [head_x - 1.5, head_y - 1.5, head_x + 1.5, head_y + 1.5], fill=(150, 150, 150)
             )
+    right = axes.width - axes.right
     for value, text in hlines:
-        y = float(py([value])[0])
-        draw.line([left, y, width - right, y], fill=(90, 90, 90), width=1)
-        draw.text((width - right - 4, y - 2), text, fill=(90, 90, 90), font=small, anchor="rd")
+        y = float(axes.py([value])[0])
+        draw.line([axes.left, y, right, y], fill=(90, 90, 90), width=1)
+        draw.text((right - 4, y - 2), text, fill=(90, 90, 90), font=small, anchor="rd")
     for k, s in enumerate(series):
         colour = COLOURS[k % len(COLOURS)]
-        x = px(s.x)
+        x = axes.px(s.x)
         if s.low is not None and s.high is not None:
-            polygon = list(zip(x, py(s.high), strict=True))
-            polygon += list(zip(x[::-1], py(s.low)[::-1], strict=True))
+            polygon = list(zip(x, axes.py(s.high), strict=True))
+            polygon += list(zip(x[::-1], axes.py(s.low)[::-1], strict=True))
             draw.polygon([(float(a), float(b)) for a, b in polygon], fill=(*colour, 50))
-        points = [(float(a), float(b)) for a, b in zip(x, py(s.y), strict=True)]
+        points = [(float(a), float(b)) for a, b in zip(x, axes.py(s.y), strict=True)]
         if len(points) > 1:
             draw.line(points, fill=colour, width=2)
-        draw.text((left + 10, top + 8 + 18 * k), s.label, fill=colour, font=small)
+        draw.text((axes.left + 10, axes.top + 8 + 18 * k), s.label, fill=colour, font=small)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     image.save(path)

@@ -1,0 +1,67 @@
+"""The design's hard edges (scripts/check_architecture.py): they hold for the package, and the
+checker finds each kind of violation in a small package made to break them."""
+
+from __future__ import annotations
+
+import importlib.util
+import textwrap
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location(
+    "check_architecture", ROOT / "scripts" / "check_architecture.py"
+)
+checker = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(checker)
+
+
+def test_the_package_keeps_its_hard_edges() -> None:
+    assert checker.check_package(ROOT) + checker.check_text(ROOT) == []
+
+
+#: A path outside the repository and a tracker's word, assembled so this file cites neither.
+OUTSIDE = "." + "./sha" + "red/DES" + "IGN.md"
+TRACKER = "iss" + "ue"
+
+
+def _write(root: Path, files: dict[str, str]) -> None:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(textwrap.dedent(text))
+
+
+def test_the_checker_finds_every_kind_of_violation(tmp_path) -> None:
+    long_body = "\n".join(f"    x{i} = {i}" for i in range(61))
+    _write(
+        tmp_path,
+        {
+            "acrobot_mj/__init__.py": "",
+            "acrobot_mj/physics/__init__.py": "",
+            # A cycle through an import inside a function, and a physics module importing the
+            # simulator and a higher layer.
+            "acrobot_mj/physics/a.py": "import mujoco\nfrom acrobot_mj.envs import b\n",
+            "acrobot_mj/envs/__init__.py": "",
+            "acrobot_mj/envs/b.py": (
+                "def f():\n    from acrobot_mj.physics import a\n"
+                "    from acrobot_mj.physics.a import _hidden\n"
+                "    return other._state\n"
+            ),
+            "acrobot_mj/envs/long.py": f"def g():\n    '''Doc.'''\n{long_body}\n",
+            "acrobot_mj/envs/big.py": "x = 1\n" * 401,
+            # Text citing a file outside the repository, and a tracker (assembled, so that this
+            # file does not cite them itself).
+            "README.md": f"See {OUTSIDE}.\nAs the {TRACKER} says.\n",
+        },
+    )
+    problems = "\n".join(checker.check_package(tmp_path) + checker.check_text(tmp_path))
+    assert "import cycle: acrobot_mj.envs.b -> acrobot_mj.physics.a" in problems
+    assert "imports the simulator mujoco" in problems
+    assert "imports acrobot_mj.envs.b (layer 3): imports go down the layers only" in problems
+    assert "imports private names ['_hidden']" in problems
+    assert "reads the private attribute other._state" in problems
+    assert "g() has a 61-line body" in problems
+    assert "big.py: 401 lines" in problems
+    assert f"README.md:1: cites '{OUTSIDE[:9]}'" in problems
+    assert f"README.md:2: cites '{TRACKER}'" in problems
+    assert len(problems.splitlines()) == 9  # and nothing else
