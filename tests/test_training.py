@@ -205,7 +205,7 @@ def test_config_overrides_are_typed_and_checked() -> None:
     with pytest.raises(ValueError, match="episodes needs an int"):
         parse_value("episodes", "many")
     with pytest.raises(ValueError, match="algorithm"):
-        TrainConfig(algorithm="q_learning")
+        TrainConfig(algorithm="no_such_algorithm")
     with pytest.raises(ValueError, match="tabular"):
         TrainConfig(algorithm="sarsa", features="tiles")
     with pytest.raises(TypeError, match="episodes"):

@@ -1,0 +1,71 @@
+"""Which config fields apply is declared by the algorithm, the features and the task: switching
+one keeps nothing stale, setting a field that has no effect is refused, naming why."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.presets import PRESETS
+
+BOOK, REPORT = PRESETS["book"], PRESETS["report"]
+TILES = ("tilings", "subset_tilings", "angle_tiles", "velocity_tiles")
+GRID = ("angle_bins", "velocity_bins", "velocity_centre_max")
+
+
+def test_switching_a_presets_algorithm_drops_what_no_longer_applies() -> None:
+    config = BOOK.replace(algorithm="sarsa", features="grid")
+    assert (config.lam, config.traces, config.trace_cutoff) == (None, None, None)
+    assert all(getattr(config, name) is None for name in TILES)
+    assert (config.angle_bins, config.velocity_bins) == (5, 3)  # the grid's defaults
+    assert (config.alpha, config.epsilon, config.frame_skip) == (0.2 / 48, 0.0, 4)  # kept
+    # And back: the fields that apply again take their defaults.
+    again = config.replace(algorithm="sarsa_lambda", features="tiles")
+    assert (again.lam, again.traces, again.tilings) == (0.0, "replacing", 12)
+    assert all(getattr(again, name) is None for name in GRID)
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: REPORT.replace(lam=0.9), "lam has no effect with algorithm='sarsa'"),
+        (lambda: TrainConfig(traces="accumulating"), "traces has no effect with algorithm="),
+        (lambda: BOOK.replace(angle_bins=7), "angle_bins has no effect with features='tiles'"),
+        (
+            lambda: BOOK.replace(noise_until=0.5),
+            r"noise_until has no effect with start_noise=0.0 \(it applies when start_noise > 0\)",
+        ),
+        (
+            lambda: REPORT.replace(eval_episodes=1, eval_noise=0.1),
+            "eval_noise has no effect with eval_episodes=1",
+        ),
+    ],
+)
+def test_settings_without_effect_are_refused_with_the_reason(make, message) -> None:
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+def test_fields_that_depend_on_a_value_follow_it() -> None:
+    assert BOOK.noise_until is None and REPORT.replace(eval_episodes=1).eval_noise is None
+    noisy = BOOK.replace(start_noise=0.1)
+    assert noisy.noise_until == 0.0 and noisy.start_noise_at(400) == 0.1  # constant noise
+    assert PRESETS["tuned"].noise_until == 0.5
+    with pytest.raises(ValueError, match=r"noise_until must be in \[0, 1\]"):
+        PRESETS["tuned"].replace(noise_until=1.5)
+
+
+def test_records_written_before_fields_were_declared_read_back() -> None:
+    # run.json of the earlier version writes every field, defaults for those that do not apply
+    # (lam 0.0 and the tile fields for tabular SARSA).
+    fixture = Path(__file__).parent / "fixtures" / "run_dirs" / "report_fs4" / "run.json"
+    old = json.loads(fixture.read_text())["config"]
+    assert old["lam"] == 0.0 and old["tilings"] == 12 and "task" not in old
+    config = TrainConfig.from_dict(old)
+    assert config == REPORT.replace(frame_skip=4, episodes=30)
+    assert TrainConfig.from_dict(config.to_dict()) == config
+    for name in PRESETS:
+        assert TrainConfig.from_dict(PRESETS[name].to_dict()) == PRESETS[name]
