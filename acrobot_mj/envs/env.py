@@ -30,9 +30,12 @@ from acrobot_mj.physics.angles import wrap_angle
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
 RESET_OPTIONS = ("start_noise",)
 
-_mj_step = mujoco.mj_step  # a global name lookup is cheaper than a module attribute
 #: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
 HUGE = 1e10
+# Global names are cheaper than module attributes and negations on the hot path.
+_mj_step = mujoco.mj_step
+_PI, _MIN_PI, _MIN_Q = math.pi, -math.pi, -HUGE
+_MIN_VEL1, _MIN_VEL2 = -MAX_VEL1, -MAX_VEL2
 #: set_state refuses larger angles [rad]: at 1e6 rad a double resolves 1e-10 rad, no finer.
 MAX_ANGLE = 1e6
 _BAD_STATE_WARNINGS = (
@@ -290,8 +293,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         return np.array((wrap_angle(q1), wrap_angle(q2), v1, v2)), info
 
     def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
-        # The hot path: names resolved to ids once, views into data cached, the observation
-        # the only allocation besides the task's info.
+        # The hot path (profiled): names resolved to ids once, views into data cached, module
+        # constants instead of attribute lookups and calls, the observation the only
+        # allocation besides the task's info.
         torque = self._torque_of.get(action) if action.__class__ in INT_TYPES else None
         self._ctrl[0] = action_torque(action, self._continuous) if torque is None else torque
         m, d, qvel = self.model, self.data, self._qvel
@@ -299,19 +303,20 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             _mj_step(m, d)
             # Velocity limits of the task, after every physics step.
             v1, v2 = qvel.tolist()
-            if v1 > MAX_VEL1 or v1 < -MAX_VEL1:
-                v1 = qvel[0] = MAX_VEL1 if v1 > 0 else -MAX_VEL1
-            if v2 > MAX_VEL2 or v2 < -MAX_VEL2:
-                v2 = qvel[1] = MAX_VEL2 if v2 > 0 else -MAX_VEL2
+            if v1 > MAX_VEL1 or v1 < _MIN_VEL1:
+                v1 = qvel[0] = MAX_VEL1 if v1 > 0 else _MIN_VEL1
+            if v2 > MAX_VEL2 or v2 < _MIN_VEL2:
+                v2 = qvel[1] = MAX_VEL2 if v2 > 0 else _MIN_VEL2
         q1, q2 = self._qpos.tolist()
-        # False for NaN, infinities and MuJoCo's "huge" values alike (one comparison); the env
-        # disables MuJoCo's autoreset, so a bad state cannot hide.
-        if not abs(q1) + abs(q2) + abs(v1) + abs(v2) < HUGE:
+        # False for NaN, infinities and MuJoCo's "huge" values (its mjMAXVAL per coordinate)
+        # alike; clipped velocities are finite unless NaN. The env disables MuJoCo's autoreset,
+        # so a bad state cannot hide.
+        if not (_MIN_Q < q1 < HUGE and _MIN_Q < q2 < HUGE and v1 == v1 and v2 == v2):
             self._raise_bad_state()
         # Angles in [-pi, pi) are observed exactly as they are (wrap_angle's first case,
         # inlined); others are wrapped.
-        w1 = q1 if -math.pi <= q1 < math.pi else wrap_angle(q1)
-        w2 = q2 if -math.pi <= q2 < math.pi else wrap_angle(q2)
+        w1 = q1 if _MIN_PI <= q1 < _PI else wrap_angle(q1)
+        w2 = q2 if _MIN_PI <= q2 < _PI else wrap_angle(q2)
         reward, terminated, info = self._outcome(q1, q2, v1, v2)
         return np.array((w1, w2, v1, v2)), reward, terminated, False, info
 

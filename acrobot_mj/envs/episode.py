@@ -10,7 +10,7 @@ step, for frames or per-step records.
 
 from __future__ import annotations
 
-import math
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -69,6 +69,25 @@ ResetHook = Callable[[np.ndarray, dict[str, Any]], None]
 StepHook = Callable[[Any, np.ndarray, float, bool, bool, dict[str, Any]], None]
 
 
+class _HookedStep:
+    """``env.step`` with the hooks of an episode: ``on_step`` after each step, and the episode
+    cut after ``max_steps`` actions (reported to the actor as a truncation; ``env_truncated``
+    keeps the env's own flag for the record)."""
+
+    def __init__(self, step: Callable, on_step: StepHook | None, max_steps: int | None) -> None:
+        self._step, self._on_step = step, on_step
+        self._limit = sys.maxsize if max_steps is None else max_steps
+        self.steps, self.env_truncated = 0, False
+
+    def __call__(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self._step(action)
+        self.steps += 1
+        self.env_truncated = truncated
+        if self._on_step is not None:
+            self._on_step(action, obs, reward, terminated, truncated, info)
+        return obs, reward, terminated, truncated or self.steps >= self._limit, info
+
+
 def run_episode(
     env: gym.Env,
     actor: Actor,
@@ -80,22 +99,23 @@ def run_episode(
 ) -> Episode:
     """Run one episode of ``actor`` on ``env``: from ``env.reset(seed, options)`` until it
     terminates, truncates or has taken ``max_steps`` actions (then the actor sees it as
-    truncated)."""
+    truncated, and the Episode records the env's own flag)."""
     obs, info = env.reset(seed=seed, options=options)
     if on_reset is not None:
         on_reset(obs, info)
     action = actor.begin(obs)
-    step, observe = env.step, actor.observe  # the hot loop of training: locals only
-    limit = math.inf if max_steps is None else max_steps
+    hooked = (
+        None if on_step is None and max_steps is None else _HookedStep(env.step, on_step, max_steps)
+    )
+    step = env.step if hooked is None else hooked
+    observe = actor.observe  # the hot loop of training: locals only, nothing more per step
     length, total = 0, 0.0
     while True:
         obs, reward, terminated, truncated, info = step(action)
         length += 1
         total += info.get("unshaped_reward", reward)
-        if on_step is not None:
-            on_step(action, obs, reward, terminated, truncated, info)
-        stop = length >= limit
-        action = observe(reward, obs, terminated, truncated or stop)
-        if terminated or truncated or stop:
+        action = observe(reward, obs, terminated, truncated)
+        if terminated or truncated:
             success = bool(info.get("is_success", terminated))
-            return Episode(length, float(total), success, bool(truncated), info)
+            env_truncated = truncated if hooked is None else hooked.env_truncated
+            return Episode(length, float(total), success, bool(env_truncated), info)

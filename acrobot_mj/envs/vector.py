@@ -187,9 +187,10 @@ class AcrobotVectorEnv(VectorEnv):
         obs[:, :2] = wrap_angle(q)  # as the single env: angles in [-pi, pi) as they are
         obs[:, 2:] = v
         reward, terminated, info = self._outcome(q[:, 0], q[:, 1], v[:, 0], v[:, 1])
-        shape = (self.num_envs,)
-        reward = np.array(np.broadcast_to(reward, shape), dtype=np.float64)
-        terminated = np.array(np.broadcast_to(terminated, shape), dtype=bool)
+        # Fresh arrays of one entry per sub-env (a task may return a constant, or an array it
+        # also reports in info).
+        reward = _per_env(reward, self.num_envs, np.float64)
+        terminated = _per_env(terminated, self.num_envs, bool)
         return obs, reward, terminated, info
 
     def _masked(self, info: dict[str, Any]) -> dict[str, Any]:
@@ -203,6 +204,13 @@ class AcrobotVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         self._template.close()
+
+
+def _per_env(value: Any, n: int, dtype: type) -> np.ndarray:
+    """``value`` as a new array of shape ``(n,)``: copied, or filled from a scalar."""
+    if np.ndim(value) == 0:
+        return np.full(n, value, dtype=dtype)
+    return np.array(value, dtype=dtype)
 
 
 def _autoreset_mode(autoreset_mode: Any) -> AutoresetMode:
