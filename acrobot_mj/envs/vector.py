@@ -164,11 +164,14 @@ class AcrobotVectorEnv(VectorEnv):
         if resetting.any():
             self._reset_envs(resetting, self.task.start_noise)
         obs, reward, terminated, info = self._observe()
-        terminated = terminated & ~resetting
+        # Sub-envs being reset report their reset state: reward 0, no flags, no success
+        # (fresh arrays of one entry per sub-env, whatever the task returned).
+        going = ~resetting
+        reward = np.where(resetting, 0.0, reward)
+        terminated = terminated & going
         # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates.
-        truncated = (self._elapsed >= self.max_episode_steps) & ~resetting
-        reward[resetting] = 0.0
-        info["is_success"] = info["is_success"] & ~resetting
+        truncated = (self._elapsed >= self.max_episode_steps) & going
+        info["is_success"] = info["is_success"] & going
         if self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP:
             self._pending = terminated | truncated
         return obs, reward, terminated, truncated, self._masked(info)
@@ -187,10 +190,6 @@ class AcrobotVectorEnv(VectorEnv):
         obs[:, :2] = wrap_angle(q)  # as the single env: angles in [-pi, pi) as they are
         obs[:, 2:] = v
         reward, terminated, info = self._outcome(q[:, 0], q[:, 1], v[:, 0], v[:, 1])
-        # Fresh arrays of one entry per sub-env (a task may return a constant, or an array it
-        # also reports in info).
-        reward = _per_env(reward, self.num_envs, np.float64)
-        terminated = _per_env(terminated, self.num_envs, bool)
         return obs, reward, terminated, info
 
     def _masked(self, info: dict[str, Any]) -> dict[str, Any]:
@@ -204,13 +203,6 @@ class AcrobotVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         self._template.close()
-
-
-def _per_env(value: Any, n: int, dtype: type) -> np.ndarray:
-    """``value`` as a new array of shape ``(n,)``: copied, or filled from a scalar."""
-    if np.ndim(value) == 0:
-        return np.full(n, value, dtype=dtype)
-    return np.array(value, dtype=dtype)
 
 
 def _autoreset_mode(autoreset_mode: Any) -> AutoresetMode:
