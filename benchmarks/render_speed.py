@@ -1,6 +1,6 @@
 """Time to render and encode a 1000-step 640x480 episode to MP4 (target: <= 5 s on 2 cores).
 
-Runs ``acrobot_mj.video.record_episode`` with a seeded random policy (1001 frames with
+Runs ``acrobot_mj.report.video.record_episode`` with a seeded random policy (1001 frames with
 captions) several times and prints the median, next to the parts measured alone: stepping and
 rendering without encoding, and encoding the same frames without rendering. The GL backend is
 whatever acrobot_mj chose (or MUJOCO_GL): run it once with MUJOCO_GL=egl and once with osmesa
@@ -22,6 +22,7 @@ import gymnasium as gym
 
 import acrobot_mj
 from acrobot_mj.control.baselines import random_policy
+from acrobot_mj.envs.episode import PolicyActor
 from acrobot_mj.report.video import VideoWriter, caption, record_episode
 
 
@@ -36,7 +37,8 @@ def main() -> None:
     whole, render_only, encode_only = [], [], []
     for k in range(args.repeats):
         start = time.perf_counter()
-        record = record_episode(env, random_policy(k), folder / "episode.mp4", seed=k)
+        actor = PolicyActor(random_policy(k))
+        record = record_episode(env, actor, folder / "episode.mp4", seed=k)
         whole.append(time.perf_counter() - start)
         assert record["frames"] == 1001
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 # acrobot_mj before mujoco: it picks the headless GL backend (MUJOCO_GL) that mujoco reads on
-# import (see acrobot_mj/render.py), so frames can be rendered in this process too.
+# import (see acrobot_mj/envs/gl.py), so frames can be rendered in this process too.
 # isort: off
 import acrobot_mj  # noqa: F401  before mujoco: it picks the GL backend mujoco reads on import
 import mujoco

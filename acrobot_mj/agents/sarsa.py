@@ -30,7 +30,7 @@ from acrobot_mj.agents.random_stream import RandomStream, checked_values
 
 
 class Sarsa:
-    """One-step tabular SARSA over a :class:`~acrobot_mj.features.StateGrid`.
+    """One-step tabular SARSA over a :class:`~acrobot_mj.agents.features.StateGrid`.
 
     alpha: step size; gamma: discount; epsilon: exploration probability; seed: of the agent's own
     random stream (exploration and tie-breaking).

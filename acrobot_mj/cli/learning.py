@@ -80,17 +80,24 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
         config, args.seed, out, resume=args.resume, progress=progress, overwrite=args.force
     )
     task = get_task(config.task)
-    greedy, unit = record["greedy_from_rest"], task.score.unit
-    outcome = "goal" if greedy["success"] else "no goal"
     pop = record.get("population")
     kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
     print(
         f"trained {record['episodes_done']} episodes ({record['steps']} decisions, "
         f"{record['wall_seconds']:.1f} s) -> {out}: {sum(record['episode_successes'])} "
-        f"{task.success_text}; last 20 episodes{kept} median {recent_score(record):g} {unit}; "
-        f"greedy from rest: {outcome} in {greedy['length']} decisions"
+        f"{task.success_text}; last 20 episodes{kept} median {recent_score(record):g} "
+        f"{task.score.unit}; greedy from rest: {_greedy_words(record['greedy_from_rest'], task)}"
     )
     return record
+
+
+def _greedy_words(greedy: dict[str, Any], task: Any) -> str:
+    """``goal in 89 decisions`` (for the height goal), with the return where it is the score."""
+    label = task.success_label.lower()
+    words = f"{label if greedy['success'] else 'no ' + label} in {greedy['length']} decisions"
+    if task.score.quantity == "return":
+        words += f", return {greedy['return']:g} {task.score.unit}"
+    return words
 
 
 def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) -> dict:

@@ -46,7 +46,7 @@ class EnergyShaping(gym.Wrapper):
 
     ``info["unshaped_reward"]`` keeps the env's own reward, so returns can be reported on the
     task's scale. Observations must be ``(q1, q2, dq1, dq2)`` (this package's env, or
-    Acrobot-v1 through ``acrobot_mj.compat``).
+    Acrobot-v1 through ``acrobot_mj.envs.compat``).
     """
 
     def __init__(
