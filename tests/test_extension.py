@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+from acrobot_mj.agents.protocol import Agent
+from acrobot_mj.agents.registry import make_agent
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate, render_run
 from acrobot_mj.train.presets import PRESETS
@@ -90,6 +92,12 @@ def test_training_selection_and_summaries_ask_the_new_task(tmp_path) -> None:
     )
     video = render_run(tmp_path / "pop", tmp_path / "pop.mp4", width=64, height=64, max_steps=5)
     assert video["frames"] == 6
+
+
+def test_built_in_and_new_agents_follow_the_agent_protocol() -> None:
+    for name in ("sarsa", "sarsa_lambda", "q_learning"):
+        config = PRESETS["report"].replace(algorithm=name)
+        assert isinstance(make_agent(config, seed=0), Agent), name
 
 
 def test_the_new_agent_trains_checkpoints_resumes_and_evaluates(tmp_path) -> None:
