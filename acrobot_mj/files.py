@@ -26,7 +26,18 @@ def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
     return path
 
 
+def write_text(path: str | Path, text: str) -> Path:
+    """``text`` (UTF-8) at ``path``, atomically."""
+    data = text.encode()
+    return write_atomic(path, lambda f: f.write(data))
+
+
 def write_json(path: str | Path, data: Any) -> Path:
-    """``data`` as indented JSON at ``path``, atomically."""
-    text = json.dumps(data, indent=1).encode()
-    return write_atomic(path, lambda f: f.write(text))
+    """``data`` as indented JSON at ``path``, atomically. Strict JSON: a non-finite number
+    (NaN, infinity) has no JSON form and is refused with an error naming the file (records say
+    "no value" with null)."""
+    try:
+        text = json.dumps(data, indent=1, allow_nan=False)
+    except ValueError as error:
+        raise ValueError(f"cannot write {path}: {error} (no NaN or infinity in JSON)") from None
+    return write_text(path, text)

@@ -82,14 +82,14 @@ def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch
     spec = load_sweep(sweep)
     import acrobot_mj.train.sweep as sweep_module
 
-    original = sweep_module._run_trial
+    original = sweep_module.run_trial
 
     def flaky(config, seed, run_dir):
         if seed == 1:
             config = {**config, "alpha": -1.0}  # refused by TrainConfig: a real failure
         return original(config, seed, run_dir)
 
-    monkeypatch.setattr(sweep_module, "_run_trial", flaky)
+    monkeypatch.setattr(sweep_module, "run_trial", flaky)
     summary = sweep_module.run_sweep(spec, tmp_path / "out", jobs=1)
     trials = tmp_path / "out" / "trials"
     error = json.loads((trials / "lam=0.9__seed=1" / "error.json").read_text())

@@ -18,8 +18,9 @@ from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import EVAL_FILE, RUN_FILE, SUMMARY_FILE
 from acrobot_mj.train.seeds import train_seeds
-from acrobot_mj.train.sweep import run_sweep, summary_table
+from acrobot_mj.train.sweep import run_sweep
 from acrobot_mj.train.sweep_spec import load_sweep
+from acrobot_mj.train.sweep_summary import summary_table
 from acrobot_mj.train.trainer import train
 
 

@@ -3,7 +3,10 @@
 MuJoCo reads ``MUJOCO_GL`` once, when it is imported, so ``import acrobot_mj`` calls
 :func:`configure_gl` first thing:
 
-- if the user set ``MUJOCO_GL``, that choice stands;
+- if the user set ``MUJOCO_GL``, that choice stands, unless it cannot work here (a name MuJoCo
+  does not know, or EGL or OSMesa without their libraries, which would make ``import mujoco``
+  fail for every command, rendering or not): then MuJoCo is imported with ``disable`` and only
+  rendering fails, saying what was asked, why it cannot work and what would;
 - otherwise, on Linux, EGL and then OSMesa are probed through ``ctypes`` (load the library,
   open a display or create a context, release it) and the first that works is written to
   ``MUJOCO_GL``;
@@ -25,15 +28,23 @@ from collections.abc import Callable
 
 BACKENDS = ("egl", "osmesa")
 INSTALL_HINTS = {
-    "egl": "Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri "
-    "(Mesa's software EGL), or a GPU driver with EGL",
-    "osmesa": "Debian/Ubuntu: apt-get install libosmesa6",
+    "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri, Mesa's software EGL, or a GPU "
+    "driver with EGL",
+    "osmesa": "apt-get install libosmesa6",
 }
+
+#: MUJOCO_GL values that turn MuJoCo's GL off, and those that render through a window.
+NO_GL = ("disable", "disabled", "off", "false", "0")
+WINDOWED = ("glfw", "glx", "enable", "enabled", "on", "true", "1", "wgl", "cgl")
+#: Where a replaced MUJOCO_GL's problem is kept, for child processes.
+PROBLEM_VARIABLE = "ACROBOT_MJ_GL_PROBLEM"
 
 #: What configure_gl found: backend -> None (works) or the reason it failed.
 ATTEMPTS: dict[str, str | None] = {}
-#: How MUJOCO_GL came to be: "user", "probed", "unset" or "late" (mujoco was imported first).
+#: How MUJOCO_GL came to be: "user", "probed", "unset", "late" (mujoco was imported first) or
+#: "broken" (the user's value cannot work; see PROBLEM).
 CHOICE = "unset"
+PROBLEM: str | None = None
 
 
 class GLBackendError(RuntimeError):
@@ -119,14 +130,40 @@ def select_backend(
     return None, attempts
 
 
+def user_problem(value: str) -> str | None:
+    """Why ``MUJOCO_GL=value`` cannot work on this machine (None if it may): a name MuJoCo does
+    not know (its import would fail), or a headless backend whose library is missing (its import
+    would crash)."""
+    name = value.strip().lower()
+    if name in NO_GL or name in WINDOWED:
+        return None
+    known = (*BACKENDS, *NO_GL, *WINDOWED) if platform.system() == "Linux" else (*NO_GL, *WINDOWED)
+    if name not in known:
+        return f"MUJOCO_GL={value!r} is not a backend MuJoCo knows (headless: {list(BACKENDS)})"
+    reason = PROBES[name]() if name in PROBES else None
+    return None if reason is None else f"MUJOCO_GL={value} cannot work here: {reason}"
+
+
 def configure_gl() -> str | None:
     """Set ``MUJOCO_GL`` to a working headless backend unless the user set it (see module doc).
-    Returns the backend in force, or None."""
-    global CHOICE
+    Returns the backend in force, or None.
+
+    A ``MUJOCO_GL`` that cannot work (an unknown name, a backend whose library is missing) would
+    make ``import mujoco`` fail for every command; it is replaced by ``disable`` (MuJoCo without
+    GL), and the problem is kept (also for child processes, in ``ACROBOT_MJ_GL_PROBLEM``) so that
+    rendering, and only rendering, reports it."""
+    global CHOICE, PROBLEM
     user = os.environ.get("MUJOCO_GL", "").strip()
     if user:
-        CHOICE = "user"
-        return user.lower()
+        inherited = os.environ.get(PROBLEM_VARIABLE) if user.lower() == "disable" else None
+        PROBLEM = inherited or user_problem(user)
+        if PROBLEM is None:
+            CHOICE = "user"
+            return user.lower()
+        CHOICE = "broken"
+        os.environ["MUJOCO_GL"] = "disable"
+        os.environ[PROBLEM_VARIABLE] = PROBLEM
+        return None
     if "mujoco" in sys.modules:
         CHOICE = "late"
         return None
@@ -141,18 +178,32 @@ def configure_gl() -> str | None:
 
 
 def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBackendError:
-    """The error that explains why no headless backend is available."""
-    lines = [f"no headless OpenGL backend for MuJoCo{': ' + detail if detail else ''}."]
+    """One line that says why there is no headless backend: what was asked, each backend tried
+    and why it failed (with what to install), and what to set instead where one works."""
+    parts = [f"no headless OpenGL backend for MuJoCo{': ' + detail if detail else ''}"]
     for name in BACKENDS:
         if name in attempts:
-            lines.append(
-                f"  tried {name}: {attempts[name] or 'works'}; to install: {INSTALL_HINTS[name]}"
-            )
-    lines.append(
-        "Set MUJOCO_GL=egl or MUJOCO_GL=osmesa once the libraries are installed "
-        "(acrobot_mj never falls back to a window)."
-    )
-    return GLBackendError("\n".join(lines))
+            reason = attempts[name]
+            hint = f" (to install: {INSTALL_HINTS[name]})" if reason else ""
+            parts.append(f"tried {name}: {reason or 'works'}{hint}")
+    working = [name for name in BACKENDS if name in attempts and attempts[name] is None]
+    if working:
+        parts.append(f"set MUJOCO_GL={working[0]} (it works here) or unset MUJOCO_GL")
+    else:
+        parts.append("install one, then unset MUJOCO_GL or set it to egl or osmesa")
+    parts[-1] += " (acrobot_mj never falls back to a window)"
+    return GLBackendError("; ".join(parts))
+
+
+def select_backend_all() -> dict[str, str | None]:
+    """The result of every probe, working or not."""
+    attempts: dict[str, str | None] = {}
+    for name, probe in PROBES.items():
+        try:
+            attempts[name] = probe()
+        except Exception as error:  # a probe must never break the caller
+            attempts[name] = f"probe crashed: {error!r}"
+    return attempts
 
 
 def make_renderer(model, width: int, height: int):
@@ -166,15 +217,25 @@ def make_renderer(model, width: int, height: int):
             "so it chose a GLFW window; set MUJOCO_GL or import acrobot_mj "
             "first",
         )
+    if CHOICE == "broken":
+        raise backend_error(select_backend_all(), PROBLEM or "")
     if not backend:
-        raise backend_error(ATTEMPTS or select_backend()[1])
+        raise backend_error(ATTEMPTS or select_backend_all())
+    if backend in NO_GL:
+        raise backend_error(select_backend_all(), f"MUJOCO_GL={backend} turns MuJoCo's GL off")
+    display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    if backend in WINDOWED and platform.system() == "Linux" and not display:
+        raise backend_error(
+            select_backend_all(),
+            f"MUJOCO_GL={backend} renders through a window, and no display is set (DISPLAY)",
+        )
     import mujoco
 
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as error:
         reason = f"{backend} failed to create a context: {error!r}"
-        attempts = {backend: reason} if backend in BACKENDS else {}
+        attempts = select_backend_all()
         if backend in PROBES:
-            attempts[backend] = f"{reason} (probe: {PROBES[backend]() or 'works'})"
+            attempts[backend] = f"{reason} (probe: {attempts[backend] or 'works'})"
         raise backend_error(attempts, f"MUJOCO_GL={backend} does not work") from error

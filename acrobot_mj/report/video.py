@@ -7,6 +7,7 @@ one per step. Frames get an optional caption with the time, the torque and the t
 from __future__ import annotations
 
 import functools
+import json
 import queue
 import threading
 from pathlib import Path
@@ -125,6 +126,42 @@ class _Frames:
         self.frame(_torque_of(self.env, action), info, note)
 
 
+def check_outputs(path: Path, strip: str | Path | None) -> None:
+    """Refuse outputs that would replace a file other than an earlier video's: the video must
+    end in .mp4, its JSON record may only replace a video record, and the strip (a .png) may only
+    replace one a video record names."""
+    if path.suffix.lower() != ".mp4":
+        raise ValueError(f"the video file must end in .mp4, got {path}")
+    record = path.with_suffix(".json")
+    if record.exists() and "video" not in _json_object(record):
+        raise FileExistsError(
+            f"{record} exists and is not a video record: the video's record would replace it; "
+            "choose another --out"
+        )
+    if strip is None:
+        return
+    strip = Path(strip)
+    if strip.suffix.lower() != ".png":
+        raise ValueError(f"the strip must be a .png file, got {strip}")
+    if strip.exists():
+        named = {
+            Path(r.get("strip", "")).resolve()
+            for r in map(_json_object, strip.parent.glob("*.json"))
+            if "video" in r
+        }
+        if strip.resolve() not in named:
+            raise FileExistsError(f"{strip} exists and is no video's strip: choose another")
+
+
+def _json_object(path: Path) -> dict[str, Any]:
+    """A JSON file's object, or an empty dict if it is not one."""
+    try:
+        value = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    return value if isinstance(value, dict) else {}
+
+
 def record_episode(
     env: Any,
     actor: Actor,
@@ -145,8 +182,7 @@ def record_episode(
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
     path = Path(path)
-    if path.suffix.lower() != ".mp4":
-        raise ValueError(f"the video file must end in .mp4, got {path}")
+    check_outputs(path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata["render_fps"]
     with VideoWriter(path, fps) as writer:

@@ -12,6 +12,7 @@ from acrobot_mj.files import write_json
 from acrobot_mj.report.video import record_episode
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import episode_seed, make_env, tie_stream
+from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import History, versions
 from acrobot_mj.train.rundir import EVAL_FILE, load_agent
 
@@ -27,6 +28,11 @@ def evaluate(run_dir: str | Path, episodes: int | None = None, seed: int = 0) ->
     episode as the run's ``greedy_from_rest``), the others with ``config.eval_noise`` start
     noise drawn with ``seed``. Writes and returns ``eval.json``."""
     run_dir = Path(run_dir)
+    with RunLock(run_dir, "evaluate", create=False):
+        return _evaluate(run_dir, episodes, seed)
+
+
+def _evaluate(run_dir: Path, episodes: int | None, seed: int) -> dict[str, Any]:
     config, run_seed, agent = load_agent(run_dir)
     episodes = config.eval_episodes if episodes is None else episodes
     if episodes < 1:
@@ -63,9 +69,11 @@ def render_run(
     strip: str | Path | None = None,
     captions: bool = True,
 ) -> dict[str, Any]:
-    """A video of a trained run's greedy policy from rest, on the run's own env settings."""
-    config, run_seed, agent = load_agent(run_dir)
-    env = make_env(config, render_mode="rgb_array", width=width, height=height, camera=camera)
+    """A video of a trained run's greedy policy from rest, on the run's own env settings (the
+    video and its record must not replace a file of the run)."""
+    with RunLock(run_dir, "render", create=False):
+        config, run_seed, agent = load_agent(run_dir)
+        env = make_env(config, render_mode="rgb_array", width=width, height=height, camera=camera)
     try:
         record = record_episode(
             env,

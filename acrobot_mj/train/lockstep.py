@@ -9,6 +9,7 @@ does; so the records and checkpoints are identical to the single-env trainer's, 
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 from typing import Any
@@ -17,8 +18,10 @@ import numpy as np
 
 from acrobot_mj.agents.registry import AGENTS, agent_spec, make_agent, make_features
 from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import episode_seed, greedy_from_rest, make_env
+from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.progress import Progress
 from acrobot_mj.train.records import History, run_record
 from acrobot_mj.train.rundir import (
@@ -37,13 +40,15 @@ def train_lockstep(
     progress: bool = False,
     greedy: bool = True,
     resume: bool = False,
+    run_dirs: list[Path] | None = None,
 ) -> list[dict[str, Any]]:
     """Train one learner per seed together, on one :class:`AcrobotVectorEnv`.
 
-    Writes ``out_dir/seed_S/`` like :func:`~acrobot_mj.train.trainer.train`, with each
-    learner's checkpoint every ``checkpoint_every`` of its episodes, at the end and on Ctrl-C;
-    ``resume`` continues from them; ``greedy=False`` skips the final greedy runs from rest.
-    Returns the run records, one per seed.
+    Writes ``out_dir/seed_S/`` (or ``run_dirs[k]`` for learner ``k``) like
+    :func:`~acrobot_mj.train.trainer.train`, with each learner's checkpoint every
+    ``checkpoint_every`` of its episodes, at the end and on Ctrl-C; ``resume`` continues from
+    them; ``greedy=False`` skips the final greedy runs from rest. Returns the run records, one
+    per seed.
     """
     if not config.lockstep:
         able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
@@ -53,24 +58,28 @@ def train_lockstep(
             f"{config.population}, energy_shaping {config.energy_shaping}): train it with one "
             "process per seed"
         )
-    out = Path(out_dir) if out_dir is not None else None
-    run = _Lockstep(config, seeds, out)
-    if resume:
-        if out is None:
-            raise ValueError("resume needs the sweep's or run's directory (out_dir)")
-        run.restore()
-    started = time.perf_counter()
-    run.train(progress)
-    elapsed = time.perf_counter() - started
-    return run.records(elapsed, greedy)
+    if run_dirs is None and out_dir is not None:
+        run_dirs = [seed_dir(Path(out_dir), s) for s in seeds]
+    if run_dirs is not None and len(run_dirs) != len(seeds):
+        raise ValueError(f"give one run directory per seed ({len(seeds)}), got {len(run_dirs)}")
+    if resume and run_dirs is None:
+        raise ValueError("resume needs the run directories (out_dir or run_dirs)")
+    with RunLock(out_dir) if out_dir is not None else contextlib.nullcontext():
+        run = _Lockstep(config, seeds, run_dirs)
+        if resume:
+            run.restore()
+        started = time.perf_counter()
+        run.train(progress)
+        elapsed = time.perf_counter() - started
+        return run.records(elapsed, greedy)
 
 
 class _Lockstep:
     """The state of a lockstep run: the vector env, the learners, and per learner its history,
     episode count and checkpoint."""
 
-    def __init__(self, config: TrainConfig, seeds: list[int], out: Path | None) -> None:
-        self.config, self.seeds, self.out = config, list(seeds), out
+    def __init__(self, config: TrainConfig, seeds: list[int], dirs: list[Path] | None) -> None:
+        self.config, self.seeds, self.dirs = config, list(seeds), dirs
         k = self.k = len(self.seeds)
         self.vec = AcrobotVectorEnv(
             num_envs=k, autoreset_mode="disabled", task=config.task, **config.env_kwargs()
@@ -81,16 +90,19 @@ class _Lockstep:
         self.histories = [History() for _ in range(k)]
         self.episode = np.zeros(k, dtype=np.int64)
         self.checkpoints = [
-            Checkpoints(None if out is None else seed_dir(out, s) / CHECKPOINT_FILE, config, s)
-            for s in self.seeds
+            Checkpoints(None if dirs is None else dirs[i] / CHECKPOINT_FILE, config, s)
+            for i, s in enumerate(self.seeds)
         ]
 
     def restore(self) -> None:
         """Continue every learner from its checkpoint."""
         for i, seed in enumerate(self.seeds):
-            path = seed_dir(self.out, seed) / CHECKPOINT_FILE
+            path = self.dirs[i] / CHECKPOINT_FILE
             self.histories[i], _, arrays = read_for_resume(path, self.config, seed)
-            self.learners.load_state(i, arrays)
+            try:
+                self.learners.load_state(i, arrays)
+            except (KeyError, ValueError, TypeError, IndexError) as error:
+                raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
             self.episode[i] = len(self.histories[i])
 
     def _snapshot(self, i: int) -> None:
@@ -183,7 +195,7 @@ class _Lockstep:
                 lockstep=self.k,
                 greedy=greedy_from_rest(env, agent, seed) if greedy else None,
             )
-            if self.out is not None:
-                write_run(seed_dir(self.out, seed), record, f"seed {seed}")
+            if self.dirs is not None:
+                write_run(self.dirs[i], record, f"seed {seed}")
             records.append(record)
         return records

@@ -10,6 +10,7 @@ A run directory holds ``run.json`` (:mod:`.records`), ``checkpoint.npz`` (:mod:`
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -123,16 +124,40 @@ def read_for_resume(
 
 
 def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
-    """The config, seed and trained agent of a run directory."""
+    """The config, seed and trained agent of a run directory; refused if the checkpoint and the
+    directory's ``run.json`` disagree on the config or the seed."""
     path = Path(run_dir) / CHECKPOINT_FILE
     if not path.exists() and (Path(run_dir) / SUMMARY_FILE).exists():
         raise FileNotFoundError(
             f"{run_dir} holds several seeds ({SUMMARY_FILE}): give one of its seed_S directories"
         )
     meta, arrays, config = read_checkpoint(path)
+    _check_record_agrees(Path(run_dir) / RUN_FILE, config, meta["seed"], path)
     agent = make_agent(config, seed=meta["seed"])
     load_into(agent, arrays, path)
     return config, meta["seed"], agent
+
+
+def _check_record_agrees(run_file: Path, config: TrainConfig, seed: int, path: Path) -> None:
+    """Refuse a checkpoint that is not the run ``run_file`` records (if there is one)."""
+    if not run_file.exists():
+        return
+    try:
+        record = json.loads(run_file.read_text())
+        recorded = TrainConfig.from_dict(record["config"])
+        recorded_seed = record["seed"]
+    except (OSError, ValueError, TypeError, KeyError) as error:
+        raise CheckpointError(f"{run_file} is not a readable run record: {error!r}") from None
+    if recorded_seed != seed:
+        raise CheckpointError(
+            f"{path} is for seed {seed} but {run_file} records seed {recorded_seed}"
+        )
+    differs = sorted(k for k, v in recorded.to_dict().items() if v != getattr(config, k))
+    if differs:
+        both = ", ".join(
+            f"{k}: {getattr(config, k)!r} vs {getattr(recorded, k)!r}" for k in differs
+        )
+        raise CheckpointError(f"{path} and {run_file} disagree on the config ({both})")
 
 
 class Checkpoints:

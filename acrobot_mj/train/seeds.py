@@ -4,13 +4,13 @@ env (:mod:`.lockstep`, identical records); the others run one seed per process."
 
 from __future__ import annotations
 
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.records import recent_score, versions
 from acrobot_mj.train.rundir import (
@@ -22,6 +22,7 @@ from acrobot_mj.train.rundir import (
 )
 from acrobot_mj.train.stats import spread
 from acrobot_mj.train.trainer import train
+from acrobot_mj.train.workers import WorkerPool
 
 
 def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, Any]:
@@ -38,8 +39,7 @@ def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, A
     }
 
 
-def _train_one(args: tuple[TrainConfig, int, str, bool, bool]) -> dict[str, Any]:
-    config, seed, out_dir, resume, progress = args
+def _train_one(config: TrainConfig, seed: int, out_dir: str, resume: bool, progress: bool):
     return train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True)
 
 
@@ -55,17 +55,33 @@ def train_seeds(
     """Train one run per seed into ``out_dir/seed_S``, then write ``out_dir/summary.json`` and
     the learning curve across seeds (see the module docstring; ``jobs`` processes)."""
     out = Path(out_dir)
-    if not resume and not overwrite:
-        for path in (out, *(seed_dir(out, s) for s in seeds)):
-            check_fresh(path)
-    tasks = [(config, s, str(seed_dir(out, s)), resume, progress and jobs == 1) for s in seeds]
+    with RunLock(out, "train --seeds"):
+        if not resume and not overwrite:
+            for path in (out, *(seed_dir(out, s) for s in seeds)):
+                check_fresh(path)
+        records = _train_all(config, seeds, out, jobs, resume, progress)
+        return _summarize_into(out, config, seeds, records)
+
+
+def _train_all(config, seeds, out, jobs, resume, progress) -> list[dict[str, Any]]:
+    calls = [(config, s, str(seed_dir(out, s)), resume, progress and jobs == 1) for s in seeds]
     if config.lockstep:
-        records = train_lockstep(config, seeds, out, progress=progress, resume=resume)
-    elif jobs > 1:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            records = list(pool.map(_train_one, tasks))
-    else:
-        records = [_train_one(task) for task in tasks]
+        return train_lockstep(config, seeds, out, progress=progress, resume=resume)
+    if jobs == 1:
+        return [_train_one(*call) for call in calls]
+    with WorkerPool(jobs) as pool:
+        try:
+            finished = [future.result() for future in pool.run(_train_one, calls)]
+        except KeyboardInterrupt:
+            pool.stop()
+            raise KeyboardInterrupt(
+                "interrupted; each seed's checkpoint holds its last completed episode"
+            ) from None
+    by_seed = {record["seed"]: record for record in finished}
+    return [by_seed[s] for s in seeds]
+
+
+def _summarize_into(out, config, seeds, records) -> dict[str, Any]:
     summary = {
         "config": config.to_dict(),
         "versions": versions(),

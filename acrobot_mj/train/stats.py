@@ -10,11 +10,12 @@ import numpy as np
 RECENT = 20
 
 
-def spread(values: Sequence[float]) -> dict[str, float]:
-    """Mean, standard deviation, median, quartiles and range of ``values`` (NaN if empty)."""
+def spread(values: Sequence[float]) -> dict[str, float | None]:
+    """Mean, standard deviation, median, quartiles and range of ``values`` (None, JSON's null,
+    for each if there are none)."""
     v = np.asarray(values, dtype=float)
     if v.size == 0:
-        return dict.fromkeys(("mean", "std", "median", "q25", "q75", "min", "max"), float("nan"))
+        return dict.fromkeys(("mean", "std", "median", "q25", "q75", "min", "max"))
     q25, q50, q75 = np.percentile(v, [25, 50, 75])
     return {
         "mean": float(v.mean()),

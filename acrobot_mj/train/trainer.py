@@ -14,6 +14,7 @@ import gymnasium as gym
 
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learner import OnEpisode, train_agent
+from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.population import train_population
 from acrobot_mj.train.rundir import check_fresh
 
@@ -37,9 +38,24 @@ def train(
     config's acrobot env). Returns the run record. With ``config.population > 1`` it trains
     that many learners and keeps one (:mod:`acrobot_mj.train.population`).
     """
-    out = Path(out_dir) if out_dir is not None else None
-    if out is not None and not resume and not overwrite:
-        check_fresh(out)
+    check_seed(seed)
+    if out_dir is None:
+        return _train(config, seed, None, env, resume, progress, on_episode)
+    out = Path(out_dir)
+    with RunLock(out, "train"):
+        if not resume and not overwrite:
+            check_fresh(out)
+        return _train(config, seed, out, env, resume, progress, on_episode)
+
+
+def _train(config, seed, out, env, resume, progress, on_episode) -> dict[str, Any]:
     if config.population > 1:
         return train_population(config, seed, out, env, resume, progress, on_episode)
     return train_agent(config, seed, out, env, resume, progress, on_episode)[0]
+
+
+def check_seed(seed: Any) -> int:
+    """A run's seed: an integer >= 0 (numpy's seeding takes no other)."""
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise ValueError(f"a run's seed must be an integer >= 0, got {seed!r}")
+    return seed

@@ -1,0 +1,170 @@
+"""One owner at a time for a run directory.
+
+A process that writes a run directory (training, evaluation, a video of the run, a sweep) holds
+``DIR/.lock``: an exclusive ``flock`` on that file, which also records the owner (pid, host,
+command, start time). The kernel drops the lock when its process dies, so a dead owner never
+blocks anyone; its record is still in the file, and whoever takes the lock next reports that it
+takes over from a process that is gone, and removes the temporary files that process left.
+``--force`` overwrites a finished run, never a live lock.
+
+A directory inside one that another live process holds (a seed of a multi-seed run, a trial of
+a sweep) counts as held too, unless that process is one of ours: the pids of the lock holders
+above a process are passed down to its workers in ``ACROBOT_MJ_LOCK_OWNERS``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover  (Windows: exclusive creation instead)
+    fcntl = None
+
+LOCK_FILE = ".lock"
+OWNERS_VARIABLE = "ACROBOT_MJ_LOCK_OWNERS"
+#: Directories this process holds, with how many times (the lock is re-entrant).
+_HELD: dict[Path, list[Any]] = {}
+
+
+class RunDirectoryBusy(RuntimeError):
+    """Another live process owns the run directory."""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, owned by someone else
+        return True
+    return True
+
+
+def _owners() -> set[int]:
+    text = os.environ.get(OWNERS_VARIABLE, "")
+    return {int(p) for p in text.split(",") if p.strip().isdigit()} | {os.getpid()}
+
+
+def _describe(owner: dict[str, Any]) -> str:
+    started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(owner.get("started", 0)))
+    return (
+        f"pid {owner.get('pid')} on {owner.get('host')} ({owner.get('command', '?')}, "
+        f"since {started})"
+    )
+
+
+def _read_owner(path: Path) -> dict[str, Any] | None:
+    try:
+        owner = json.loads(path.read_text() or "null")
+    except (OSError, ValueError):
+        return None
+    return owner if isinstance(owner, dict) and isinstance(owner.get("pid"), int) else None
+
+
+def _held_by_other(path: Path) -> dict[str, Any] | None:
+    """The owner of lock file ``path`` if a live process outside ours holds it."""
+    owner = _read_owner(path)
+    if owner is None or owner["pid"] in _owners():
+        return None
+    if fcntl is None:
+        return owner if _alive(owner["pid"]) else None
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return owner
+    finally:
+        os.close(fd)  # closing drops the probe's shared lock
+    return None
+
+
+class RunLock:
+    """Hold ``directory`` (created if needed) for this process; raises :class:`RunDirectoryBusy`
+    naming the owner if a live process outside ours holds it or a directory above it."""
+
+    def __init__(self, directory: str | Path, command: str = "acrobot-mj", create: bool = True):
+        self.directory = Path(directory).resolve()
+        self.command, self.create = command, create
+        self._noop = False
+
+    def __enter__(self) -> RunLock:
+        if not self.create and not self.directory.is_dir():
+            self._noop = True  # nothing there to protect; the caller reports what is missing
+            return self
+        held = _HELD.get(self.directory)
+        if held is not None:
+            held[1] += 1
+            return self
+        for parent in self.directory.parents:
+            owner = _held_by_other(parent / LOCK_FILE) if (parent / LOCK_FILE).exists() else None
+            if owner is not None:
+                raise RunDirectoryBusy(
+                    f"{self.directory} is inside {parent}, which is in use by "
+                    f"{_describe(owner)}: wait for it or stop it first"
+                )
+        self.directory.mkdir(parents=True, exist_ok=True)
+        _HELD[self.directory] = [self._acquire(), 1]
+        os.environ[OWNERS_VARIABLE] = ",".join(str(p) for p in sorted(_owners()))
+        return self
+
+    def _acquire(self) -> int:
+        path = self.directory / LOCK_FILE
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            if fcntl is not None:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            elif _held_by_other(path) is not None:  # pragma: no cover
+                raise BlockingIOError
+        except BlockingIOError:
+            os.close(fd)
+            owner = _read_owner(path) or {"pid": "?", "host": "?"}
+            raise RunDirectoryBusy(
+                f"{self.directory} is in use by {_describe(owner)}: wait for it or stop it "
+                "first (--force overwrites a finished run, never a running one)"
+            ) from None
+        previous = _read_owner(path)
+        if previous is not None and previous["pid"] not in _owners():
+            sys.stderr.write(
+                f"acrobot-mj: taking over {self.directory} from {_describe(previous)}, which "
+                "is not running any more\n"
+            )
+            _remove_temporaries(self.directory)
+        record = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "command": self.command,
+            "started": time.time(),
+        }
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, json.dumps(record).encode(), 0)
+        return fd
+
+    def __exit__(self, *exc: object) -> None:
+        if self._noop:
+            return
+        held = _HELD[self.directory]
+        held[1] -= 1
+        if held[1] > 0:
+            return
+        del _HELD[self.directory]
+        fd = held[0]
+        os.ftruncate(fd, 0)  # a free lock: an empty file (unlinking it would race)
+        if fcntl is not None:
+            fcntl.flock(fd, fcntl.LOCK_UN)
+        os.close(fd)
+
+
+def _remove_temporaries(directory: Path) -> None:
+    """Delete the ``.NAME.PID.tmp`` files (interrupted atomic writes) of processes that are gone,
+    in ``directory`` and the directories below it."""
+    for tmp in directory.rglob(".*.tmp"):
+        pid = tmp.name.rsplit(".", 2)[-2]
+        if pid.isdigit() and not _alive(int(pid)):
+            tmp.unlink(missing_ok=True)
