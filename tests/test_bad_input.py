@@ -194,10 +194,12 @@ def test_nan_state_in_data_is_reported_not_hidden(tmp_path, monkeypatch, autores
         env.step(1)
 
 
-def test_huge_state_in_data_is_reported(env, tmp_path, monkeypatch) -> None:
-    # Finite but beyond MuJoCo's mjMAXVAL (1e10): MuJoCo warns (BADQPOS) and the numbers are
-    # meaningless, so the env raises as for NaN.
+@pytest.mark.parametrize("angle", [1e300, 1e9, -2e6])
+def test_huge_state_in_data_is_reported(env, tmp_path, monkeypatch, angle) -> None:
+    # Finite but beyond MuJoCo's mjMAXVAL (1e10, where MuJoCo warns BADQPOS), or beyond the
+    # 1e6 rad where angles lose precision (1e9 rad used to pass, reported as the goal): the
+    # numbers are meaningless, so the env raises as for NaN.
     monkeypatch.chdir(tmp_path)
-    env.data.qpos[0] = 1e300
-    with pytest.raises(RuntimeError, match="non-finite or huge"):
+    env.data.qpos[0] = angle
+    with pytest.raises(RuntimeError, match=r"non-finite state or angles beyond \+-1e\+06 rad"):
         env.step(1)

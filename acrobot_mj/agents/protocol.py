@@ -17,6 +17,15 @@ import numpy as np
 from acrobot_mj.agents.random_stream import RandomStream
 
 
+class DivergenceError(ArithmeticError):
+    """A learner's values stopped being finite numbers: a step size too large for its features,
+    or (``rewards``) rewards too large for a float."""
+
+    def __init__(self, message: str, rewards: bool = False) -> None:
+        super().__init__(message)
+        self.rewards = rewards
+
+
 @runtime_checkable
 class Features(Protocol):
     """Observations ``(q1, q2, dq1, dq2)`` to the indices of their active binary features."""

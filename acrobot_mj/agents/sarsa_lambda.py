@@ -17,15 +17,17 @@ traces below 0.01). ``trace_cutoff = 0`` keeps every trace: exact.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from acrobot_mj.agents.features import StateGrid, TileCoder
-from acrobot_mj.agents.protocol import AgentSpec
+from acrobot_mj.agents.protocol import AgentSpec, DivergenceError
 from acrobot_mj.agents.random_stream import RandomStream, checked_values
 
 TRACES = ("replacing", "accumulating")
+_MIN, _MAX = -math.inf, math.inf
 
 
 class SarsaLambda:
@@ -112,6 +114,8 @@ class SarsaLambda:
         pairs = self._a * self.num_features + self._active
         # TD error, first part: r - Q(s, a) with the current weights.
         delta = reward - self._w[pairs].sum()
+        if not _MIN < delta < _MAX:  # NaN and infinities fail too
+            raise DivergenceError(f"the TD error is {delta} (alpha {self.alpha:g})")
         if self.clear_others:
             self._clear(self._offsets + self._active, keep=self._a)
         self._mark(pairs)
@@ -124,6 +128,8 @@ class SarsaLambda:
         a2 = self._policy(q)
         # Bootstrap from Q(s', a'), update every traced weight, then decay the traces.
         delta += self.gamma * q[a2]
+        if not _MIN < delta < _MAX:
+            raise DivergenceError(f"the TD error is {delta} (alpha {self.alpha:g})")
         self._w[self._trace_pairs] += self.alpha * delta * self._trace_values
         if truncated:
             self._a = -1

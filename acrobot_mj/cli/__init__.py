@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from acrobot_mj.cli import learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.train.checkpoint import CheckpointError
+from acrobot_mj.train.lock import RunDirectoryBusy
 from acrobot_mj.version import __version__
 
 COMMANDS = (
@@ -36,18 +39,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled as Ctrl-C is: runs save their checkpoints and say so."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated("terminated (SIGTERM)")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
     try:
         args.func(args)
-    except (ValueError, TypeError, OSError, CheckpointError, GLBackendError) as error:
+    except (
+        ValueError,
+        TypeError,
+        OSError,
+        ArithmeticError,  # a learner that diverged
+        CheckpointError,
+        GLBackendError,
+        RunDirectoryBusy,
+    ) as error:
         if os.environ.get("ACROBOT_MJ_DEBUG"):
             raise  # the whole traceback, for bug reports
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
         hint = "; continue with --resume" if args.command == "train" else ""
-        parser.exit(130, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
+        code = 143 if isinstance(interrupt, Terminated) else 130  # 128 + the signal's number
+        parser.exit(code, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
     return 0
 
 

@@ -22,6 +22,14 @@ def positive_int(text: str) -> int:
     return value
 
 
+def seed(text: str) -> int:
+    """An argparse type: a seed, an integer >= 0 (numpy's seeding takes no other)."""
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a seed must be an integer >= 0, got {value}")
+    return value
+
+
 def write_record(path: str | None, data: dict[str, Any]) -> None:
     """Write ``data`` as JSON to ``path`` (when given) and say so."""
     if path:

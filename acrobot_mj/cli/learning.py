@@ -9,7 +9,7 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.common import Commands, positive_int
+from acrobot_mj.cli.common import Commands, positive_int, seed
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves
 from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
@@ -42,7 +42,7 @@ def add_train(commands: Commands) -> None:
         "overridden with --FIELD VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
     )
     p.add_argument("--preset", choices=sorted(PRESETS), default="report")
-    p.add_argument("--seed", type=int, default=0, help="seed (the first one with --seeds)")
+    p.add_argument("--seed", type=seed, default=0, help="seed (the first one with --seeds)")
     p.add_argument(
         "--seeds",
         type=positive_int,
@@ -128,7 +128,7 @@ def add_evaluate(commands: Commands) -> None:
     p = commands.add_parser("evaluate", help="greedy episodes of a trained run -> eval.json")
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
     p.add_argument("--episodes", type=positive_int, help="default: the run's eval_episodes")
-    p.add_argument("--seed", type=int, default=0, help="seed of start noise and tie-breaking")
+    p.add_argument("--seed", type=seed, default=0, help="seed of start noise and tie-breaking")
     p.set_defaults(func=evaluate_command)
 
 
@@ -202,6 +202,8 @@ def curves_command(args: argparse.Namespace) -> None:
                 f"{summary_file} not found: give directories written by acrobot-mj train --seeds"
             )
         summary = json.loads(summary_file.read_text())
+        if not summary.get("runs"):
+            raise ValueError(f"{summary_file} lists no runs: nothing to draw")
         config = TrainConfig.from_dict(summary["config"])
         score = get_task(config.task).score
         groups[Path(folder).name] = [

@@ -9,7 +9,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from acrobot_mj.cli.common import Commands, positive_int, write_record
+from acrobot_mj.cli.common import Commands, positive_int, seed, write_record
 from acrobot_mj.control.baselines import POLICY_NAMES, make_policy
 from acrobot_mj.envs.episode import PolicyActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
@@ -29,7 +29,7 @@ def add_render(commands: Commands) -> None:
     p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
     p.add_argument("--out", required=True, help="the .mp4 file (a .json record goes beside it)")
     p.add_argument("--steps", type=positive_int, help="most steps (default: the whole episode)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the env, ties and --policy random")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the env, ties and --policy random")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="with --policy only")
     p.add_argument("--width", type=positive_int, default=480)
     p.add_argument("--height", type=positive_int, default=480)
@@ -127,7 +127,7 @@ def add_demo(commands: Commands) -> None:
         help="pump: tau = -sign(dq1); zero: no torque; random: uniform (seeded)",
     )
     p.add_argument("--steps", type=positive_int, default=1000, help="most actions to take")
-    p.add_argument("--seed", type=int, default=0, help="seed of the env and the random policy")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the env and the random policy")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="physics steps per action")
     p.add_argument("--integrator", choices=("euler", "rk4"), default="euler")
     p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")

@@ -32,12 +32,15 @@ RESET_OPTIONS = ("start_noise",)
 
 #: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
 HUGE = 1e10
+#: Larger angles [rad] are refused (set_state) or raise (step): at 1e6 rad a double resolves
+#: 1e-10 rad, no finer; spinning at the speed limits takes about ten simulated hours to get there.
+MAX_ANGLE = 1e6
+#: Physics steps per action at most: 1000 is 50 s of simulated time per decision.
+MAX_FRAME_SKIP = 1000
 # Global names are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
-_PI, _MIN_PI, _MIN_Q = math.pi, -math.pi, -HUGE
+_PI, _MIN_PI, _MIN_Q = math.pi, -math.pi, -MAX_ANGLE
 _MIN_VEL1, _MIN_VEL2 = -MAX_VEL1, -MAX_VEL2
-#: set_state refuses larger angles [rad]: at 1e6 rad a double resolves 1e-10 rad, no finer.
-MAX_ANGLE = 1e6
 _BAD_STATE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -165,7 +168,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         model_path: str | Path | None = None,
         **task_options: Any,
     ) -> None:
-        self._frame_skip = check_int("frame_skip", frame_skip, 1)
+        self._frame_skip = check_int("frame_skip", frame_skip, 1, MAX_FRAME_SKIP)
         self._substeps = range(self._frame_skip)
         if not isinstance(integrator, str) or integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
@@ -308,10 +311,10 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             if v2 > MAX_VEL2 or v2 < _MIN_VEL2:
                 v2 = qvel[1] = MAX_VEL2 if v2 > 0 else _MIN_VEL2
         q1, q2 = self._qpos.tolist()
-        # False for NaN, infinities and MuJoCo's "huge" values (its mjMAXVAL per coordinate)
-        # alike; clipped velocities are finite unless NaN. The env disables MuJoCo's autoreset,
-        # so a bad state cannot hide.
-        if not (_MIN_Q < q1 < HUGE and _MIN_Q < q2 < HUGE and v1 == v1 and v2 == v2):
+        # False for NaN, infinities and angles beyond MAX_ANGLE alike (per coordinate, as
+        # MuJoCo's own mjMAXVAL test); clipped velocities are finite unless NaN. The env
+        # disables MuJoCo's autoreset, so a bad state cannot hide.
+        if not (_MIN_Q < q1 < MAX_ANGLE and _MIN_Q < q2 < MAX_ANGLE and v1 == v1 and v2 == v2):
             self._raise_bad_state()
         # Angles in [-pi, pi) are observed exactly as they are (wrap_angle's first case,
         # inlined); others are wrapped.
@@ -327,7 +330,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             if self.data.warning[w].number
         ]
         raise RuntimeError(
-            "the simulation reached a non-finite or huge state"
+            f"the simulation reached a non-finite state or angles beyond +-{MAX_ANGLE:g} rad"
             + (f"; MuJoCo reported {', '.join(reported)}" if reported else "")
             + f"; state now {self.state.tolist()}. Call reset() before stepping again."
         )

@@ -20,7 +20,7 @@ from gymnasium.vector.utils import batch_space
 from mujoco.batch import Batch
 
 from acrobot_mj.checks import check_int
-from acrobot_mj.envs.env import HUGE, AcrobotEnv, reset_noise
+from acrobot_mj.envs.env import HUGE, MAX_ANGLE, AcrobotEnv, reset_noise
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, action_torques
 from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.physics.angles import wrap_angle
@@ -179,12 +179,12 @@ class AcrobotVectorEnv(VectorEnv):
     def _observe(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Observations and the task's outcome of every sub-env; raises on a bad state."""
         q, v = self._qpos, self._qvel
-        # NaN fails the test too; the sum per sub-env names the bad ones.
-        if not (np.abs(q).max() < HUGE and np.abs(v).max() < HUGE):
-            bad = ~(np.abs(q).sum(1) + np.abs(v).sum(1) < HUGE)
+        # As the single env: NaN fails the test too; the row test names the bad sub-envs.
+        if not (np.abs(q).max() < MAX_ANGLE and np.abs(v).max() < HUGE):
+            bad = ~((np.abs(q) < MAX_ANGLE).all(1) & (np.abs(v) < HUGE).all(1))
             raise RuntimeError(
-                f"sub-envs {np.flatnonzero(bad).tolist()} reached a "
-                "non-finite or huge state; reset them before stepping again"
+                f"sub-envs {np.flatnonzero(bad).tolist()} reached a non-finite state or angles "
+                f"beyond +-{MAX_ANGLE:g} rad; reset them before stepping again"
             )
         obs = np.empty((self.num_envs, 4))
         obs[:, :2] = wrap_angle(q)  # as the single env: angles in [-pi, pi) as they are

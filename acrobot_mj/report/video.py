@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import queue
 import threading
 from pathlib import Path
@@ -31,21 +32,47 @@ FFMPEG_PARAMS = ["-preset", "ultrafast", "-crf", "30", "-pix_fmt", "yuv420p"]
 
 class VideoWriter:
     """An MP4 writer whose frames go to ffmpeg from a background thread, so piping and encoding
-    overlap the rendering of the next frames. Errors in the thread surface in the caller."""
+    overlap the rendering of the next frames. The video is written to a temporary file beside
+    ``path`` and renamed to it when complete, so a failed or interrupted video leaves nothing
+    half-written; any failure (a full disk, a read-only folder) is one ``OSError`` naming the
+    file, raised in the caller's thread."""
 
     def __init__(self, path: str | Path, fps: float, queue_size: int = 16) -> None:
-        self._writer = imageio.get_writer(
-            path,
-            fps=fps,
-            codec="libx264",
-            macro_block_size=8,
-            ffmpeg_params=FFMPEG_PARAMS,
-            ffmpeg_log_level="error",
-        )
+        self.path = Path(path)
+        self._tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.tmp.mp4")
+        try:
+            self._writer = imageio.get_writer(
+                self._tmp,
+                fps=fps,
+                codec="libx264",
+                macro_block_size=8,
+                ffmpeg_params=FFMPEG_PARAMS,
+                ffmpeg_log_level="quiet",  # failures are reported by _failure, in one line
+            )
+        except OSError as error:
+            raise self._failure(error) from None
         self._queue: queue.Queue[np.ndarray | None] = queue.Queue(maxsize=queue_size)
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
+
+    def _failure(self, error: BaseException) -> OSError:
+        """One line: the file, and why (the folder's file system when it explains it; else the
+        first line of the error, which for ffmpeg goes on with its whole command line)."""
+        reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
+        try:
+            folder = os.statvfs(self.path.parent)  # before the partial video is removed
+        except (OSError, AttributeError):  # no statvfs on Windows
+            folder = None
+        if folder is not None and folder.f_flag & os.ST_RDONLY:
+            reason = "its folder is on a read-only file system"
+        elif folder is not None and folder.f_bavail * folder.f_frsize < 2**20:
+            reason = "no space left on the device"
+        try:
+            self._tmp.unlink(missing_ok=True)
+        except OSError:
+            pass  # a read-only file system: nothing was written either
+        return OSError(f"cannot write the video {self.path}: {reason}")
 
     def _run(self) -> None:
         while (frame := self._queue.get()) is not None:
@@ -57,21 +84,29 @@ class VideoWriter:
 
     def append(self, frame: np.ndarray) -> None:
         if self._error is not None:
-            raise self._error
+            self.close(complete=False)
         self._queue.put(frame)
 
-    def close(self) -> None:
+    def close(self, complete: bool = True) -> None:
+        """Finish the video (``complete``) and move it into place, or discard it."""
         self._queue.put(None)
         self._thread.join()
-        self._writer.close()
+        try:
+            self._writer.close()
+        except OSError as error:
+            self._error = self._error or error
         if self._error is not None:
-            raise self._error
+            raise self._failure(self._error)
+        if complete:
+            os.replace(self._tmp, self.path)
+        else:
+            self._tmp.unlink(missing_ok=True)
 
     def __enter__(self) -> VideoWriter:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: type | None, *exc: object) -> None:
+        self.close(complete=kind is None)
 
 
 def caption(frame: np.ndarray, text: str, colour: tuple[int, int, int] = (20, 20, 20)):

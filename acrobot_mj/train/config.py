@@ -24,6 +24,7 @@ from typing import Any
 
 from acrobot_mj.agents.registry import AGENTS, FEATURES, agent_spec, feature_spec
 from acrobot_mj.agents.sarsa_lambda import TRACES
+from acrobot_mj.envs.env import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
 
 
@@ -282,6 +283,11 @@ def _check_ranges(c: TrainConfig) -> None:
         value = getattr(c, name)
         if value is not None and value < 1:
             raise ValueError(f"config {name} must be >= 1, got {value}")
+    if c.frame_skip > MAX_FRAME_SKIP:
+        raise ValueError(
+            f"config frame_skip must be in [1, {MAX_FRAME_SKIP}] (0.05 s physics steps per "
+            f"decision), got {c.frame_skip}"
+        )
     unit = ("noise_until", "gamma", "epsilon", "lam", "eval_noise", "start_noise")
     for name in unit:
         value = getattr(c, name)

@@ -3,15 +3,17 @@ checkpoints and exact resume (the run directory's files: :mod:`.rundir`)."""
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
-from acrobot_mj.agents.protocol import Agent
-from acrobot_mj.agents.registry import make_agent
+from acrobot_mj.agents.protocol import Agent, DivergenceError
+from acrobot_mj.agents.registry import make_agent, make_features
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import (
     episode_seed,
@@ -32,6 +34,33 @@ from acrobot_mj.train.rundir import (
 
 #: Called after every training episode with its index and the history so far.
 OnEpisode = Callable[[int, History], None]
+
+
+def check_finite_return(total: float) -> None:
+    """Raise :class:`DivergenceError` for an episode return that is not a finite number."""
+    if not math.isfinite(total):
+        raise DivergenceError(f"the episode's return is {total}", rewards=True)
+
+
+def diverged(
+    config: TrainConfig, seed: int, episode: int, kept: int, error: DivergenceError
+) -> DivergenceError:
+    """The error a run stops with when its learner diverges: where, and the likely cause."""
+    n = make_features(config).num_active
+    if error.rewards:
+        cause = (
+            f"the rewards (step_reward {config.step_reward}, goal_reward "
+            f"{config.goal_reward}) overflow a float"
+        )
+    else:
+        cause = (
+            f"the step size: alpha={config.alpha:g} is per weight, and {n} features are active "
+            f"in each state (Sutton and Barto use 0.2/{n} with tile coding)"
+        )
+    return DivergenceError(
+        f"{config.algorithm} diverged in episode {episode + 1} of seed {seed} ({error}); "
+        f"the likely cause is {cause}; the checkpoint keeps the state after episode {kept}"
+    )
 
 
 def train_agent(
@@ -57,11 +86,17 @@ def train_agent(
     checkpoints.snapshot(agent.state_dict, history, steps)
     bar = Progress(config.episodes, f"{config.algorithm} seed {seed}", progress)
     started = time.perf_counter()
-    interrupted = False
+    stop: KeyboardInterrupt | None = None  # Ctrl-C (or SIGTERM) during an episode
     try:
         for episode in range(len(history), config.episodes):
             noise = noise_options(config.start_noise_at(episode))
-            result = learn_episode(env, agent, episode_seed(seed, episode), noise)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):  # checked here, by value
+                    result = learn_episode(env, agent, episode_seed(seed, episode), noise)
+                check_finite_return(result.episode_return)
+            except DivergenceError as error:
+                checkpoints.save()  # the state after the last finite episode
+                raise diverged(config, seed, episode, len(history), error) from None
             history.add_episode(result)
             steps += result.length
             checkpoints.snapshot(agent.state_dict, history, steps)
@@ -70,17 +105,17 @@ def train_agent(
                 checkpoints.save()
             if on_episode is not None:
                 on_episode(episode, history)
-    except KeyboardInterrupt:
-        interrupted = True
+    except KeyboardInterrupt as interrupt:
+        stop = interrupt
     elapsed = time.perf_counter() - started
     checkpoints.save()
     # The greedy policy from rest, on the training env (ties broken by a fixed stream).
-    greedy = None if interrupted else greedy_from_rest(env, agent, seed)
+    greedy = None if stop else greedy_from_rest(env, agent, seed)
     record = run_record(
-        config, seed, history, steps, elapsed, interrupted=interrupted, env=env_name, greedy=greedy
+        config, seed, history, steps, elapsed, interrupted=bool(stop), env=env_name, greedy=greedy
     )
     if out is not None:
         write_run(out, record, f"seed {seed}")
-    if interrupted:
-        raise KeyboardInterrupt(f"interrupted after {len(history)} episodes; checkpoint saved")
+    if stop:
+        raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
     return record, agent

@@ -16,11 +16,13 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.registry import AGENTS, agent_spec, make_agent, make_features
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import episode_seed, greedy_from_rest, make_env
+from acrobot_mj.train.learner import check_finite_return, diverged
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.progress import Progress
 from acrobot_mj.train.records import History, run_record
@@ -158,12 +160,16 @@ class _Lockstep:
                     actions[again] = self._restart(again)
                 if done.any():
                     bar.update(int(self.episode.sum()), self.histories[0])
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as stop:
             for checkpoint in self.checkpoints:
                 checkpoint.save()
-            raise KeyboardInterrupt(
+            raise type(stop)(
                 "interrupted; each learner's checkpoint holds its last completed episode"
             ) from None
+        except DivergenceError:
+            for checkpoint in self.checkpoints:  # each learner's last finite state
+                checkpoint.save()
+            raise
         for checkpoint in self.checkpoints:
             checkpoint.save()
 
@@ -173,6 +179,16 @@ class _Lockstep:
         """Record the episodes that just ended, and checkpoint where one is due."""
         self.episode[done] += 1
         for i in np.flatnonzero(done):
+            try:
+                check_finite_return(float(total[i]))
+            except DivergenceError as error:
+                raise diverged(
+                    self.config,
+                    self.seeds[i],
+                    int(self.episode[i]) - 1,
+                    len(self.histories[i]),
+                    error,
+                ) from None
             self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
             self._snapshot(i)
             if self.episode[i] % self.config.checkpoint_every == 0:

@@ -85,7 +85,7 @@ def train_population(
                 single, learner_seed(seed, k), sub, env, again, progress, on_episode
             )
         except KeyboardInterrupt as error:
-            raise KeyboardInterrupt(
+            raise type(error)(
                 f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
             ) from error
         records.append(record)

@@ -163,11 +163,14 @@ def _check_record_agrees(run_file: Path, config: TrainConfig, seed: int, path: P
 class Checkpoints:
     """A learner's checkpoint file: it holds the state after the learner's last completed
     episode (:meth:`snapshot`), so a run stopped in the middle of an episode resumes exactly
-    (that episode is run again from its start). ``path`` None keeps nothing."""
+    (that episode is run again from its start). ``path`` None keeps nothing.
+
+    A snapshot copies the agent's arrays but only notes how long the history is (the history
+    only grows), so taking one costs the same at episode 10 and at episode 10 million."""
 
     def __init__(self, path: Path | None, config: TrainConfig, seed: int) -> None:
         self.path, self.config, self.seed = path, config, seed
-        self._state: tuple[dict[str, np.ndarray], dict[str, Any]] | None = None
+        self._state: tuple[dict[str, np.ndarray], History, int, int] | None = None
 
     def snapshot(
         self, state: Callable[[], dict[str, np.ndarray]], history: History, steps: int
@@ -175,12 +178,15 @@ class Checkpoints:
         """Remember the agent's arrays (``state()``, called only if there is a file to write)
         and the progress, after a completed episode."""
         if self.path is not None:
-            self._state = (state(), checkpoint_meta(self.config, self.seed, history, steps))
+            self._state = (state(), history, len(history), steps)
 
     def save(self) -> None:
         """Write the last snapshot (atomically)."""
-        if self.path is not None and self._state is not None:
-            save_checkpoint(self.path, *self._state)
+        if self.path is None or self._state is None:
+            return
+        arrays, history, length, steps = self._state
+        done = History(**{key: values[:length] for key, values in history.to_dict().items()})
+        save_checkpoint(self.path, arrays, checkpoint_meta(self.config, self.seed, done, steps))
 
 
 def write_run(out: Path, record: dict[str, Any], label: str) -> None:

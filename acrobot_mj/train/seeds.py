@@ -72,9 +72,9 @@ def _train_all(config, seeds, out, jobs, resume, progress) -> list[dict[str, Any
     with WorkerPool(jobs) as pool:
         try:
             finished = [future.result() for future in pool.run(_train_one, calls)]
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as stop:
             pool.stop()
-            raise KeyboardInterrupt(
+            raise type(stop)(
                 "interrupted; each seed's checkpoint holds its last completed episode"
             ) from None
     by_seed = {record["seed"]: record for record in finished}

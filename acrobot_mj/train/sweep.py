@@ -53,17 +53,17 @@ def run_sweep(
                 todo.append(trial)
                 if why != "not run yet":
                     sys.stderr.write(f"sweep: running {trial.name} again: {why}\n")
-        interrupted = False
+        stop: KeyboardInterrupt | None = None
         try:
             if backend == "local":
                 _run_local(todo, out, jobs)
             else:
                 _run_ray(todo, out, address, ray_num_cpus)
-        except KeyboardInterrupt:
-            interrupted = True
+        except KeyboardInterrupt as interrupt:
+            stop = interrupt
         summary = summarize_sweep(spec, out)
-    if interrupted:
-        raise KeyboardInterrupt(
+    if stop:
+        raise type(stop)(
             f"sweep interrupted: {summary['unfinished']} of {summary['trials']} trials "
             "unfinished (running ones saved their checkpoints); run it again to continue"
         )

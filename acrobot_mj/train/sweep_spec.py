@@ -96,32 +96,42 @@ def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
         raise ValueError(
             f"{source}: seeds must be a non-empty list of distinct integers >= 0, got {seeds!r}"
         )
-    extra = data.get("overrides", {})
-    if not isinstance(extra, dict):
-        raise ValueError(f"{source}: [overrides] must be a table of config keys")
-    overrides = {k: v for k, v in data.items() if k in FIELD_NAMES}
-    overrides.update(extra)
-    if "episodes" in data:
-        overrides["episodes"] = data["episodes"]
-    grid = data.get("grid", {})
-    if not isinstance(grid, dict):
-        raise ValueError(f"{source}: [grid] must be a table of lists")
-    for key, values in grid.items():
-        if key not in FIELD_NAMES:
-            raise ValueError(f"{source}: grid key {key!r} is not a config key")
-        if not isinstance(values, list) or not values:
-            raise ValueError(f"{source}: grid {key} must be a non-empty list")
-    for key, values in grid.items():
-        if len({json.dumps(v) for v in values}) != len(values) or len(set(map(str, values))) != len(
-            values
-        ):
-            raise ValueError(f"{source}: grid {key} repeats a value: {values!r}")
+    overrides, grid = _overrides_and_grid(data, source)
     spec = SweepSpec(preset, seeds, grid, overrides)
     trials = spec.trials()  # building them checks every config
     # Tuples compare numbers by value (1 == 1.0), so equal configs collapse here.
     if len({(tuple(sorted(t.config.to_dict().items())), t.seed) for t in trials}) != len(trials):
         raise ValueError(f"{source}: two grid points give the same config (e.g. 1 and 1.0)")
     return spec
+
+
+def _overrides_and_grid(data: dict[str, Any], source: str) -> tuple[dict, dict[str, list]]:
+    """The fixed overrides (top-level config keys and ``[overrides]``) and the grid, checked:
+    a key given twice would have one value win silently, so it is refused, naming both places."""
+    extra = data.get("overrides", {})
+    if not isinstance(extra, dict):
+        raise ValueError(f"{source}: [overrides] must be a table of config keys")
+    grid = data.get("grid", {})
+    if not isinstance(grid, dict):
+        raise ValueError(f"{source}: [grid] must be a table of lists")
+    top = {k: v for k, v in data.items() if k in FIELD_NAMES}
+    twice = sorted(set(top) & set(extra))
+    if twice:
+        raise ValueError(f"{source}: {twice[0]} is set at the top level and in [overrides]")
+    swept = sorted(set(grid) & (set(top) | set(extra)))
+    if swept:
+        where = "at the top level" if swept[0] in top else "in [overrides]"
+        raise ValueError(f"{source}: {swept[0]} is set {where} and swept in [grid]; keep one")
+    for key, values in grid.items():
+        if key not in FIELD_NAMES:
+            raise ValueError(f"{source}: grid key {key!r} is not a config key")
+        if not isinstance(values, list) or not values:
+            raise ValueError(f"{source}: grid {key} must be a non-empty list")
+        if len({json.dumps(v) for v in values}) != len(values) or len(set(map(str, values))) != len(
+            values
+        ):
+            raise ValueError(f"{source}: grid {key} repeats a value: {values!r}")
+    return {**top, **extra}, grid
 
 
 def load_sweep(path: str | Path) -> SweepSpec:

@@ -42,7 +42,7 @@ def train(
     if out_dir is None:
         return _train(config, seed, None, env, resume, progress, on_episode)
     out = Path(out_dir)
-    with RunLock(out, "train"):
+    with RunLock(out, "train", create=not resume):  # resume: the directory must be there
         if not resume and not overwrite:
             check_fresh(out)
         return _train(config, seed, out, env, resume, progress, on_episode)
