@@ -159,8 +159,13 @@ def configure_gl() -> str | None:
         PROBLEM = inherited or user_problem(user)
         if PROBLEM is None:
             CHOICE = "user"
+            if user.lower() not in BACKENDS and "mujoco" not in sys.modules:
+                # Not headless: what would work, for rendering's error (probed now, while no
+                # GL is open: a probe after MuJoCo opened EGL would close MuJoCo's display).
+                ATTEMPTS.update(probe_all())
             return user.lower()
         CHOICE = "broken"
+        ATTEMPTS.update(probe_all())
         os.environ["MUJOCO_GL"] = "disable"
         os.environ[PROBLEM_VARIABLE] = PROBLEM
         return None
@@ -195,8 +200,8 @@ def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBacken
     return GLBackendError("; ".join(parts))
 
 
-def select_backend_all() -> dict[str, str | None]:
-    """The result of every probe, working or not."""
+def probe_all() -> dict[str, str | None]:
+    """The result of every probe, working or not (only before MuJoCo opens a GL context)."""
     attempts: dict[str, str | None] = {}
     for name, probe in PROBES.items():
         try:
@@ -218,15 +223,15 @@ def make_renderer(model, width: int, height: int):
             "first",
         )
     if CHOICE == "broken":
-        raise backend_error(select_backend_all(), PROBLEM or "")
+        raise backend_error(ATTEMPTS, PROBLEM or "")
     if not backend:
-        raise backend_error(ATTEMPTS or select_backend_all())
+        raise backend_error(ATTEMPTS)
     if backend in NO_GL:
-        raise backend_error(select_backend_all(), f"MUJOCO_GL={backend} turns MuJoCo's GL off")
+        raise backend_error(ATTEMPTS, f"MUJOCO_GL={backend} turns MuJoCo's GL off")
     display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
     if backend in WINDOWED and platform.system() == "Linux" and not display:
         raise backend_error(
-            select_backend_all(),
+            ATTEMPTS,
             f"MUJOCO_GL={backend} renders through a window, and no display is set (DISPLAY)",
         )
     import mujoco
@@ -235,7 +240,7 @@ def make_renderer(model, width: int, height: int):
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as error:
         reason = f"{backend} failed to create a context: {error!r}"
-        attempts = select_backend_all()
-        if backend in PROBES:
-            attempts[backend] = f"{reason} (probe: {attempts[backend] or 'works'})"
+        attempts = dict(ATTEMPTS)
+        if backend in BACKENDS:
+            attempts[backend] = reason
         raise backend_error(attempts, f"MUJOCO_GL={backend} does not work") from error

@@ -49,8 +49,8 @@ def trial_state(out: Path, trial: Trial) -> tuple[dict[str, Any] | None, str]:
         return None, f"its record {path} is not a run record"
     try:
         config = TrainConfig.from_dict(record["config"])
-    except (TypeError, ValueError):
-        config = None
+    except (TypeError, ValueError) as error:
+        return None, f"its record {path} holds no valid config ({error})"
     if config != trial.config or record.get("seed") != trial.seed:
         raise ValueError(
             f"{path} holds another sweep's trial (a different config or seed): "

@@ -19,6 +19,9 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 _CAN_SIGNAL = hasattr(signal, "SIGUSR1")
+#: In a worker: the driver's stop event and pid.
+_STOP: Any = None
+_PARENT = 0
 
 
 def _interrupt(signum: int, frame: Any) -> None:
@@ -34,11 +37,25 @@ def _watch(stop: Any, parent: int) -> None:
 
 
 def _start_worker(stop: Any, parent: int) -> None:
+    global _STOP, _PARENT
+    _STOP, _PARENT = stop, parent
     if not _CAN_SIGNAL:  # pragma: no cover
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGUSR1, _interrupt)
     threading.Thread(target=_watch, args=(stop, parent), daemon=True).start()
+
+
+def _unless_stopped(function: Callable[..., Any], *args: Any) -> Any:
+    """In a worker: ``function(*args)``, unless the driver has stopped the pool (a pool hands
+    workers a call or two ahead, which cancelling the queue does not reach)."""
+    if _STOP is not None and _STOP.is_set():
+        return None
+    try:
+        return function(*args)
+    finally:
+        if _PARENT and os.getppid() != _PARENT:  # the driver is gone: so is this worker,
+            os._exit(1)  # once its run has saved what it had
 
 
 class WorkerPool:
@@ -55,8 +72,9 @@ class WorkerPool:
         )
 
     def run(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Future]:
-        """Submit ``function(*args)`` for each of ``calls``; yield the futures as they finish."""
-        futures = [self._pool.submit(function, *args) for args in calls]
+        """Submit ``function(*args)`` for each of ``calls``; yield the futures as they finish
+        (after a stop, calls a worker had already taken return None without running)."""
+        futures = [self._pool.submit(_unless_stopped, function, *args) for args in calls]
         return as_completed(futures)
 
     def stop(self) -> None:

@@ -1,0 +1,434 @@
+"""Nothing lost or silently wrong when runs are interrupted, shared, diverge or meet bad input.
+
+The interruption tests send real signals to real ``acrobot-mj`` processes. A child started from a
+non-interactive shell's background job inherits SIGINT ignored, and Python then never raises
+KeyboardInterrupt, so each child gets SIGINT back at its default before it starts.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from acrobot_mj.cli import main
+from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.records import History
+from acrobot_mj.train.rundir import Checkpoints, load_agent
+from acrobot_mj.train.sweep_spec import parse_sweep
+from acrobot_mj.train.trainer import train
+
+ROOT = Path(__file__).resolve().parents[1]
+#: A Sarsa(lambda) run long enough (several seconds) to be interrupted in the middle.
+LONG = ["train", "--preset", "book", "--episodes", "2000", "--no-progress"]
+
+
+def start(args: list[str], cwd: Path, **env: str) -> subprocess.Popen:
+    """``acrobot-mj ARGS`` in a new process, SIGINT at its default."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "acrobot_mj.cli", *args],
+        cwd=cwd,
+        env={**os.environ, "PYTHONPATH": str(ROOT), **env},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+
+
+def wait_for(path: Path, timeout: float = 60.0) -> None:
+    """Until ``path`` exists (a run's first checkpoint: it is well under way)."""
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        assert time.monotonic() < deadline, f"{path} never appeared"
+        time.sleep(0.05)
+
+
+def processes_with(text: str) -> list[int]:
+    """Pids of the live processes whose command line contains ``text``."""
+    pids = []
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            if text in (proc / "cmdline").read_bytes().decode(errors="replace"):
+                pids.append(int(proc.name))
+        except OSError:
+            continue
+    return pids
+
+
+# -- interruption ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_an_interrupted_run_saves_and_resumes_to_the_same_result(tmp_path, sig, code) -> None:
+    # Interrupted soon after its first checkpoint (episode 100 of 5000), then resumed to 400
+    # episodes: the same run as 400 episodes without a break.
+    args = ["train", "--preset", "book", "--checkpoint-every", "100", "--no-progress"]
+    child = start([*args, "--episodes", "5000", "--out", "run"], tmp_path)
+    wait_for(tmp_path / "run" / "checkpoint.npz")
+    child.send_signal(sig)
+    _, err = child.communicate(timeout=60)
+    assert child.returncode == code, err
+    assert "checkpoint saved" in err and "--resume" in err
+    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert record["interrupted"] is True and 100 <= record["episodes_done"] < 400
+    assert not list((tmp_path / "run").glob(".*.tmp"))  # no half-written file left
+    resume = [*args, "--episodes", "400", "--out", str(tmp_path / "run"), "--resume"]
+    assert main(resume) == 0
+    whole = train(PRESETS["book"].replace(episodes=400, checkpoint_every=100), seed=0)
+    resumed = json.loads((tmp_path / "run" / "run.json").read_text())
+    for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
+        assert resumed[key] == whole[key], key
+
+
+#: Four Sarsa(lambda) trials of a few seconds each, two at a time.
+SWEEP = """
+preset = "book"
+episodes = 1500
+seeds = [0, 1, 2, 3]
+[grid]
+lam = [0.9]
+"""
+
+
+def test_ctrl_c_stops_a_sweep_promptly_and_a_rerun_finishes_it(tmp_path) -> None:
+    (tmp_path / "s.toml").write_text(SWEEP)
+    args = ["sweep", "s.toml", "--jobs", "2", "--out", "sw"]
+    child = start(args, tmp_path)
+    wait_for(tmp_path / "sw" / "trials" / "lam=0.9__seed=0" / "checkpoint.npz")
+    stopped = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=60)
+    assert time.monotonic() - stopped < 30  # the queued trials did not run
+    assert child.returncode == 130, err
+    assert "sweep interrupted" in err and "unfinished" in err
+    summary = json.loads((tmp_path / "sw" / "summary.json").read_text())
+    assert summary["unfinished"] == 4  # two were running, two queued and cancelled
+    trials = tmp_path / "sw" / "trials"
+    running = [json.loads(p.read_text()) for p in trials.glob("*/run.json")]
+    assert len(running) == 2 and all(r["interrupted"] for r in running)  # saved, unfinished
+    assert len(list(trials.glob("*/checkpoint.npz"))) == 2
+    time.sleep(1)
+    assert processes_with(str(tmp_path / "sw")) == []  # no worker left behind
+    # Again: the interrupted trials continue from their checkpoints, and say so.
+    again = start(args, tmp_path)
+    _, err = again.communicate(timeout=300)
+    assert again.returncode == 0, err
+    assert "running lam=0.9__seed=0 again: its record says it stopped after" in err
+    summary = json.loads((tmp_path / "sw" / "summary.json").read_text())
+    assert summary["unfinished"] == 0 and summary["points"][0]["runs"] == 4
+
+
+def test_workers_stop_with_a_killed_sweep_driver(tmp_path) -> None:
+    (tmp_path / "s.toml").write_text(SWEEP.replace("1500", "5000"))
+    child = start(["sweep", "s.toml", "--jobs", "2", "--out", "sw"], tmp_path)
+    wait_for(tmp_path / "sw" / "trials" / "lam=0.9__seed=0" / "checkpoint.npz")
+    child.kill()  # kill -9: the driver cannot tell anyone
+    child.communicate(timeout=30)
+    deadline = time.monotonic() + 30
+    while processes_with(str(tmp_path / "sw")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert processes_with(str(tmp_path / "sw")) == []
+    # Each worker saved what it had before it went.
+    for run in (tmp_path / "sw" / "trials").glob("*/run.json"):
+        assert json.loads(run.read_text())["interrupted"] is True
+
+
+# -- one owner per run directory -----------------------------------------------------------
+
+
+def test_two_trainers_on_one_directory_one_is_refused(tmp_path) -> None:
+    first = start([*LONG, "--episodes", "300", "--out", "run"], tmp_path)
+    wait_for(tmp_path / "run" / ".lock")
+    time.sleep(0.5)
+    second = start([*LONG, "--seed", "1", "--episodes", "300", "--force", "--out", "run"], tmp_path)
+    _, err2 = second.communicate(timeout=120)
+    _, err1 = first.communicate(timeout=120)
+    assert first.returncode == 0, err1
+    assert second.returncode == 2 and f"is in use by pid {first.pid}" in err2  # --force too
+    config, seed, _ = load_agent(tmp_path / "run")  # run.json and checkpoint agree
+    assert seed == 0 and config.episodes == 300
+
+
+def test_a_dead_owners_lock_and_temporaries_are_taken_over(tmp_path, capsys) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+    (run / ".lock").write_text(json.dumps({"pid": int(dead), "host": "h", "started": 0}))
+    (run / f".checkpoint.npz.{dead}.tmp").write_bytes(b"half a zip")
+    config = PRESETS["report"].replace(episodes=2, max_episode_steps=20)
+    train(config, seed=0, out_dir=run)
+    assert f"taking over {run} from pid {dead}" in capsys.readouterr().err
+    assert not list(run.glob(".*.tmp")) and (run / ".lock").read_text() == ""
+
+
+# -- divergence ----------------------------------------------------------------------------
+
+
+def test_a_diverging_learner_stops_with_the_cause_and_a_finite_checkpoint(tmp_path, exits, capsys):
+    out = tmp_path / "run"
+    code = exits(["train", "--preset", "book", "--alpha", "0.2", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "sarsa_lambda diverged in episode" in err and "alpha=0.2 is per weight" in err
+    assert "48 features are active" in err and len(err.strip().splitlines()) == 1
+    # The checkpoint is the last finite state: it loads (agents refuse non-finite values).
+    config, _, _ = load_agent(out)
+    assert load_checkpoint(out / "checkpoint.npz")[0]["episodes_done"] >= 1
+    assert config.alpha == 0.2 and not (out / "run.json").exists()
+
+
+@pytest.fixture
+def exits(monkeypatch):
+    """Run the CLI, returning its exit code instead of raising SystemExit."""
+
+    def run(argv: list[str]) -> int:
+        try:
+            return main(argv)
+        except SystemExit as stop:
+            return stop.code
+
+    return run
+
+
+def test_rewards_that_overflow_are_divergence_not_infinity_in_json(tmp_path, exits, capsys):
+    code = exits(["train", "--step-reward=-1e308", "--episodes", "3", "--out", str(tmp_path / "r")])
+    assert code == 2 and "the rewards (step_reward -1e+308" in capsys.readouterr().err
+    for path in tmp_path.rglob("*.json"):
+        assert "Infinity" not in path.read_text() and "NaN" not in path.read_text()
+
+
+def test_a_diverging_trial_is_a_failed_trial_in_a_sweep(tmp_path) -> None:
+    from acrobot_mj.train.sweep import run_sweep
+
+    spec = parse_sweep('preset = "book"\nepisodes = 40\nseeds = [0]\n[grid]\nalpha = [0.2]\n')
+    summary = run_sweep(spec, tmp_path, jobs=1)
+    error = json.loads((tmp_path / "trials" / "alpha=0.2__seed=0" / "error.json").read_text())
+    assert error["error"].startswith("DivergenceError: sarsa_lambda diverged")
+    assert summary["points"][0]["failed_seeds"] == [0] and summary["points"][0]["runs"] == 0
+
+
+# -- records: atomic, strict, never in the wrong place ---------------------------------------
+
+
+@pytest.fixture
+def trained(tmp_path) -> Path:
+    run = tmp_path / "run"
+    train(PRESETS["report"].replace(episodes=2, max_episode_steps=30), seed=0, out_dir=run)
+    return run
+
+
+@pytest.mark.parametrize("name", ["run.mp4", "eval.mp4", "summary.mp4"])
+def test_render_never_replaces_a_runs_own_records(trained, name, exits, capsys) -> None:
+    assert exits(["evaluate", str(trained), "--episodes", "1"]) == 0  # writes eval.json
+    (trained / "summary.json").write_text("{}")  # as a multi-seed run would have
+    before = {p.name: p.read_bytes() for p in trained.iterdir() if p.is_file()}
+    code = exits(["render", str(trained), "--out", str(trained / name), "--steps", "2"])
+    assert code == 2 and "is not a video record" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in trained.iterdir() if p.is_file()} == before
+
+
+def test_render_may_replace_its_own_video_but_no_strip_it_did_not_write(trained, exits, capsys):
+    args = ["render", str(trained), "--steps", "2", "--width", "64", "--height", "64"]
+    assert exits([*args, "--out", str(trained / "v.mp4"), "--strip", str(trained / "s.png")]) == 0
+    assert exits([*args, "--out", str(trained / "v.mp4"), "--strip", str(trained / "s.png")]) == 0
+    curve = str(trained / "learning_curve.png")
+    assert exits([*args, "--out", str(trained / "w.mp4"), "--strip", curve]) == 2
+    assert "no video's strip" in capsys.readouterr().err
+
+
+def test_evaluate_refuses_a_checkpoint_that_is_not_the_recorded_run(trained, exits, capsys):
+    record = json.loads((trained / "run.json").read_text())
+    (trained / "run.json").write_text(json.dumps({**record, "seed": 7}))
+    assert exits(["evaluate", str(trained)]) == 2
+    assert "is for seed 0 but" in capsys.readouterr().err
+    config = {**record["config"], "alpha": 0.25}
+    (trained / "run.json").write_text(json.dumps({**record, "config": config}))
+    assert exits(["render", str(trained), "--out", str(trained / "v.mp4")]) == 2
+    assert "disagree on the config (alpha: 0.5 vs 0.25)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("bad", ["", "[]", '{"config": 5}', '{"config": {"alpha": "x"}}'])
+def test_a_sweep_reruns_unreadable_trial_records_and_says_so(tmp_path, bad, capsys) -> None:
+    from acrobot_mj.train.sweep import run_sweep
+
+    spec = parse_sweep('preset = "report"\nepisodes = 2\nmax_episode_steps = 20\nseeds = [0]\n')
+    run_sweep(spec, tmp_path)
+    record = tmp_path / "trials" / "base__seed=0" / "run.json"
+    record.write_text(bad)  # e.g. a full disk left it empty
+    summary = run_sweep(spec, tmp_path)
+    assert "running base__seed=0 again: its record" in capsys.readouterr().err
+    assert summary["points"][0]["runs"] == 1 and json.loads(record.read_text())["seed"] == 0
+
+
+def _mount_tmpfs(path: Path, options: str) -> None:
+    path.mkdir()
+    result = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(path)],
+                            capture_output=True, text=True)  # fmt: skip
+    if result.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({result.stderr.strip()}): needs root")
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    disk = tmp_path / "disk"
+    _mount_tmpfs(disk, "size=48k")
+    yield disk
+    subprocess.run(["umount", str(disk)], check=False)
+
+
+def test_a_full_disk_loses_no_record_and_says_so_in_one_line(small_disk, exits, capsys):
+    # A run too big for the disk (its checkpoint is ~800 kB): one line naming the problem, and
+    # no half-written or empty record left behind.
+    code = exits(["train", "--preset", "book", "--episodes", "1", "--out", str(small_disk / "r")])
+    err = capsys.readouterr().err
+    assert code == 2 and "No space left on device" in err and len(err.strip().splitlines()) == 1
+    assert [p.name for p in (small_disk / "r").iterdir()] == [".lock"]
+    code = exits(["render", "--policy", "pump", "--out", str(small_disk / "v.mp4")])
+    assert code == 2 and "cannot write the video" in capsys.readouterr().err
+    assert not list(small_disk.glob("*.mp4")) and not list(small_disk.glob(".*.tmp.mp4"))
+
+
+def test_a_read_only_folder_gives_one_line(tmp_path, exits, capsys) -> None:
+    folder = tmp_path / "ro"
+    _mount_tmpfs(folder, "ro")
+    try:
+        code = exits(["render", "--policy", "zero", "--steps", "2", "--out", str(folder / "v.mp4")])
+        assert code == 2
+        assert "its folder is on a read-only file system" in capsys.readouterr().err
+    finally:
+        subprocess.run(["umount", str(folder)], check=False)
+
+
+# -- GL only when rendering -----------------------------------------------------------------
+
+
+def _cli(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess:
+    clean = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "ACROBOT_MJ_GL_PROBLEM")}
+    return subprocess.run(
+        [sys.executable, "-m", "acrobot_mj.cli", *args],
+        cwd=cwd,
+        env={**clean, "PYTHONPATH": str(ROOT), **env},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+@pytest.mark.parametrize(
+    ("gl", "says"),
+    [("nonsense", "MUJOCO_GL='nonsense' is not a backend MuJoCo knows"), ("glfw", "no display")],
+)
+def test_a_broken_gl_choice_fails_only_rendering(tmp_path, gl, says) -> None:
+    assert _cli(["params"], tmp_path, MUJOCO_GL=gl).returncode == 0
+    trained = _cli(["train", "--episodes", "1", "--max-episode-steps", "5", "--out", "r"],
+                   tmp_path, MUJOCO_GL=gl)  # fmt: skip
+    assert trained.returncode == 0, trained.stderr
+    rendered = _cli(["render", "--policy", "zero", "--steps", "2", "--out", "v.mp4"], tmp_path,
+                    MUJOCO_GL=gl)  # fmt: skip
+    assert rendered.returncode == 2 and says in rendered.stderr
+    assert len(rendered.stderr.strip().splitlines()) == 1
+    assert "tried egl" in rendered.stderr and "(it works here)" in rendered.stderr
+
+
+def test_a_missing_gl_library_is_reported_where_rendering_is_asked(monkeypatch) -> None:
+    from acrobot_mj.envs import gl
+
+    # Fake probes: a real EGL probe in this process would close the display MuJoCo renders on.
+    monkeypatch.setitem(gl.PROBES, "osmesa", lambda: "libOSMesa cannot be loaded (test)")
+    monkeypatch.setitem(gl.PROBES, "egl", lambda: None)
+    monkeypatch.setattr(gl, "ATTEMPTS", {})
+    monkeypatch.setattr(gl, "CHOICE", gl.CHOICE)
+    monkeypatch.setattr(gl, "PROBLEM", gl.PROBLEM)
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    monkeypatch.delenv("ACROBOT_MJ_GL_PROBLEM", raising=False)
+    # Left as it is, MUJOCO_GL=osmesa without the library makes `import mujoco` crash; MuJoCo is
+    # told to do without GL instead, and the reason is kept for rendering (and child processes).
+    assert gl.configure_gl() is None
+    assert os.environ["MUJOCO_GL"] == "disable"
+    assert "libOSMesa cannot be loaded (test)" in os.environ["ACROBOT_MJ_GL_PROBLEM"]
+    with pytest.raises(gl.GLBackendError, match="MUJOCO_GL=osmesa cannot work here") as error:
+        gl.make_renderer(None, 8, 8)
+    assert "set MUJOCO_GL=egl (it works here)" in str(error.value)
+    assert gl.configure_gl() is None and gl.CHOICE == "broken"  # a child sees the same
+
+
+# -- absurd values and small things ---------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["train", "--frame-skip", "1000000000000"], "frame_skip must be in [1, 1000]"),
+        (["train", "--seed", "-1"], "argument --seed: a seed must be an integer >= 0, got -1"),
+        (["evaluate", "x", "--seed", "-3"], "argument --seed: a seed must be an integer >= 0"),
+    ],
+)
+def test_absurd_values_are_refused_with_their_range(argv, message, tmp_path, exits, capsys):
+    os.chdir(tmp_path)
+    assert exits(argv) == 2 and message in capsys.readouterr().err
+
+
+def test_the_env_refuses_an_absurd_frame_skip() -> None:
+    from acrobot_mj.envs.env import AcrobotEnv
+
+    with pytest.raises(ValueError, match=r"frame_skip must be in \[1, 1000\]"):
+        AcrobotEnv(frame_skip=10**12)
+    with pytest.raises(ValueError, match="seed must be an integer >= 0"):
+        train(PRESETS["report"], seed=-1)
+
+
+def test_a_snapshot_holds_the_history_as_it_was(tmp_path) -> None:
+    # Snapshots note the history's length instead of copying it (the per-episode cost stays
+    # flat); what is saved is still the history at the snapshot, not what came after.
+    history = History()
+    history.add(5, -5.0, False)
+    checkpoints = Checkpoints(tmp_path / "c.npz", TrainConfig(), seed=0)
+    checkpoints.snapshot(lambda: {}, history, 5)
+    history.add(7, -7.0, True)  # the next episode, not yet snapshotted
+    checkpoints.save()
+    meta, _ = load_checkpoint(tmp_path / "c.npz")
+    assert meta["history"]["episode_lengths"] == [5] and meta["episodes_done"] == 1
+
+
+def test_a_lockstep_checkpoint_missing_arrays_is_refused_not_a_traceback(tmp_path) -> None:
+    from acrobot_mj.train.checkpoint import save_checkpoint
+    from acrobot_mj.train.lockstep import train_lockstep
+
+    config = PRESETS["report"].replace(episodes=2, max_episode_steps=20)
+    train_lockstep(config, [0, 1], tmp_path)
+    path = tmp_path / "seed_1" / "checkpoint.npz"
+    meta, arrays = load_checkpoint(path)
+    del arrays["stream.block"]
+    save_checkpoint(path, arrays, meta)
+    with pytest.raises(CheckpointError, match=r"seed_1/checkpoint.npz does not fit its agent"):
+        train_lockstep(config.replace(episodes=3), [0, 1], tmp_path, resume=True)
+
+
+def test_curves_of_a_summary_without_runs_is_a_clear_error(tmp_path, exits, capsys) -> None:
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "summary.json").write_text(json.dumps({"config": {}, "runs": []}))
+    assert exits(["curves", str(tmp_path / "s"), "--out", str(tmp_path / "c.png")]) == 2
+    assert "lists no runs" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("alpha = 0.1\n[grid]\nalpha = [0.2, 0.3]\n", "alpha is set at the top level and swept"),
+        ("[overrides]\nalpha = 0.1\n[grid]\nalpha = [0.2]\n", "alpha is set in [overrides] and"),
+        ("alpha = 0.1\n[overrides]\nalpha = 0.2\n", "alpha is set at the top level and in"),
+    ],
+)
+def test_a_sweep_key_given_twice_is_refused(text, message) -> None:
+    with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        parse_sweep(text)
