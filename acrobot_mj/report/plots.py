@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from acrobot_mj.files import write_atomic
+
 COLOURS = (
     (31, 119, 180),
     (214, 39, 40),
@@ -177,10 +179,7 @@ def line_plot(
         if len(points) > 1:
             draw.line(points, fill=colour, width=2)
         draw.text((axes.left + 10, axes.top + 8 + 18 * k), s.label, fill=colour, font=small)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    image.save(path)
-    return path
+    return write_atomic(path, lambda f: image.save(f, format="PNG"))
 
 
 def learning_curve(

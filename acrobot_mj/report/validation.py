@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from acrobot_mj.control.model import HANGING, step
-from acrobot_mj.files import write_json
+from acrobot_mj.files import write_json, write_text
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.report.crosscheck import METHODS, cross_check, integrator_study, linearisation
 from acrobot_mj.report.plots import Series, line_plot
@@ -108,7 +108,7 @@ def validate(out: str | Path = "runs/validation", quick: bool = False) -> dict[s
     }
     report["wall_seconds"] = time.perf_counter() - started
     write_json(out / "validation.json", report)
-    (out / "validation.md").write_text(markdown(report))
+    write_text(out / "validation.md", markdown(report))
     return report
 
 

@@ -23,7 +23,7 @@ from acrobot_mj.control.baselines import make_policy
 from acrobot_mj.envs.episode import Actor, PolicyActor, run_episode
 from acrobot_mj.envs.spaces import TORQUES
 from acrobot_mj.envs.tasks import HeightGoal
-from acrobot_mj.files import write_json
+from acrobot_mj.files import write_atomic, write_json
 
 #: x264 at constant quality, its fastest preset: software GL and the encoder share the CPU, and
 #: at crf 30 a 300-frame swing-up still takes only ~100 kB.
@@ -239,7 +239,8 @@ def record_episode(
     if strip is not None:
         kept = frames.kept
         picks = np.linspace(0, len(kept) - 1, strip_frames).round().astype(int)
-        Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1)).save(strip)
+        image = Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1))
+        write_atomic(strip, lambda f: image.save(f, format="PNG"))
         record["strip"] = str(strip)
     write_json(path.with_suffix(".json"), record)
     return record
