@@ -22,7 +22,7 @@ from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import History
-from acrobot_mj.train.rundir import Checkpoints, load_agent
+from acrobot_mj.train.rundir import Checkpoints, load_agent, read_history
 from acrobot_mj.train.sweep_spec import parse_sweep
 from acrobot_mj.train.trainer import train
 
@@ -292,7 +292,9 @@ def test_a_full_disk_loses_no_record_and_says_so_in_one_line(small_disk, exits, 
     code = exits(["train", "--preset", "book", "--episodes", "1", "--out", str(small_disk / "r")])
     err = capsys.readouterr().err
     assert code == 2 and "No space left on device" in err and len(err.strip().splitlines()) == 1
-    assert [p.name for p in (small_disk / "r").iterdir()] == [".lock"]
+    left = {p.name: p.stat().st_size for p in (small_disk / "r").iterdir()}
+    assert set(left) <= {".lock", "episodes.jsonl"}  # no checkpoint, run.json or temporary
+    assert left.get("episodes.jsonl", 1) > 0
     code = exits(["render", "--policy", "pump", "--out", str(small_disk / "v.mp4")])
     assert code == 2 and "cannot write the video" in capsys.readouterr().err
     assert not list(small_disk.glob("*.mp4")) and not list(small_disk.glob(".*.tmp.mp4"))
@@ -387,17 +389,28 @@ def test_the_env_refuses_an_absurd_frame_skip() -> None:
         train(PRESETS["report"], seed=-1)
 
 
-def test_a_snapshot_holds_the_history_as_it_was(tmp_path) -> None:
-    # Snapshots note the history's length instead of copying it (the per-episode cost stays
-    # flat); what is saved is still the history at the snapshot, not what came after.
+def test_checkpoints_stay_small_and_count_their_lines_of_the_episode_log(tmp_path) -> None:
+    # Snapshots note the history's length instead of copying it, and saves append only the new
+    # episodes to episodes.jsonl: the cost of an episode does not grow with the run. What a
+    # checkpoint covers is still the history at its snapshot, not what came after.
     history = History()
-    history.add(5, -5.0, False)
     checkpoints = Checkpoints(tmp_path / "c.npz", TrainConfig(), seed=0)
-    checkpoints.snapshot(lambda: {}, history, 5)
-    history.add(7, -7.0, True)  # the next episode, not yet snapshotted
+    checkpoints.start(history)
+    for k in range(3):
+        history.add(5 + k, -5.0 - k, False)
+        checkpoints.snapshot(lambda: {}, history, 0)
+        checkpoints.save()
+    history.add(9, -9.0, True)  # the next episode, not yet snapshotted
     checkpoints.save()
     meta, _ = load_checkpoint(tmp_path / "c.npz")
-    assert meta["history"]["episode_lengths"] == [5] and meta["episodes_done"] == 1
+    assert meta["episodes_done"] == 3 and "history" not in meta
+    lines = (tmp_path / "episodes.jsonl").read_text().splitlines()
+    assert [json.loads(line)["length"] for line in lines] == [5, 6, 7]
+    assert read_history(tmp_path / "c.npz", meta).episode_lengths == [5, 6, 7]
+    # A log with fewer lines than its checkpoint counts is refused, naming both.
+    (tmp_path / "episodes.jsonl").write_text(lines[0] + "\n")
+    with pytest.raises(CheckpointError, match=r"holds 1 episodes, but .*c\.npz was saved after 3"):
+        read_history(tmp_path / "c.npz", meta)
 
 
 def test_a_lockstep_checkpoint_missing_arrays_is_refused_not_a_traceback(tmp_path) -> None:

@@ -83,6 +83,7 @@ def train_agent(
             raise ValueError("resume needs the run directory (out_dir)")
         history, steps, arrays = read_for_resume(out / CHECKPOINT_FILE, config, seed)
         load_into(agent, arrays, out / CHECKPOINT_FILE)
+    checkpoints.start(history)
     checkpoints.snapshot(agent.state_dict, history, steps)
     bar = Progress(config.episodes, f"{config.algorithm} seed {seed}", progress)
     started = time.perf_counter()

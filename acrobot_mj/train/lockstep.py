@@ -134,6 +134,7 @@ class _Lockstep:
         """Step every learner with episodes left until all are done; checkpoints as they go."""
         config, k = self.config, self.k
         for i in range(k):
+            self.checkpoints[i].start(self.histories[i])
             self._snapshot(i)
         length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
         active = self.episode < config.episodes

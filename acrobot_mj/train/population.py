@@ -118,6 +118,7 @@ def train_population(
     )
     if out is not None:
         kept = Checkpoints(out / CHECKPOINT_FILE, config, seed)
+        kept.start(History())
         kept.snapshot(agent.state_dict, history, steps)
         kept.save()
         write_run(out, record, f"{config.population} learners, seed {seed}")

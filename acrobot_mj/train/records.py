@@ -105,14 +105,17 @@ def run_record(
     return record
 
 
-def checkpoint_meta(config: TrainConfig, seed: int, history: History, steps: int) -> dict[str, Any]:
-    """The JSON document of a training checkpoint: enough to resume exactly."""
+def checkpoint_meta(
+    config: TrainConfig, seed: int, episodes_done: int, steps: int, episode_log: str
+) -> dict[str, Any]:
+    """The JSON document of a training checkpoint: with the agent's arrays and the first
+    ``episodes_done`` lines of the run's episode log, enough to resume exactly."""
     return {
         "config": config.to_dict(),
         "seed": seed,
-        "episodes_done": len(history),
+        "episodes_done": episodes_done,
         "steps": steps,
-        "history": {k: list(v) for k, v in history.to_dict().items()},
+        "episode_log": episode_log,
         "agent": config.algorithm,
     }
 

@@ -3,14 +3,17 @@ reading a run's checkpoint back (for resume, evaluation and videos), refusing an
 belong to the run asked for.
 
 A run directory holds ``run.json`` (:mod:`.records`), ``checkpoint.npz`` (:mod:`.checkpoint`),
-``learning_curve.png`` and, after evaluation, ``eval.json``; a run of several seeds holds
-``summary.json`` and one ``seed_S/`` run directory per seed; a population run holds
-``learner_K/`` directories besides its own files.
+``episodes.jsonl`` (one line per training episode, written at each checkpoint: the checkpoint
+says how many lines are its own), ``learning_curve.png`` and, after evaluation, ``eval.json``;
+a run of several seeds holds ``summary.json`` and one ``seed_S/`` run directory per seed; a
+population run holds ``learner_K/`` directories besides its own files.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -20,18 +23,19 @@ import numpy as np
 from acrobot_mj.agents.protocol import Agent
 from acrobot_mj.agents.registry import make_agent
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import write_json
+from acrobot_mj.files import write_json, write_text
 from acrobot_mj.report.plots import learning_curve
 from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.records import HISTORY_KEYS, History, checkpoint_meta
 
-RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE = (
+RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = (
     "run.json",
     "eval.json",
     "checkpoint.npz",
     "learning_curve.png",
     "summary.json",
+    "episodes.jsonl",
 )
 
 
@@ -61,15 +65,18 @@ def check_fresh(out: Path) -> None:
 def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], TrainConfig]:
     """A training checkpoint's meta (schema checked), arrays and config."""
     meta, arrays = load_checkpoint(path)
-    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int, "history": dict}
+    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int}
     wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
-    history = meta.get("history", {})
-    if not wrong and (
-        sorted(history) != sorted(HISTORY_KEYS)
-        or len({len(v) for v in history.values()}) != 1
-        or len(history["episode_lengths"]) != meta["episodes_done"]
-    ):
-        wrong.append("history")
+    if "history" in meta:  # written before the episode log: the episodes in the meta
+        history = meta["history"]
+        if not (
+            isinstance(history, dict)
+            and sorted(history) == sorted(HISTORY_KEYS)
+            and all(len(v) == meta.get("episodes_done") for v in history.values())
+        ):
+            wrong.append("history")
+    elif meta.get("episode_log") != EPISODE_LOG:
+        wrong.append("episode_log")
     if wrong:
         raise CheckpointError(f"{path} is not a training checkpoint: bad or missing {wrong}")
     try:
@@ -77,6 +84,27 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], 
     except (TypeError, ValueError) as error:
         raise CheckpointError(f"{path} holds an invalid config: {error}") from error
     return meta, arrays, config
+
+
+def read_history(path: Path, meta: dict[str, Any]) -> History:
+    """The episodes a checkpoint covers: from its meta (older checkpoints) or the first
+    ``episodes_done`` lines of the episode log beside it."""
+    if "history" in meta:
+        return History(**meta["history"])
+    log, count = path.parent / meta["episode_log"], meta["episodes_done"]
+    history = History()
+    try:
+        with open(log) as lines:
+            for line in itertools.islice(lines, count):
+                row = json.loads(line)
+                history.add(int(row["length"]), float(row["return"]), bool(row["success"]))
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise CheckpointError(f"{log} cannot give the episodes of {path}: {error!r}") from None
+    if len(history) != count:
+        raise CheckpointError(
+            f"{log} holds {len(history)} episodes, but {path} was saved after {count}"
+        )
+    return history
 
 
 def load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
@@ -110,6 +138,7 @@ def read_for_resume(
     may continue (more episodes than it holds are allowed, but no change of the schedule)."""
     meta, arrays, saved = read_checkpoint(path)
     check_same_run(path, meta, saved, config, seed, may_differ=("episodes",))
+    history = read_history(path, meta)
     if config.episodes < meta["episodes_done"]:
         raise CheckpointError(
             f"{path} already holds {meta['episodes_done']} episodes; resume "
@@ -120,7 +149,7 @@ def read_for_resume(
             f"{path}: the start-noise schedule depends on episodes "
             f"({saved.episodes}), so resume cannot change it"
         )
-    return History(**meta["history"]), meta["steps"], arrays
+    return history, meta["steps"], arrays
 
 
 def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
@@ -161,16 +190,30 @@ def _check_record_agrees(run_file: Path, config: TrainConfig, seed: int, path: P
 
 
 class Checkpoints:
-    """A learner's checkpoint file: it holds the state after the learner's last completed
-    episode (:meth:`snapshot`), so a run stopped in the middle of an episode resumes exactly
-    (that episode is run again from its start). ``path`` None keeps nothing.
+    """A learner's checkpoint and episode log: the checkpoint holds the state after the
+    learner's last completed episode (:meth:`snapshot`), so a run stopped in the middle of an
+    episode resumes exactly (that episode is run again from its start). ``path`` None keeps
+    nothing.
 
-    A snapshot copies the agent's arrays but only notes how long the history is (the history
-    only grows), so taking one costs the same at episode 10 and at episode 10 million."""
+    A snapshot copies the agent's arrays but only notes how long the history is; a save appends
+    the episodes since the last save to ``episodes.jsonl`` (synced), then writes the checkpoint,
+    which counts them. So neither grows with the run: episode 10 costs what episode 10 million
+    does, and a checkpoint stays the size of the agent."""
 
     def __init__(self, path: Path | None, config: TrainConfig, seed: int) -> None:
         self.path, self.config, self.seed = path, config, seed
+        self.log = None if path is None else path.parent / EPISODE_LOG
         self._state: tuple[dict[str, np.ndarray], History, int, int] | None = None
+        self._logged = 0
+
+    def start(self, history: History) -> None:
+        """Begin at ``history``: the log keeps exactly its episodes (none for a new run; for a
+        resumed one, those its checkpoint counted, and not the ones after)."""
+        if self.log is None:
+            return
+        self._logged = len(history)
+        rows = "".join(_log_line(row) for row in _rows(history, 0, len(history)))
+        write_text(self.log, rows)
 
     def snapshot(
         self, state: Callable[[], dict[str, np.ndarray]], history: History, steps: int
@@ -181,12 +224,30 @@ class Checkpoints:
             self._state = (state(), history, len(history), steps)
 
     def save(self) -> None:
-        """Write the last snapshot (atomically)."""
+        """Append the new episodes to the log, then write the checkpoint (atomically)."""
         if self.path is None or self._state is None:
             return
         arrays, history, length, steps = self._state
-        done = History(**{key: values[:length] for key, values in history.to_dict().items()})
-        save_checkpoint(self.path, arrays, checkpoint_meta(self.config, self.seed, done, steps))
+        if length > self._logged:
+            with open(self.log, "a") as log:
+                log.writelines(_log_line(row) for row in _rows(history, self._logged, length))
+                log.flush()
+                os.fsync(log.fileno())
+            self._logged = length
+        meta = checkpoint_meta(self.config, self.seed, length, steps, EPISODE_LOG)
+        save_checkpoint(self.path, arrays, meta)
+
+
+def _rows(history: History, start: int, stop: int):
+    lists = history.episode_lengths, history.episode_returns, history.episode_successes
+    for k in range(start, stop):
+        yield k, lists[0][k], lists[1][k], lists[2][k]
+
+
+def _log_line(row: tuple[int, int, float, bool]) -> str:
+    episode, length, total, success = row
+    line = {"episode": episode, "length": length, "return": total, "success": success}
+    return json.dumps(line, allow_nan=False) + "\n"
 
 
 def write_run(out: Path, record: dict[str, Any], label: str) -> None:
