@@ -48,7 +48,8 @@ def test_models_load_from_an_installed_wheel(tmp_path: Path) -> None:
     probe = (
         "import acrobot_mj, gymnasium as gym; from acrobot_mj.envs.assets import models_dir;"
         "env = gym.make('acrobot_mj/Acrobot-v0'); env.reset(seed=0); env.step(2);"
-        "print(acrobot_mj.__file__); print(models_dir())"
+        "from acrobot_mj.control.trajectory import shipped;"
+        "print(acrobot_mj.__file__); print(models_dir()); print(shipped('reserve').steps)"
     )
     # cwd is the temporary folder and PYTHONPATH only the install target, so nothing can come
     # from the checkout (the dependencies still come from this interpreter's site-packages).
@@ -63,3 +64,4 @@ def test_models_load_from_an_installed_wheel(tmp_path: Path) -> None:
     ).stdout.split()
     assert Path(out[0]).is_relative_to(target)
     assert Path(out[1]) == target / "acrobot_mj" / "models"
+    assert int(out[2]) > 300  # the shipped trajectories travel in the wheel, and pass their check

@@ -32,7 +32,7 @@ def test_schema(report) -> None:
         "controllers",
         "minimum_time",
         "figures",
-        "moonshot_balance",
+        "balance",
         "versions",
     ):
         assert key in r, key
@@ -49,6 +49,17 @@ def test_schema(report) -> None:
     for figure in r["figures"]:
         assert (out / figure).read_bytes()[:4] == b"\x89PNG"
         assert f"]({figure})" in markdown
+
+
+def test_balance_section(report) -> None:
+    out, r = report
+    balance = r["balance"]
+    assert balance["trajectories"]["min_time"]["residual"] < 1e-9
+    # Upright at rest takes longer than the height goal's 252 steps (more energy, and no speed).
+    assert balance["trajectories"]["min_time"]["steps"] > r["min_time_steps_frame_skip_1"]
+    assert all(loop["balanced"] for loop in balance["closed_loop"].values())
+    assert {row["case"] for row in balance["robustness"]} >= {"nominal", "link masses + 1 %"}
+    assert "Swing-up and balance: robustness" in (out / "validation.md").read_text()
 
 
 def test_cross_check_and_errata(report) -> None:

@@ -1,6 +1,6 @@
-"""Command line: ``acrobot-mj train | evaluate | render | validate | bench | sweep | curves |
-demo | params``. A thin layer: each command parses its arguments and calls library functions
-(:mod:`.learning`, :mod:`.tools`)."""
+"""Command line: ``acrobot-mj train | evaluate | render | validate | balance | bench | sweep |
+curves | demo | params``. A thin layer: each command parses its arguments and calls library
+functions (:mod:`.learning`, :mod:`.tools`, :mod:`.control`)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from acrobot_mj.cli import learning, tools
+from acrobot_mj.cli import control, learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.lock import RunDirectoryBusy
@@ -22,6 +22,7 @@ COMMANDS = (
     learning.add_evaluate,
     tools.add_render,
     tools.add_validate,
+    control.add_balance,
     learning.add_sweep,
     learning.add_curves,
     tools.add_bench,

@@ -16,7 +16,8 @@ from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import render_policy
 from acrobot_mj.train.evaluate import render_run
-from acrobot_mj.train.records import History, versions
+from acrobot_mj.train.records import History
+from acrobot_mj.version import versions
 
 
 def add_render(commands: Commands) -> None:

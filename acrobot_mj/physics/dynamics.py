@@ -18,6 +18,8 @@ Every function takes one state or arrays of states: ``q`` and ``dq`` have shape 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -33,16 +35,59 @@ def _split(x: ArrayLike) -> tuple[NDArray, NDArray]:
     return x[..., 0], x[..., 1]
 
 
+def inertia_terms(q2: Any, p: AcrobotParams = DEFAULT_PARAMS, xp: Any = np) -> tuple:
+    """``d11, d12, d22`` [kg m^2] of ``M(q)`` (report eqs. 3, 4 and the erratum's ``d12``),
+    element-wise in ``q2`` [rad]: floats, numpy arrays, or CasADi symbols with ``xp=casadi``
+    (``xp`` supplies ``cos`` and ``sin``). Every other function here is built on these terms."""
+    c2 = xp.cos(q2)
+    d11 = p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2 * c2) + p.I1 + p.I2
+    d12 = p.m2 * (p.lc2**2 + p.l1 * p.lc2 * c2) + p.I2
+    d22 = p.m2 * p.lc2**2 + p.I2
+    return d11, d12, d22
+
+
+def coriolis_terms(
+    q2: Any, dq1: Any, dq2: Any, p: AcrobotParams = DEFAULT_PARAMS, xp: Any = np
+) -> tuple:
+    """``h1, h2`` [N m], the Coriolis and centrifugal terms (report eqs. 5, 6), element-wise."""
+    k = p.m2 * p.l1 * p.lc2 * xp.sin(q2)
+    h1 = -k * dq2**2 - 2 * k * dq2 * dq1
+    h2 = k * dq1**2
+    return h1, h2
+
+
+def gravity_terms(q1: Any, q2: Any, p: AcrobotParams = DEFAULT_PARAMS, xp: Any = np) -> tuple:
+    """``phi1, phi2`` = dV/dq [N m], the gravity terms (report eqs. 7, 8), element-wise."""
+    phi2 = p.m2 * p.lc2 * p.g * xp.cos(q1 + q2)
+    phi1 = (p.m1 * p.lc1 + p.m2 * p.l1) * p.g * xp.cos(q1) + phi2
+    return phi1, phi2
+
+
+def cramer(a: Any, b: Any, d: Any, f1: Any, f2: Any) -> tuple:
+    """The solution ``(x1, x2)`` of ``[[a, b], [b, d]] x = (f1, f2)``, element-wise."""
+    det = a * d - b * b
+    return (d * f1 - b * f2) / det, (a * f2 - b * f1) / det
+
+
+def accelerations(
+    q1: Any, q2: Any, dq1: Any, dq2: Any, tau: Any, p: AcrobotParams = DEFAULT_PARAMS, xp: Any = np
+) -> tuple:
+    """``ddq1, ddq2`` [rad/s^2] element-wise, from the same terms as :func:`forward_dynamics`
+    (with ``xp=casadi`` for symbolic states, as trajectory optimisation needs)."""
+    d11, d12, d22 = inertia_terms(q2, p, xp)
+    h1, h2 = coriolis_terms(q2, dq1, dq2, p, xp)
+    phi1, phi2 = gravity_terms(q1, q2, p, xp)
+    return cramer(d11, d12, d22, 0.0 - (h1 + phi1), tau - (h2 + phi2))
+
+
 def mass_matrix(q: ArrayLike, p: AcrobotParams = DEFAULT_PARAMS) -> NDArray:
     """Joint-space inertia ``M(q)`` [kg m^2], shape ``(..., 2, 2)``.
 
     q: angles [rad], shape ``(..., 2)``.
     """
     _, q2 = _split(q)
-    c2 = np.cos(q2)
-    d11 = p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2 * c2) + p.I1 + p.I2
-    d12 = p.m2 * (p.lc2**2 + p.l1 * p.lc2 * c2) + p.I2
-    d22 = np.broadcast_to(p.m2 * p.lc2**2 + p.I2, d11.shape)
+    d11, d12, d22 = inertia_terms(q2, p)
+    d22 = np.broadcast_to(d22, d11.shape)
     return np.stack([np.stack([d11, d12], -1), np.stack([d12, d22], -1)], -2)
 
 
@@ -50,18 +95,13 @@ def coriolis_forces(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = DEFAULT_PARA
     """Coriolis and centrifugal terms ``h(q, dq)`` [N m], shape ``(..., 2)`` (report eqs. 5, 6)."""
     _, q2 = _split(q)
     dq1, dq2 = _split(dq)
-    k = p.m2 * p.l1 * p.lc2 * np.sin(q2)
-    h1 = -k * dq2**2 - 2 * k * dq2 * dq1
-    h2 = k * dq1**2
-    return np.stack(np.broadcast_arrays(h1, h2), -1)
+    return np.stack(np.broadcast_arrays(*coriolis_terms(q2, dq1, dq2, p)), -1)
 
 
 def gravity_forces(q: ArrayLike, p: AcrobotParams = DEFAULT_PARAMS) -> NDArray:
     """Gravity terms ``phi(q)`` = dV/dq [N m], shape ``(..., 2)`` (report eqs. 7, 8)."""
     q1, q2 = _split(q)
-    phi2 = p.m2 * p.lc2 * p.g * np.cos(q1 + q2)
-    phi1 = (p.m1 * p.lc1 + p.m2 * p.l1) * p.g * np.cos(q1) + phi2
-    return np.stack([phi1, phi2], -1)
+    return np.stack(gravity_terms(q1, q2, p), -1)
 
 
 def bias_forces(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = DEFAULT_PARAMS) -> NDArray:
@@ -77,11 +117,7 @@ def generalized_forces(tau: ArrayLike) -> NDArray:
 
 def solve_2x2(m: NDArray, f: NDArray) -> NDArray:
     """Solve ``m x = f`` for symmetric 2x2 ``m`` (``(..., 2, 2)``) by Cramer's rule, batched."""
-    a, b, d = m[..., 0, 0], m[..., 0, 1], m[..., 1, 1]
-    det = a * d - b * b
-    x1 = (d * f[..., 0] - b * f[..., 1]) / det
-    x2 = (a * f[..., 1] - b * f[..., 0]) / det
-    return np.stack([x1, x2], -1)
+    return np.stack(cramer(m[..., 0, 0], m[..., 0, 1], m[..., 1, 1], f[..., 0], f[..., 1]), -1)
 
 
 def forward_dynamics(

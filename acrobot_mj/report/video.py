@@ -10,6 +10,7 @@ import functools
 import json
 import os
 import queue
+import re
 import threading
 from pathlib import Path
 from typing import Any
@@ -110,8 +111,10 @@ class VideoWriter:
 
 
 def caption(frame: np.ndarray, text: str, colour: tuple[int, int, int] = (20, 20, 20)):
-    """Draw ``text`` in the top-left corner of ``frame`` (in place) and return it."""
-    size = max(10, frame.shape[0] // 24)
+    """Draw ``text`` in the top-left corner of ``frame`` (in place) and return it; the font
+    shrinks (to 8 px at least) until the text fits the frame's width."""
+    shape = re.sub(r"\d", "0", text)  # captions of one video share a size
+    size = _fitting_size(shape, max(10, frame.shape[0] // 24), frame.shape[1] - 16)
     band = frame[: size + 12]  # only the caption's band goes through Pillow: 5x faster
     image = Image.fromarray(band)
     ImageDraw.Draw(image).text((8, 6), text, fill=colour, font=_font(size))
@@ -119,9 +122,17 @@ def caption(frame: np.ndarray, text: str, colour: tuple[int, int, int] = (20, 20
     return frame
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=64)
 def _font(size: int) -> ImageFont.FreeTypeFont:
     return ImageFont.load_default(size)
+
+
+@functools.lru_cache(maxsize=256)
+def _fitting_size(text: str, size: int, width: int) -> int:
+    """The largest font size up to ``size`` at which ``text`` fits ``width`` pixels."""
+    while size > 8 and _font(size).getlength(text) > width:
+        size -= 1
+    return size
 
 
 def _torque_of(env: Any, action: Any) -> float:
@@ -207,12 +218,14 @@ def record_episode(
     captions: bool = True,
     strip: str | Path | None = None,
     strip_frames: int = 6,
+    on_reset: Any = None,
 ) -> dict[str, Any]:
     """Run one episode of ``actor`` on ``env`` (``render_mode="rgb_array"``) and write an MP4.
 
     Stops at termination, truncation or ``max_steps``. With ``strip``, also writes a PNG of
-    ``strip_frames`` frames spread over the episode. Returns a record of the episode, also
-    written as JSON beside the video.
+    ``strip_frames`` frames spread over the episode; ``on_reset(obs, info)`` runs after the
+    reset, before the first frame. Returns a record of the episode, also written as JSON beside
+    the video.
     """
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
@@ -222,8 +235,14 @@ def record_episode(
     fps = env.metadata["render_fps"]
     with VideoWriter(path, fps) as writer:
         frames = _Frames(env, writer, captions, keep=strip is not None)
+
+        def reset_hook(obs: np.ndarray, info: dict[str, Any]) -> None:
+            if on_reset is not None:
+                on_reset(obs, info)
+            frames.on_reset(obs, info)
+
         episode = run_episode(
-            env, actor, seed, reset_options, max_steps, frames.on_reset, frames.on_step
+            env, actor, seed, reset_options, max_steps, reset_hook, frames.on_step
         )
     record = {
         "video": str(path),

@@ -13,8 +13,9 @@ from acrobot_mj.report.video import record_episode
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import episode_seed, make_env, tie_stream
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.records import History, versions
+from acrobot_mj.train.records import History
 from acrobot_mj.train.rundir import EVAL_FILE, load_agent
+from acrobot_mj.version import versions
 
 #: Start noise of evaluation episodes after the first when the run's config sets none (it
 #: trained with one evaluation episode).

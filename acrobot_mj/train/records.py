@@ -8,32 +8,16 @@ own entries.
 
 from __future__ import annotations
 
-import platform
 from dataclasses import dataclass, field
 from typing import Any
-
-import gymnasium as gym
-import mujoco
-import numpy as np
 
 from acrobot_mj.envs.episode import Episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.stats import recent_median
-from acrobot_mj.version import __version__
+from acrobot_mj.version import versions
 
 HISTORY_KEYS = ("episode_lengths", "episode_returns", "episode_successes")
-
-
-def versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
-    return {
-        "python": platform.python_version(),
-        "acrobot_mj": __version__,
-        "mujoco": mujoco.__version__,
-        "gymnasium": gym.__version__,
-        "numpy": np.__version__,
-    }
 
 
 @dataclass

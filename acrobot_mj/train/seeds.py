@@ -12,7 +12,7 @@ from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import train_lockstep
-from acrobot_mj.train.records import recent_score, versions
+from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import (
     CURVE_FILE,
     SUMMARY_FILE,
@@ -23,6 +23,7 @@ from acrobot_mj.train.rundir import (
 from acrobot_mj.train.stats import spread
 from acrobot_mj.train.trainer import train
 from acrobot_mj.train.workers import WorkerPool
+from acrobot_mj.version import versions
 
 
 def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, Any]:

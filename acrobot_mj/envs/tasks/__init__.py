@@ -1,14 +1,17 @@
 """The task registry: every task, by name, each registered with Gymnasium.
 
 Built in: :class:`~acrobot_mj.envs.tasks.height_goal.HeightGoal` (``height_goal``,
-``acrobot_mj/Acrobot-v0``). A new task is one file with a :class:`~acrobot_mj.envs.tasks.base.Task`
-subclass plus one :func:`register_task` call (here for a built-in one, anywhere for your own).
+``acrobot_mj/Acrobot-v0``) and :class:`~acrobot_mj.envs.tasks.balance.Balance` (``balance``,
+``acrobot_mj/AcrobotBalance-v0``). A new task is one file with a
+:class:`~acrobot_mj.envs.tasks.base.Task` subclass plus one :func:`register_task` call (here for
+a built-in one, anywhere for your own).
 """
 
 from __future__ import annotations
 
 import gymnasium
 
+from acrobot_mj.envs.tasks.balance import Balance
 from acrobot_mj.envs.tasks.base import ARRAY, SCALAR, Outcome, Score, Task
 from acrobot_mj.envs.tasks.height_goal import HeightGoal
 
@@ -16,6 +19,7 @@ __all__ = [
     "ARRAY",
     "SCALAR",
     "TASKS",
+    "Balance",
     "HeightGoal",
     "Outcome",
     "Score",
@@ -60,3 +64,4 @@ def get_task(name: str) -> type[Task]:
 
 
 register_task(HeightGoal)
+register_task(Balance)

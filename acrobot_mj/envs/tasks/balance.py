@@ -1,0 +1,98 @@
+"""Swing up and balance at upright, the report's own objective: ``acrobot_mj/AcrobotBalance-v0``."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.envs.tasks.base import Outcome, Score, Task
+from acrobot_mj.physics.angles import wrap_angle
+
+
+class Balance(Task):
+    r"""Swing up from hanging and stay balanced upright, ``(q1, q2) = (pi/2, 0)``.
+
+    ## Rewards
+    ``(1 + sin q1) (1 + cos q2) / 4`` on every step: 1 balanced upright, 0 with link 1 hanging or
+    link 2 folded back, smooth in between. dm_control's acrobot ``swingup`` rewards the tip's
+    distance to the target with a tolerance band; this is the same idea on the two angles, with
+    no flat region (a learner always sees which way is up) and no velocity term (a swing-up must
+    pass through fast states).
+
+    ## Starting State
+    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)``; with ``start_noise = s > 0`` each angle and
+    velocity gets ``U(-s, s)`` added (angles first).
+
+    ## Episode End
+    No termination: balancing is staying up. Truncation at 2000 actions by the ``TimeLimit``
+    that ``gymnasium.make`` adds (100 s at 0.05 s steps: a swing-up of up to 40 s and 60 s of
+    balance).
+
+    ``info`` holds ``upright_error`` (the larger of the two angles' distances from upright,
+    wrapped [rad]) and ``is_balanced`` (that error below ``tolerance``, 0.05 rad), which is also
+    ``is_success``.
+
+    ## Options
+    | Option      | Default | Meaning                                                       |
+    |-------------|---------|---------------------------------------------------------------|
+    | tolerance   | 0.05    | largest angle error [rad] that counts as balanced, in (0, pi) |
+    | start_noise | 0.0     | half-width of the uniform start noise [rad, rad/s], in [0, 1] |
+
+    ## Score
+    The return (higher is better; at most 1 per step).
+
+    ## Example
+    Golden values computed by hand from the formulas above (``math`` only), at the state after
+    ten +1 N m steps from rest that ``AcrobotEnv``'s own example gives, ``(q1, q2) =
+    (-1.647489786, 0.204950005)``: reward ``(1 + sin q1)(1 + cos q2) / 4 = 0.00145437``, error
+    ``|q1 - pi/2 + 2 pi| = 3.064899`` rad:
+
+    >>> import gymnasium as gym
+    >>> import acrobot_mj
+    >>> env = gym.make("acrobot_mj/AcrobotBalance-v0")
+    >>> env.spec.max_episode_steps
+    2000
+    >>> obs, info = env.reset(seed=0)
+    >>> info
+    {'upright_error': 3.141592653589793, 'is_balanced': False, 'is_success': False}
+    >>> for _ in range(10):
+    ...     obs, reward, terminated, truncated, info = env.step(2)
+    >>> round(reward, 8), round(info["upright_error"], 6), info["is_balanced"], terminated
+    (0.00145437, 3.064899, False, False)
+    """
+
+    name = "balance"
+    env_id = "acrobot_mj/AcrobotBalance-v0"
+    max_episode_steps = 2000
+    score = Score(
+        "return", lower_is_better=False, label="return per episode", unit="", best_word="highest"
+    )
+    options = ("tolerance",)
+    success_label = "BALANCED"
+    success_text = "ended balanced"
+
+    def __init__(
+        self, links: tuple[float, float], start_noise: float = 0.0, tolerance: float = 0.05
+    ) -> None:
+        super().__init__(links, start_noise)
+        self.tolerance = check_float("tolerance", tolerance, 0.0, math.pi)
+        if self.tolerance in (0.0, math.pi):
+            raise ValueError(f"tolerance must be inside (0, pi) rad, got {self.tolerance:g}")
+
+    def outcome(self, xp: Any) -> Outcome:
+        sin, cos, absolute, maximum = xp.sin, xp.cos, xp.abs, xp.maximum
+        tolerance, up = self.tolerance, math.pi / 2
+
+        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
+            # Closeness to upright, then the larger angle error from it (wrapped).
+            reward = (1.0 + sin(q1)) * (1.0 + cos(q2)) / 4.0
+            error = maximum(absolute(wrap_angle(q1 - up)), absolute(wrap_angle(q2)))
+            balanced = error < tolerance
+            info = {"upright_error": error, "is_balanced": balanced, "is_success": balanced}
+            return reward, False, info
+
+        return outcome
+
+    def caption(self, info: dict[str, Any]) -> str:
+        return f"error {float(info['upright_error']):.3f} rad"

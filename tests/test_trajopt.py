@@ -1,0 +1,57 @@
+"""Trajectory optimisation with CasADi and IPOPT (the control extra): the symbolic step is the
+env's step, solutions meet their bounds, and bad requests are refused."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acrobot_mj.control.trajectory import shipped
+from acrobot_mj.physics import integrators
+
+RESERVE = shipped("reserve")
+casadi = pytest.importorskip("casadi", reason="trajectory optimisation needs the control extra")
+
+
+@pytest.mark.parametrize("method", ["semi_implicit_euler", "rk4"])
+def test_the_symbolic_step_is_the_numpy_step(method) -> None:
+    from acrobot_mj.control.trajopt import symbolic_step
+
+    x, u = casadi.SX.sym("x", 4), casadi.SX.sym("u")
+    step = casadi.Function("step", [x, u], [symbolic_step(x, u, 0.05, method)])
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        state, torque = rng.uniform(-3, 3, 4), rng.uniform(-1, 1)
+        # The same formulas in another order of evaluation: rounding only.
+        np.testing.assert_allclose(
+            np.array(step(state, torque)).ravel(), integrators.STEPS[method](state, torque),
+            rtol=0, atol=1e-12,
+        )  # fmt: skip
+
+
+def test_optimisation_reaches_upright_at_rest_within_its_bounds() -> None:
+    from acrobot_mj.control.trajopt import min_effort, optimise
+
+    # Warm-started from the shipped reserve trajectory: IPOPT converges in about a second.
+    found = optimise(RESERVE.steps, u_max=0.8, warm=RESERVE)
+    assert found.residual() < 1e-9 and np.abs(found.torques).max() <= 0.8 + 1e-12
+    relaxed = min_effort(found, extra_steps=20)
+    assert relaxed.steps == found.steps + 20
+    assert np.sum(relaxed.torques**2) < np.sum(found.torques**2)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda o: o.optimise(40), "no trajectory of 40 steps .* the horizon is too short"),
+        (lambda o: o.optimise(400, u_max=0.0), r"u_max must be in \(0, 1\] N m, got 0.0"),
+        (lambda o: o.optimise(0), "horizon must be an integer >= 1 step"),
+        (lambda o: o.optimise(400, objective="fast"), "objective must be 'feasible' or"),
+        (lambda o: o.min_time(u_max=-1), r"u_max must be in \(0, 1\]"),
+    ],
+)
+def test_bad_optimisation_requests_are_refused(call, message) -> None:
+    from acrobot_mj.control import trajopt
+
+    with pytest.raises(ValueError, match=message):
+        call(trajopt)
