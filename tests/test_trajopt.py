@@ -55,3 +55,16 @@ def test_bad_optimisation_requests_are_refused(call, message) -> None:
 
     with pytest.raises(ValueError, match=message):
         call(trajopt)
+
+
+@pytest.mark.slow
+def test_continuous_torque_reaches_the_height_goal_sooner() -> None:
+    # Seeded with the {-1, 0, +1} minimum of 252 steps (the beam search), the optimiser finds
+    # 248 steps, and the MuJoCo env terminates on the last of them (float32 torques included).
+    from acrobot_mj.control.search import min_time_search
+    from acrobot_mj.report.references import continuous_torque_height
+
+    search = min_time_search(frame_skip=4, width=20_000)
+    result = continuous_torque_height([a for a in search.actions for _ in range(4)])
+    assert result["steps"] <= 250 and result["residual"] < 1e-9
+    assert result["reached_goal"] and result["replayed_steps"] == result["steps"]

@@ -106,6 +106,7 @@ def minimum_time(quick: bool = False) -> dict[str, Any]:
         )
         by_integrator[method] = result.decisions
     return {
+        "continuous_torque": None if quick else continuous_torque_height(fs1_actions),
         "min_time_decisions_frame_skip_4": best4.decisions,
         "min_time_steps_frame_skip_1": len(fs1_actions),
         "actions_frame_skip_4": best4.actions,
@@ -114,6 +115,29 @@ def minimum_time(quick: bool = False) -> dict[str, Any]:
         "beam_width": width,
         "replayed_in_env": replay,
         "decisions_frame_skip_4_by_integrator": by_integrator,
+    }
+
+
+def continuous_torque_height(actions: list[int]) -> dict[str, Any] | None:
+    """How many steps continuous torques need for the height goal: the {-1, 0, +1} minimum
+    shortened by the optimiser (:func:`acrobot_mj.control.trajopt.shortest_to_height`) and
+    replayed in the MuJoCo env (None without CasADi)."""
+    try:
+        from acrobot_mj.control.trajopt import shortest_to_height
+    except ImportError:  # pragma: no cover  (the control extra)
+        return None
+    try:
+        trajectory = shortest_to_height(np.array([-1.0, 0.0, 1.0])[actions])
+    except ImportError:
+        return None
+    env = gym.make(HeightGoal.env_id, continuous=True)
+    torques = [np.array([u], dtype=np.float32) for u in trajectory.torques]
+    episode = run_episode(env, SequenceActor(torques), seed=0, max_steps=len(torques))
+    return {
+        "steps": trajectory.steps,
+        "residual": trajectory.residual(),
+        "replayed_steps": episode.length,
+        "reached_goal": episode.success,
     }
 
 
