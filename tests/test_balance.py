@@ -201,3 +201,17 @@ def test_the_balance_command_refuses_bad_options(tmp_path, capsys) -> None:
         assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "torque reserve must be in (0, 1]" in err and "hold time must be in (0, 3600]" in err
+
+
+def test_other_reserves_reuse_a_cached_trajectory_after_checking_it(tmp_path) -> None:
+    # The reserve trajectory keeps |u| <= 0.8, so it is also one for a 0.9 N m reserve: cached,
+    # it is reused (no optimisation), and a damaged cache is refused, naming the file.
+    cache = tmp_path / "trajectory.json"
+    Trajectory(RESERVE.states, RESERVE.torques, 0.05, RESERVE.method, 0.9).save(cache)
+    trajectory, source = load_trajectory(0.9, cache)
+    assert source == f"cached ({cache})" and trajectory.u_max == 0.9
+    data = json.loads(cache.read_text())
+    data["torques"][10] += 1e-3
+    cache.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=r"trajectory\.json is not a usable trajectory"):
+        load_trajectory(0.9, cache)

@@ -147,19 +147,35 @@ def reach(
 
 
 def shorten(
-    found: tuple[np.ndarray, np.ndarray], target: np.ndarray, u_max: float, method: str
+    start: tuple[np.ndarray, np.ndarray], target: np.ndarray, u_max: float, method: str
 ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The shortest fixed-step trajectory near ``found``: the free-time optimum of its family
-    (same steps, the step length a variable), rounded up to whole 0.05 s steps."""
-    free = solve(len(found[1]), target, found, u_max, method, "feasible", free_time=True)
+    """The shortest fixed-step trajectory near ``start`` (one that reaches ``target``, or ends
+    near it): the free-time optimum of its family (same steps, the step length a variable, so
+    the phase of the swings can adjust), rounded up to whole 0.05 s steps."""
+    free = solve(len(start[1]), target, start, u_max, method, "feasible", free_time=True)
     if free is None:
         return None
-    horizon = int(np.ceil(len(found[1]) * free[2] / P.dt - 1e-9))
+    horizon = int(np.ceil(len(start[1]) * free[2] / P.dt - 1e-9))
     for steps in range(horizon, horizon + 8):
         result = reach(steps, target, resample(free[0], free[1], steps), u_max, method)
         if result is not None:
             return result
     return None
+
+
+def candidates(
+    horizon: int, target: np.ndarray, u_max: float, method: str
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The trajectories one warm start leads to: from the energy-pumping rollout of
+    ``horizon`` steps, the closest end state; if it is near ``target``, the exact trajectory of
+    that many steps (where there is one) and the shortened one of its family."""
+    near = solve(horizon, target, pumping_warm_start(horizon, u_max), u_max, method, "closest")
+    if near is None or np.abs(near[0][-1] - target).max() > 0.1:
+        return []
+    exact = solve(horizon, target, near[:2], u_max, method, "feasible")
+    found = [] if exact is None else [exact[:2]]
+    short = shorten(found[0] if found else near[:2], target, u_max, method)
+    return found + ([] if short is None else [short])
 
 
 def min_time(
@@ -171,10 +187,10 @@ def min_time(
     """The shortest swing-up to upright at rest found by this multi-start procedure:
 
     1. for every start horizon in ``horizons`` and every upright target, warm-start from the
-       energy-pumping law rolled out for that horizon and solve for the closest end state; where
-       it is within 0.1 of the target, solve for the target exactly;
-    2. shorten each trajectory found: the free-time optimum of its family, then the fewest whole
-       steps near it that reach the target exactly;
+       energy-pumping law rolled out for that horizon and solve for the closest end state;
+    2. where it ends within 0.1 of the target: the exact trajectory of that horizon, and the
+       free-time optimum of its family rounded up to the fewest whole steps that reach the
+       target exactly (:func:`candidates`);
     3. keep the shortest (ties: the least effort).
 
     A local method: the result is an upper bound on the true minimum."""
@@ -182,13 +198,10 @@ def min_time(
         raise ValueError(f"u_max must be in (0, {P.max_torque:g}] N m, got {u_max!r}")
     best = None
     for horizon in horizons:
-        warm = pumping_warm_start(horizon, u_max)
         for target in targets:
-            found = reach(horizon, target, warm, u_max, method)
-            short = shorten(found, target, u_max, method) if found is not None else None
-            for candidate in (found, short):
-                if candidate is not None and (best is None or _better(candidate, best[:2])):
-                    best = (*candidate, target)
+            for found in candidates(horizon, target, u_max, method):
+                if best is None or _better(found, best):
+                    best = found
     if best is None:
         raise ValueError(
             f"no swing-up to upright found with u_max={u_max} N m over horizons "
