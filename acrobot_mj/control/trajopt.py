@@ -66,6 +66,26 @@ def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = P) -> 
     return x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
+def shooting_problem(
+    horizon: int, u_max: float, method: str, free_time: bool = False, p: AcrobotParams = P
+) -> tuple[Any, Any, Any, Any]:
+    """The multiple-shooting NLP every optimisation here shares, without its objective and end:
+    states ``(4, horizon + 1)`` from hanging at rest, torques ``(1, horizon)``, the env's step
+    between them, ``|u| <= u_max`` and the velocity limits. Returns ``(opti, states, torques,
+    step length)`` (the step a variable with ``free_time``)."""
+    ca = _casadi()
+    opti = ca.Opti()
+    xs, us = opti.variable(4, horizon + 1), opti.variable(1, horizon)
+    h = opti.variable() if free_time else p.dt
+    opti.subject_to(xs[:, 0] == HANGING)
+    for k in range(horizon):
+        opti.subject_to(xs[:, k + 1] == symbolic_step(xs[:, k], us[0, k], h, method, p))
+    opti.subject_to(opti.bounded(-u_max, us, u_max))
+    opti.subject_to(opti.bounded(-p.max_vel1, xs[2, :], p.max_vel1))
+    opti.subject_to(opti.bounded(-p.max_vel2, xs[3, :], p.max_vel2))
+    return opti, xs, us, h
+
+
 def solve(
     horizon: int,
     target: np.ndarray,
@@ -82,15 +102,7 @@ def solve(
     step length is a variable too and the total time is minimised. Returns the states, torques
     and step length [s], or None if IPOPT finds no solution."""
     ca = _casadi()
-    opti = ca.Opti()
-    xs, us = opti.variable(4, horizon + 1), opti.variable(1, horizon)
-    h = opti.variable() if free_time else p.dt
-    opti.subject_to(xs[:, 0] == HANGING)
-    for k in range(horizon):
-        opti.subject_to(xs[:, k + 1] == symbolic_step(xs[:, k], us[0, k], h, method, p))
-    opti.subject_to(opti.bounded(-u_max, us, u_max))
-    opti.subject_to(opti.bounded(-p.max_vel1, xs[2, :], p.max_vel1))
-    opti.subject_to(opti.bounded(-p.max_vel2, xs[3, :], p.max_vel2))
+    opti, xs, us, h = shooting_problem(horizon, u_max, method, free_time, p)
     effort = ca.sumsqr(us)
     if objective == "closest":
         opti.minimize(ca.sumsqr((xs[:, horizon] - target) * np.array([1.0, 1.0, 0.3, 0.3])))
@@ -276,14 +288,7 @@ def shortest_to_height(
     best = (np.array(xs), np.asarray(torques, dtype=float))
     while True:
         horizon = len(best[1]) - 1
-        opti = ca.Opti()
-        states, us = opti.variable(4, horizon + 1), opti.variable(1, horizon)
-        opti.subject_to(states[:, 0] == HANGING)
-        for k in range(horizon):
-            opti.subject_to(states[:, k + 1] == symbolic_step(states[:, k], us[0, k], P.dt, method))
-        opti.subject_to(opti.bounded(-P.max_torque, us, P.max_torque))
-        opti.subject_to(opti.bounded(-P.max_vel1, states[2, :], P.max_vel1))
-        opti.subject_to(opti.bounded(-P.max_vel2, states[3, :], P.max_vel2))
+        opti, states, us, _ = shooting_problem(horizon, P.max_torque, method)
         q1, q2 = states[0, horizon], states[1, horizon]
         tip = P.l1 * ca.sin(q1) + P.l2 * ca.sin(q1 + q2)
         opti.subject_to(tip >= goal_height + 1e-6)  # strictly above, as the env tests
