@@ -32,9 +32,9 @@ def test_shipped_trajectories_follow_the_env_dynamics(trajectory, u_max) -> None
     # IPOPT met the constraints to 1e-12; the numpy and CasADi models differ only in rounding.
     assert trajectory.residual() < 1e-9 and trajectory.u_max == u_max
     assert np.abs(trajectory.torques).max() <= u_max + 1e-12
-    # About 94 % of the minimum-time steps are at full torque: it is near bang-bang.
+    # 86 % of the minimum-time steps are at full torque: it is nearly bang-bang.
     if u_max == 1.0:
-        assert np.mean(np.abs(trajectory.torques) > 0.999) > 0.85
+        assert np.mean(np.abs(trajectory.torques) > 0.999) > 0.8
 
 
 def test_a_trajectory_that_misses_the_dynamics_is_refused(tmp_path) -> None:
