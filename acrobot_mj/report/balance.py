@@ -159,8 +159,7 @@ def load_trajectory(reserve: float, cache: Any = None, optimise: bool = False) -
             return trajectory, f"cached ({cache})"
     from acrobot_mj.control.trajopt import min_time
 
-    start = int(300 + 250 * (1.0 - reserve))  # weaker torque, longer swing-up
-    trajectory = min_time(float(reserve), horizons=range(start, start + 100, 5))
+    trajectory = min_time(float(reserve))
     if cache is not None:
         trajectory.save(cache)
     return trajectory, "optimised now"
