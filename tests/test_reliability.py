@@ -398,7 +398,7 @@ def test_checkpoints_stay_small_and_count_their_lines_of_the_episode_log(tmp_pat
     checkpoints.start(history)
     for k in range(3):
         history.add(5 + k, -5.0 - k, False)
-        checkpoints.snapshot(lambda: {}, history, 0)
+        checkpoints.snapshot(lambda: {}, history)
         checkpoints.save()
     history.add(9, -9.0, True)  # the next episode, not yet snapshotted
     checkpoints.save()

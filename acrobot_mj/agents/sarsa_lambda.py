@@ -114,12 +114,12 @@ class SarsaLambda:
         pairs = self._a * self.num_features + self._active
         # TD error, first part: r - Q(s, a) with the current weights.
         delta = reward - self._w[pairs].sum()
-        if not _MIN < delta < _MAX:  # NaN and infinities fail too
-            raise DivergenceError(f"the TD error is {delta} (alpha {self.alpha:g})")
         if self.clear_others:
             self._clear(self._offsets + self._active, keep=self._a)
         self._mark(pairs)
         if terminated:
+            if not _MIN < delta < _MAX:  # NaN and infinities fail too
+                raise DivergenceError(f"the TD error is {delta} (alpha {self.alpha:g})")
             self._w[self._trace_pairs] += self.alpha * delta * self._trace_values
             self._a = -1
             return None
@@ -128,7 +128,7 @@ class SarsaLambda:
         a2 = self._policy(q)
         # Bootstrap from Q(s', a'), update every traced weight, then decay the traces.
         delta += self.gamma * q[a2]
-        if not _MIN < delta < _MAX:
+        if not _MIN < delta < _MAX:  # a non-finite first part carries through the sum
             raise DivergenceError(f"the TD error is {delta} (alpha {self.alpha:g})")
         self._w[self._trace_pairs] += self.alpha * delta * self._trace_values
         if truncated:

@@ -22,7 +22,6 @@ from acrobot_mj.control.tvlqr import SigmaDelta, SwingUpController
 from acrobot_mj.envs.episode import run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import write_json
-from acrobot_mj.physics.angles import wrap_angle
 from acrobot_mj.report.video import record_episode
 from acrobot_mj.version import versions
 
@@ -121,16 +120,17 @@ def closed_loop(
         run_episode(env, actor, seed=perturbation.seed, on_reset=start)
     else:
         record(env, actor, start)
-    result = outcome(np.array(actor.states), trajectory.steps, env.unwrapped.task.tolerance)
+    result = outcome(np.array(actor.states), trajectory.steps, env.unwrapped.task, trajectory.dt)
     return {**result, "torques": actor.torques, "states": actor.states}
 
 
-def outcome(states: np.ndarray, swing_up: int, tolerance: float, dt: float = 0.05) -> dict:
-    """The swing-up time, how long the state then stayed within ``tolerance`` of upright, the
-    largest error in that time, and whether it lasted to the end."""
-    error = np.abs(wrap_angle(states[:, :2] - np.array([np.pi / 2, 0.0]))).max(axis=1)
+def outcome(states: np.ndarray, swing_up: int, task: Balance, dt: float) -> dict[str, Any]:
+    """The swing-up time, how long the state then stayed balanced by ``task``'s measure, the
+    largest error in that time, and whether it lasted to the end (``dt`` [s] per state)."""
+    _, _, info = task.outcome(np)(*states.T)
+    error, balanced = info["upright_error"], info["is_balanced"]
     after = error[swing_up:]  # from the end of the swing-up on
-    out = np.flatnonzero(after >= tolerance)
+    out = np.flatnonzero(~balanced[swing_up:])
     inside = after if out.size == 0 else after[: out[0]]  # the steps within tolerance
     return {
         "swing_up_seconds": swing_up * dt,

@@ -40,8 +40,10 @@ def robustness(
                         "case": label,
                         "trajectory": name,
                         "torques": "{-1, 0, +1}" if discrete else "continuous",
-                        **{k: result[k] for k in ("balanced", "hold_seconds")},
-                        "max_error_during_hold": result["max_error_during_hold"],
+                        **{
+                            k: result[k]
+                            for k in ("balanced", "hold_seconds", "max_error_during_hold")
+                        },
                     }
                 )
     return rows

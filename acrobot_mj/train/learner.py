@@ -76,15 +76,15 @@ def train_agent(
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = training_env(config, env)
     agent = make_agent(config, seed=seed)
-    history, steps = History(), 0
+    history = History()
     checkpoints = Checkpoints(None if out is None else out / CHECKPOINT_FILE, config, seed)
     if resume:
         if out is None:
             raise ValueError("resume needs the run directory (out_dir)")
-        history, steps, arrays = read_for_resume(out / CHECKPOINT_FILE, config, seed)
+        history, arrays = read_for_resume(out / CHECKPOINT_FILE, config, seed)
         load_into(agent, arrays, out / CHECKPOINT_FILE)
     checkpoints.start(history)
-    checkpoints.snapshot(agent.state_dict, history, steps)
+    checkpoints.snapshot(agent.state_dict, history)
     bar = Progress(config.episodes, f"{config.algorithm} seed {seed}", progress)
     started = time.perf_counter()
     stop: KeyboardInterrupt | None = None  # Ctrl-C (or SIGTERM) during an episode
@@ -99,8 +99,7 @@ def train_agent(
                 checkpoints.save()  # the state after the last finite episode
                 raise diverged(config, seed, episode, len(history), error) from None
             history.add_episode(result)
-            steps += result.length
-            checkpoints.snapshot(agent.state_dict, history, steps)
+            checkpoints.snapshot(agent.state_dict, history)
             bar.update(len(history), history)
             if (episode + 1) % config.checkpoint_every == 0:
                 checkpoints.save()
@@ -113,7 +112,7 @@ def train_agent(
     # The greedy policy from rest, on the training env (ties broken by a fixed stream).
     greedy = None if stop else greedy_from_rest(env, agent, seed)
     record = run_record(
-        config, seed, history, steps, elapsed, interrupted=bool(stop), env=env_name, greedy=greedy
+        config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=greedy
     )
     if out is not None:
         write_run(out, record, f"seed {seed}")

@@ -100,7 +100,7 @@ class _Lockstep:
         """Continue every learner from its checkpoint."""
         for i, seed in enumerate(self.seeds):
             path = self.dirs[i] / CHECKPOINT_FILE
-            self.histories[i], _, arrays = read_for_resume(path, self.config, seed)
+            self.histories[i], arrays = read_for_resume(path, self.config, seed)
             try:
                 self.learners.load_state(i, arrays)
             except (KeyError, ValueError, TypeError, IndexError) as error:
@@ -110,7 +110,7 @@ class _Lockstep:
     def _snapshot(self, i: int) -> None:
         """Learner ``i``'s state after its last completed episode (before its next one draws)."""
         history = self.histories[i]
-        self.checkpoints[i].snapshot(lambda: self.learners.state_dict(i), history, history.steps)
+        self.checkpoints[i].snapshot(lambda: self.learners.state_dict(i), history)
 
     def _restart(self, mask: np.ndarray) -> np.ndarray:
         """Reset the masked sub-envs for their next episode, as train() would; their actions."""
@@ -207,7 +207,6 @@ class _Lockstep:
                 config,
                 seed,
                 history,
-                history.steps,
                 elapsed / self.k,
                 lockstep=self.k,
                 greedy=greedy_from_rest(env, agent, seed) if greedy else None,

@@ -96,13 +96,11 @@ def train_population(
     history = History()
     for r in records:
         history.extend(r)
-    steps = sum(r["steps"] for r in records)
     greedy = greedy_from_rest(training_env(config, env), agent, seed)
     record = run_record(
         config,
         seed,
         history,
-        steps,
         sum(r["wall_seconds"] for r in records),
         interrupted=records[best]["interrupted"],
         env=records[best].get("env"),
@@ -119,7 +117,7 @@ def train_population(
     if out is not None:
         kept = Checkpoints(out / CHECKPOINT_FILE, config, seed)
         kept.start(History())
-        kept.snapshot(agent.state_dict, history, steps)
+        kept.snapshot(agent.state_dict, history)
         kept.save()
         write_run(out, record, f"{config.population} learners, seed {seed}")
         for k in range(config.population):

@@ -27,9 +27,15 @@ class History:
     episode_lengths: list[int] = field(default_factory=list)
     episode_returns: list[float] = field(default_factory=list)
     episode_successes: list[bool] = field(default_factory=list)
+    #: Decisions taken in all episodes: a running total, so reading it costs nothing per episode.
+    steps: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        self.steps = int(sum(self.episode_lengths))
 
     def add(self, length: int, total: float, success: bool) -> None:
         self.episode_lengths.append(length)
+        self.steps += int(length)
         self.episode_returns.append(total)
         self.episode_successes.append(success)
 
@@ -40,11 +46,6 @@ class History:
         """Append a run record's episodes."""
         for row in zip(*(record[key] for key in HISTORY_KEYS), strict=True):
             self.add(*row)
-
-    @property
-    def steps(self) -> int:
-        """Decisions taken in all episodes."""
-        return int(sum(self.episode_lengths))
 
     def __len__(self) -> int:
         return len(self.episode_lengths)
@@ -62,7 +63,6 @@ def run_record(
     config: TrainConfig,
     seed: int,
     history: History,
-    steps: int,
     wall_seconds: float,
     *,
     interrupted: bool = False,
@@ -76,7 +76,7 @@ def run_record(
         "seed": seed,
         "versions": versions(),
         "episodes_done": len(history),
-        "steps": steps,
+        "steps": history.steps,
         "interrupted": interrupted,
     }
     if env is not None:

@@ -133,8 +133,8 @@ def check_same_run(
 
 def read_for_resume(
     path: Path, config: TrainConfig, seed: int
-) -> tuple[History, int, dict[str, np.ndarray]]:
-    """The history, decisions and agent arrays of a checkpoint that ``config`` and ``seed``
+) -> tuple[History, dict[str, np.ndarray]]:
+    """The history and agent arrays of a checkpoint that ``config`` and ``seed``
     may continue (more episodes than it holds are allowed, but no change of the schedule)."""
     meta, arrays, saved = read_checkpoint(path)
     check_same_run(path, meta, saved, config, seed, may_differ=("episodes",))
@@ -149,7 +149,7 @@ def read_for_resume(
             f"{path}: the start-noise schedule depends on episodes "
             f"({saved.episodes}), so resume cannot change it"
         )
-    return history, meta["steps"], arrays
+    return history, arrays
 
 
 def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
@@ -215,13 +215,11 @@ class Checkpoints:
         rows = "".join(_log_line(row) for row in _rows(history, 0, len(history)))
         write_text(self.log, rows)
 
-    def snapshot(
-        self, state: Callable[[], dict[str, np.ndarray]], history: History, steps: int
-    ) -> None:
+    def snapshot(self, state: Callable[[], dict[str, np.ndarray]], history: History) -> None:
         """Remember the agent's arrays (``state()``, called only if there is a file to write)
         and the progress, after a completed episode."""
         if self.path is not None:
-            self._state = (state(), history, len(history), steps)
+            self._state = (state(), history, len(history), history.steps)
 
     def save(self) -> None:
         """Append the new episodes to the log, then write the checkpoint (atomically)."""

@@ -21,6 +21,7 @@ from acrobot_mj.train.rundir import CHECKPOINT_FILE
 from acrobot_mj.train.sweep_spec import SweepSpec, Trial
 from acrobot_mj.train.sweep_summary import summarize_sweep
 from acrobot_mj.train.sweep_trials import (
+    ERROR_FILE,
     run_trial,
     run_trial_in_worker,
     train_or_error,
@@ -81,15 +82,13 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
     for (_, saved), group in groups.items():
         dirs = [trial_dir(out, t) for t in group]
         try:
-            records = train_lockstep(
-                group[0].config, [t.seed for t in group], run_dirs=dirs, resume=saved
-            )
+            train_lockstep(group[0].config, [t.seed for t in group], run_dirs=dirs, resume=saved)
         except Exception:  # one trial at a time, each failure recorded
             for t in group:
                 run_trial(t.config.to_dict(), t.seed, str(trial_dir(out, t)))
             continue
-        for t, record in zip(group, records, strict=True):
-            write_trial(out, t, record)
+        for t in group:  # train_lockstep wrote each run.json; an earlier failure is over
+            (trial_dir(out, t) / ERROR_FILE).unlink(missing_ok=True)
     rest = [t for t in todo if not t.config.lockstep]
     calls = [(t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in rest]
     if jobs == 1:  # in this process, one after the other
