@@ -41,10 +41,12 @@ class LQR:
     q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0)
     r: float = 1.0
     gain: np.ndarray = field(init=False)
+    #: The Riccati solution: the infinite-horizon cost-to-go ``x' S x`` of the error.
+    cost: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         a, b = discrete_model()
-        self.gain, _ = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
+        self.gain, self.cost = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         error = np.asarray(x, dtype=float) - UPRIGHT

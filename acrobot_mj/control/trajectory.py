@@ -16,9 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.model import HANGING, UPRIGHT, P
+from acrobot_mj.control.model import HANGING, UPRIGHT, P, step
 from acrobot_mj.files import write_json
-from acrobot_mj.physics import integrators
 from acrobot_mj.physics.angles import wrap_angle
 
 #: Largest difference [rad, rad/s] between a stored state and the model's step of the one
@@ -50,8 +49,7 @@ class Trajectory:
 
     def residual(self) -> float:
         """Largest gap between each stored state and the model's step of the one before."""
-        step = integrators.STEPS[self.method]
-        nxt = integrators.clip_velocity(step(self.states[:-1], self.torques, self.dt, P), P)
+        nxt = step(self.states[:-1], self.torques, method=self.method)
         return float(np.abs(nxt - self.states[1:]).max())
 
     def check(self, tolerance: float = TOLERANCE) -> Trajectory:

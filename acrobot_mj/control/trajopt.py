@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.control.energy import energy_pumping_torque
-from acrobot_mj.control.model import HANGING, P
+from acrobot_mj.control.model import HANGING, P, step
 from acrobot_mj.control.trajectory import Trajectory
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.params import AcrobotParams
@@ -132,7 +132,7 @@ def pumping_warm_start(horizon: int, u_max: float, p: AcrobotParams = P) -> tupl
     x, xs, us = HANGING.copy(), [HANGING.copy()], []
     for _ in range(horizon):
         u = float(np.clip(energy_pumping_torque(x, p=p), -u_max, u_max))
-        x = integrators.clip_velocity(integrators.semi_implicit_euler_step(x, u, p.dt, p), p)
+        x = step(x, u, p=p)
         xs.append(x)
         us.append(u)
     return np.array(xs), np.array(us)
@@ -146,16 +146,22 @@ def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> tuple:
     return xs, us
 
 
+def approach(horizon: int, target: np.ndarray, warm: tuple, u_max: float, method: str) -> tuple:
+    """From ``warm``, the ``horizon``-step trajectory whose end is closest to ``target``, and,
+    if that end is within 0.1 of it, the exact one: ``(near, exact)``, each None if not found."""
+    near = solve(horizon, target, warm, u_max, method, "closest")
+    if near is None or np.abs(near[0][-1] - target).max() > 0.1:
+        return None, None
+    exact = solve(horizon, target, near[:2], u_max, method, "feasible")
+    return near[:2], None if exact is None else exact[:2]
+
+
 def reach(
     horizon: int, target: np.ndarray, warm: tuple, u_max: float, method: str
 ) -> tuple[np.ndarray, np.ndarray] | None:
-    """A trajectory of exactly ``horizon`` steps to ``target`` from ``warm``: first the closest
-    end state, then, if it is near, the exact one (None if either fails)."""
-    near = solve(horizon, target, warm, u_max, method, "closest")
-    if near is None or np.abs(near[0][-1] - target).max() > 0.1:
-        return None
-    exact = solve(horizon, target, near[:2], u_max, method, "feasible")
-    return None if exact is None else exact[:2]
+    """A trajectory of exactly ``horizon`` steps to ``target`` from ``warm`` (None if
+    :func:`approach` finds none)."""
+    return approach(horizon, target, warm, u_max, method)[1]
 
 
 def shorten(
@@ -181,12 +187,11 @@ def candidates(
     """The trajectories one warm start leads to: from the energy-pumping rollout of
     ``horizon`` steps, the closest end state; if it is near ``target``, the exact trajectory of
     that many steps (where there is one) and the shortened one of its family."""
-    near = solve(horizon, target, pumping_warm_start(horizon, u_max), u_max, method, "closest")
-    if near is None or np.abs(near[0][-1] - target).max() > 0.1:
+    near, exact = approach(horizon, target, pumping_warm_start(horizon, u_max), u_max, method)
+    if near is None:
         return []
-    exact = solve(horizon, target, near[:2], u_max, method, "feasible")
-    found = [] if exact is None else [exact[:2]]
-    short = shorten(found[0] if found else near[:2], target, u_max, method)
+    found = [] if exact is None else [exact]
+    short = shorten(exact if found else near, target, u_max, method)
     return found + ([] if short is None else [short])
 
 
@@ -214,8 +219,7 @@ def min_time(
     3. keep the shortest (ties: the least effort).
 
     A local method: the result is an upper bound on the true minimum."""
-    if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= P.max_torque):
-        raise ValueError(f"u_max must be in (0, {P.max_torque:g}] N m, got {u_max!r}")
+    _check_u_max(u_max)
     horizons = default_horizons(u_max) if horizons is None else horizons
     best = None
     for horizon in horizons:
@@ -229,6 +233,11 @@ def min_time(
             f"{horizons.start}..{horizons.stop - 1}: try longer horizons"
         )
     return Trajectory(best[0], best[1], P.dt, method, u_max)
+
+
+def _check_u_max(u_max: Any) -> None:
+    if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= P.max_torque):
+        raise ValueError(f"u_max must be in (0, {P.max_torque:g}] N m, got {u_max!r}")
 
 
 def _better(a: tuple, b: tuple) -> bool:
@@ -248,8 +257,7 @@ def optimise(
     error that says so."""
     if not isinstance(horizon, int) or isinstance(horizon, bool) or horizon < 1:
         raise ValueError(f"horizon must be an integer >= 1 step, got {horizon!r}")
-    if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= P.max_torque):
-        raise ValueError(f"u_max must be in (0, {P.max_torque:g}] N m, got {u_max!r}")
+    _check_u_max(u_max)
     if objective not in ("feasible", "effort"):
         raise ValueError(f"objective must be 'feasible' or 'effort', got {objective!r}")
     targets = TARGETS if warm is None else (warm.states[-1],)
@@ -291,10 +299,7 @@ def shortest_to_height(
     finds a solution. Seeded with the {-1, 0, +1} minimum (252 steps), this is how much
     continuous torque saves on the learning task."""
     ca = _casadi()
-    xs = [HANGING.copy()]
-    for u in torques:
-        xs.append(integrators.clip_velocity(integrators.STEPS[method](xs[-1], u, P.dt, P), P))
-    best = (np.array(xs), np.asarray(torques, dtype=float))
+    best = (integrators.simulate(HANGING, torques, method), np.asarray(torques, dtype=float))
     while True:
         horizon = len(best[1]) - 1
         opti, states, us, _ = shooting_problem(horizon, P.max_torque, method)

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from acrobot_mj.control.lqr import LQR, dlqr
-from acrobot_mj.control.model import P, discrete_model, step_jacobians
+from acrobot_mj.control.lqr import LQR
+from acrobot_mj.control.model import P, step_jacobians
 from acrobot_mj.control.trajectory import Trajectory
 from acrobot_mj.physics.angles import wrap_angle
 
@@ -30,8 +30,7 @@ class SwingUpController:
     ) -> None:
         self.trajectory = trajectory
         self.lqr = LQR(q, r)
-        weights, cost = np.diag(q), np.array([[r]])
-        _, riccati = dlqr(*discrete_model(), weights, cost)
+        weights, cost, riccati = np.diag(q), np.array([[r]]), self.lqr.cost
         self.gains = np.zeros((trajectory.steps, 4))
         for k in reversed(range(trajectory.steps)):
             a, b = step_jacobians(trajectory.states[k], trajectory.torques[k], trajectory.method)
@@ -52,8 +51,6 @@ class SwingUpController:
 class SigmaDelta:
     """First-order sigma-delta modulation: torques in {-1, 0, +1} N m whose running sum follows
     that of a continuous torque, the quantisation error carried to the next step."""
-
-    LEVELS = (-1.0, 0.0, 1.0)
 
     def __init__(self) -> None:
         self.carried = 0.0

@@ -209,7 +209,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         qadr = [int(m.joint(name).qposadr[0]) for name in ("shoulder", "elbow")]
         dadr = [int(m.joint(name).dofadr[0]) for name in ("shoulder", "elbow")]
         if qadr != [0, 1] or dadr != [0, 1]:
-            raise ValueError(f"expected joints shoulder, elbow at qpos 0, 1; got {qadr}")
+            raise ValueError(
+                f"expected joints shoulder, elbow at qpos 0, 1 and dofs 0, 1; got {qadr}, {dadr}"
+            )
         self._qpos, self._qvel = d.qpos, d.qvel
         motor = m.actuator("elbow_motor").id
         self._ctrl = d.ctrl[motor : motor + 1]

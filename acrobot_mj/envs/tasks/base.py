@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -76,14 +76,6 @@ class Score:
     def is_better(self, a: float, b: float) -> bool:
         """Whether score ``a`` is strictly better than ``b``."""
         return a < b if self.lower_is_better else a > b
-
-    def best_index(self, scores: Sequence[float]) -> int:
-        """Index of the best of ``scores`` (the first of equals)."""
-        best = 0
-        for k in range(1, len(scores)):
-            if self.is_better(scores[k], scores[best]):
-                best = k
-        return best
 
 
 class Task(ABC):
