@@ -151,7 +151,8 @@ def test_balanced_is_within_the_tolerance_of_upright() -> None:
     env.unwrapped.set_state([math.pi / 2 + 0.05, -0.02])  # both errors inside 0.1 rad
     _, reward, terminated, _, info = env.step(1)
     assert info["is_balanced"] and info["is_success"] and not terminated
-    assert info["upright_error"] < 0.1 and 0.99 < reward <= 1.0
+    # Both errors under 0.1 rad: reward = (1 + cos e1)(1 + cos e2) / 4 >= ((1 + cos 0.1) / 2)^2.
+    assert info["upright_error"] < 0.1 and 0.99501 < reward <= 1.0
     with pytest.raises(TypeError, match=r"unknown arguments \['goal_height'\] for task 'balance'"):
         gym.make(Balance.env_id, goal_height=1.0)
     with pytest.raises(ValueError, match=r"tolerance must be inside \(0, pi\)"):

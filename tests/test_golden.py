@@ -42,17 +42,13 @@ def test_tuned_preset_seed_0_is_unchanged() -> None:
     assert record["population"] == GOLDEN["tuned_seed0"]["population"]
 
 
-@pytest.mark.parametrize(
-    ("key", "overrides"),
-    [("report_seeds3", {}), ("report_fs4_seeds3", {"frame_skip": 4, "episodes": 50})],
-)
-def test_report_preset_three_seeds_in_lockstep_are_unchanged(key, overrides, tmp_path) -> None:
-    summary = train_seeds(PRESETS["report"].replace(**overrides), [0, 1, 2], tmp_path)
-    for seed, golden in enumerate(GOLDEN[key]):
+def test_report_preset_three_seeds_in_lockstep_are_unchanged(tmp_path) -> None:
+    # Frame skip 4, where the report's SARSA reaches the goal: at frame skip 1 every episode of
+    # its 200 runs 1000 steps, which any learner that never succeeds would reproduce.
+    config = PRESETS["report"].replace(frame_skip=4, episodes=50)
+    train_seeds(config, [0, 1, 2], tmp_path)
+    for seed, golden in enumerate(GOLDEN["report_fs4_seeds3"]):
         _same_run(json.loads((tmp_path / f"seed_{seed}" / "run.json").read_text()), golden)
-    if key == "report_seeds3":
-        expected = GOLDEN["report_seeds3_summary"]
-        assert {k: summary[k] for k in expected} == expected
 
 
 @pytest.mark.parametrize("name", ["report_fs4", "booksmall"])
