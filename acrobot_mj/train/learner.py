@@ -82,7 +82,7 @@ def train_agent(
         if out is None:
             raise ValueError("resume needs the run directory (out_dir)")
         history, arrays = read_for_resume(out / CHECKPOINT_FILE, config, seed)
-        load_into(agent, arrays, out / CHECKPOINT_FILE)
+        load_into(agent.load_state_dict, arrays, out / CHECKPOINT_FILE)
     checkpoints.start(history)
     checkpoints.snapshot(agent.state_dict, history)
     bar = Progress(config.episodes, f"{config.algorithm} seed {seed}", progress)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,6 @@ import numpy as np
 from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.registry import AGENTS, agent_spec, make_agent, make_features
 from acrobot_mj.envs.vector import AcrobotVectorEnv
-from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import episode_seed, greedy_from_rest, make_env
 from acrobot_mj.train.learner import check_finite_return, diverged
@@ -29,6 +29,7 @@ from acrobot_mj.train.records import History, run_record
 from acrobot_mj.train.rundir import (
     CHECKPOINT_FILE,
     Checkpoints,
+    load_into,
     read_for_resume,
     seed_dir,
     write_run,
@@ -101,10 +102,7 @@ class _Lockstep:
         for i, seed in enumerate(self.seeds):
             path = self.dirs[i] / CHECKPOINT_FILE
             self.histories[i], arrays = read_for_resume(path, self.config, seed)
-            try:
-                self.learners.load_state(i, arrays)
-            except (KeyError, ValueError, TypeError, IndexError) as error:
-                raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
+            load_into(partial(self.learners.load_state, i), arrays, path)
             self.episode[i] = len(self.histories[i])
 
     def _snapshot(self, i: int) -> None:

@@ -107,10 +107,13 @@ def read_history(path: Path, meta: dict[str, Any]) -> History:
     return history
 
 
-def load_into(agent: Agent, arrays: dict[str, np.ndarray], path: Path) -> None:
-    """Give ``agent`` a checkpoint's arrays, or say the checkpoint does not fit it."""
+def load_into(
+    load: Callable[[dict[str, np.ndarray]], None], arrays: dict[str, np.ndarray], path: Path
+) -> None:
+    """Give an agent a checkpoint's arrays (``load``: its ``load_state_dict``), or say the
+    checkpoint does not fit it."""
     try:
-        agent.load_state_dict(arrays)
+        load(arrays)
     except (KeyError, ValueError, TypeError, IndexError) as error:
         raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
 
@@ -163,7 +166,7 @@ def load_agent(run_dir: str | Path) -> tuple[TrainConfig, int, Agent]:
     meta, arrays, config = read_checkpoint(path)
     _check_record_agrees(Path(run_dir) / RUN_FILE, config, meta["seed"], path)
     agent = make_agent(config, seed=meta["seed"])
-    load_into(agent, arrays, path)
+    load_into(agent.load_state_dict, arrays, path)
     return config, meta["seed"], agent
 
 
