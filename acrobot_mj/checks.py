@@ -1,4 +1,4 @@
-"""Argument checks shared by the environments and the configuration: each error names the
+"""Argument checks shared by the environments and their tasks: each error names the
 argument, what it must be and what it got (nothing is clipped or coerced silently)."""
 
 from __future__ import annotations

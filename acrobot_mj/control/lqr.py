@@ -8,9 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acrobot_mj.control.model import UPRIGHT, P, discrete_model, step
+from acrobot_mj.control.model import UPRIGHT, P, discrete_model, state_error, step
 from acrobot_mj.physics import dynamics
-from acrobot_mj.physics.angles import wrap_angle
 from acrobot_mj.physics.params import AcrobotParams
 
 
@@ -49,8 +48,7 @@ class LQR:
         self.gain, self.cost = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        error = np.asarray(x, dtype=float) - UPRIGHT
-        error[..., :2] = wrap_angle(error[..., :2])
+        error = state_error(x)
         return np.clip(-(error @ self.gain.T)[..., 0], -P.max_torque, P.max_torque)
 
 
@@ -65,9 +63,7 @@ def balances(
     x = np.array(starts, dtype=float)
     for _ in range(round(seconds / P.dt)):
         x = step(x, controller(x))
-    error = x - UPRIGHT
-    error[:, :2] = wrap_angle(error[:, :2])
-    return np.all(np.abs(error) < tolerance, axis=1)
+    return np.all(np.abs(state_error(x)) < tolerance, axis=1)
 
 
 def q1_basin(

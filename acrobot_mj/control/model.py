@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from acrobot_mj.physics import dynamics, integrators
+from acrobot_mj.physics.angles import wrap_angle
 from acrobot_mj.physics.params import AcrobotParams
 
 P = AcrobotParams()
@@ -29,6 +30,14 @@ def step(
     for _ in range(frame_skip):
         x = integrators.clip_velocity(advance(x, tau, p.dt, p), p)
     return x
+
+
+def state_error(x: np.ndarray, reference: np.ndarray = UPRIGHT) -> np.ndarray:
+    """``x - reference`` [rad, rad/s], shape ``(..., 4)``, with the angle differences wrapped to
+    ``[-pi, pi)`` (a state one turn away is the same state)."""
+    error = np.asarray(x, dtype=float) - reference
+    error[..., :2] = wrap_angle(error[..., :2])
+    return error
 
 
 def tip_height(x: np.ndarray, p: AcrobotParams = P) -> np.ndarray:

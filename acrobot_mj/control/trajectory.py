@@ -16,9 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.model import HANGING, UPRIGHT, P, step
+from acrobot_mj.control.model import HANGING, P, state_error, step
 from acrobot_mj.files import write_json
-from acrobot_mj.physics.angles import wrap_angle
 
 #: Largest difference [rad, rad/s] between a stored state and the model's step of the one
 #: before: 1e-9 is ~1e5 times the rounding of one step, and any modelling difference (another
@@ -66,8 +65,7 @@ class Trajectory:
         limits = np.array([P.max_vel1, P.max_vel2])
         if (np.abs(self.states[:, 2:]) > limits + 1e-12).any():
             raise ValueError("a state exceeds the velocity limits")
-        end = self.states[-1] - UPRIGHT
-        end[:2] = wrap_angle(end[:2])
+        end = state_error(self.states[-1])
         if np.abs(self.states[0] - HANGING).max() > tolerance or np.abs(end).max() > tolerance:
             raise ValueError("the trajectory does not go from hanging at rest to upright at rest")
         gap = self.residual()

@@ -12,9 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from acrobot_mj.control.lqr import LQR
-from acrobot_mj.control.model import P, step_jacobians
+from acrobot_mj.control.model import P, state_error, step_jacobians
 from acrobot_mj.control.trajectory import Trajectory
-from acrobot_mj.physics.angles import wrap_angle
 
 
 class SwingUpController:
@@ -42,8 +41,7 @@ class SwingUpController:
         """The torque [N m] at physics step ``k`` (0 at the start) in state ``x``."""
         if k >= self.trajectory.steps:
             return float(self.lqr(x))
-        error = np.asarray(x, dtype=float) - self.trajectory.states[k]
-        error[:2] = wrap_angle(error[:2])
+        error = state_error(x, self.trajectory.states[k])
         u = self.trajectory.torques[k] - self.gains[k] @ error
         return float(np.clip(u, -P.max_torque, P.max_torque))
 

@@ -121,13 +121,18 @@ def select_backend(
     """Probe the backends in order; return the first that works and every attempt's result."""
     attempts: dict[str, str | None] = {}
     for name, probe in (probes or PROBES).items():
-        try:
-            attempts[name] = probe()
-        except Exception as error:  # a probe must never break the import
-            attempts[name] = f"probe crashed: {error!r}"
+        attempts[name] = _run(probe)
         if attempts[name] is None:
             return name, attempts
     return None, attempts
+
+
+def _run(probe: Callable[[], str | None]) -> str | None:
+    """What ``probe`` says (None: the backend works); a crash is a failure, never raised."""
+    try:
+        return probe()
+    except Exception as error:  # a probe must never break the import or the caller
+        return f"probe crashed: {error!r}"
 
 
 def user_problem(value: str) -> str | None:
@@ -202,13 +207,7 @@ def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBacken
 
 def probe_all() -> dict[str, str | None]:
     """The result of every probe, working or not (only before MuJoCo opens a GL context)."""
-    attempts: dict[str, str | None] = {}
-    for name, probe in PROBES.items():
-        try:
-            attempts[name] = probe()
-        except Exception as error:  # a probe must never break the caller
-            attempts[name] = f"probe crashed: {error!r}"
-    return attempts
+    return {name: _run(probe) for name, probe in PROBES.items()}
 
 
 def make_renderer(model, width: int, height: int):
