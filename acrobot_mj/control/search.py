@@ -25,9 +25,11 @@ def min_time_search(
     method: str = "semi_implicit_euler",
     max_decisions: int = 1000,
     goal_height: float = 1.0,
+    start: np.ndarray | None = None,
 ) -> SearchResult:
-    """Beam search over torque sequences in {-1, 0, +1} N m from rest for the fewest decisions
-    to the goal (tip above ``goal_height``).
+    """Beam search over torque sequences in {-1, 0, +1} N m from ``start`` (default: hanging at
+    rest; a state (q1, q2, dq1, dq2) [rad, rad/s]) for the fewest decisions to the goal (tip
+    above ``goal_height``).
 
     Breadth-first by decision: every state in the beam is expanded by the three torques; states
     that fall in the same cell (``cell`` [rad, rad, rad/s, rad/s], angles wrapped) are merged,
@@ -37,7 +39,9 @@ def min_time_search(
     beam is wide and the cells fine.
     """
     torques = np.array([-1.0, 0.0, 1.0])
-    beam = HANGING[None].copy()
+    beam = (HANGING if start is None else np.asarray(start, dtype=np.float64))[None].copy()
+    if beam.shape != (1, 4) or not np.all(np.isfinite(beam)):
+        raise ValueError(f"start must be a finite state (q1, q2, dq1, dq2), got {start!r}")
     parents: list[np.ndarray] = []
     choices: list[np.ndarray] = []
     expanded = 0

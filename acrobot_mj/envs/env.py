@@ -28,7 +28,11 @@ from acrobot_mj.envs.tasks import SCALAR, Task, get_task
 from acrobot_mj.physics.angles import wrap_angle
 
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
-RESET_OPTIONS = ("start_noise",)
+#: Reset options of the single env: ``start_noise`` (this episode's noise) or ``state`` (an exact
+#: start ``(q1, q2, dq1, dq2)`` [rad, rad/s], as evaluation records store them, for replays).
+RESET_OPTIONS = ("start_noise", "state")
+#: Reset options the vector env shares with the single env.
+SHARED_RESET_OPTIONS = ("start_noise",)
 
 #: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
 HUGE = 1e10
@@ -285,9 +289,14 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        noise = reset_noise(options, self.task.start_noise)
+        start = reset_state(options)
+        noise = reset_noise(options, self.task.start_noise, known=RESET_OPTIONS)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
-        offsets = self.task.start_offsets(self.np_random, noise)
+        if start is not None:
+            self.set_state(start[:2], start[2:])
+            offsets = None
+        else:
+            offsets = self.task.start_offsets(self.np_random, noise)
         if offsets is not None:
             self._qpos += offsets[0]
             self._qvel += offsets[1]
@@ -361,18 +370,42 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             self._renderer = None
 
 
-def reset_noise(options: Any, default: float, also_known: tuple[str, ...] = ()) -> float:
+def reset_noise(
+    options: Any,
+    default: float,
+    also_known: tuple[str, ...] = (),
+    known: tuple[str, ...] = SHARED_RESET_OPTIONS,
+) -> float:
     """The start noise of a reset: ``options["start_noise"]`` if given (validated), else
-    ``default``; unknown options or a non-dict raise (``also_known``: options the caller took
-    out before, named in the error)."""
+    ``default``; options outside ``known`` or a non-dict raise (``also_known``: options the
+    caller took out before, named in the error)."""
     if options is not None and not isinstance(options, Mapping):
         raise TypeError(f"reset options must be a dict, got {options!r}")
     if not options:
         return default
-    unknown = sorted(set(options) - set(RESET_OPTIONS))
+    unknown = sorted(set(options) - set(known))
     if unknown:
-        known = [*also_known, *RESET_OPTIONS]
-        raise ValueError(f"unknown reset options {unknown}; known: {known}")
+        raise ValueError(f"unknown reset options {unknown}; known: {[*also_known, *known]}")
     if "start_noise" in options:
         return check_float("start_noise", options["start_noise"], 0.0, 1.0)
     return default
+
+
+def reset_state(options: Any) -> np.ndarray | None:
+    """The exact start ``options["state"]`` of a reset, as 4 floats (None without); giving
+    ``start_noise`` as well is refused (the state is the whole start)."""
+    if not isinstance(options, Mapping) or options.get("state") is None:
+        return None
+    if "start_noise" in options:
+        raise ValueError("reset options 'state' and 'start_noise' exclude each other; give one")
+    try:
+        state = np.array(options["state"], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"reset option 'state' must be 4 numbers (q1, q2, dq1, dq2), got {options['state']!r}"
+        ) from None
+    if state.shape != (4,):
+        raise ValueError(
+            f"reset option 'state' must be 4 numbers (q1, q2, dq1, dq2), got shape {state.shape}"
+        )
+    return state
