@@ -38,10 +38,6 @@ def test_switching_a_presets_algorithm_drops_what_no_longer_applies() -> None:
             lambda: BOOK.replace(noise_until=0.5),
             r"noise_until has no effect with start_noise=0.0 \(it applies when start_noise > 0\)",
         ),
-        (
-            lambda: REPORT.replace(eval_episodes=1, eval_noise=0.1),
-            "eval_noise has no effect with eval_episodes=1",
-        ),
     ],
 )
 def test_settings_without_effect_are_refused_with_the_reason(make, message) -> None:
@@ -50,7 +46,7 @@ def test_settings_without_effect_are_refused_with_the_reason(make, message) -> N
 
 
 def test_fields_that_depend_on_a_value_follow_it() -> None:
-    assert BOOK.noise_until is None and REPORT.replace(eval_episodes=1).eval_noise is None
+    assert BOOK.noise_until is None
     noisy = BOOK.replace(start_noise=0.1)
     assert noisy.noise_until == 0.0 and noisy.start_noise_at(400) == 0.1  # constant noise
     assert PRESETS["tuned"].noise_until == 0.5

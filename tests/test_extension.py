@@ -15,6 +15,7 @@ from acrobot_mj.agents.protocol import Agent
 from acrobot_mj.agents.registry import make_agent
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate, render_run
+from acrobot_mj.train.heldout import Protocol
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train
@@ -23,7 +24,7 @@ from tests.plugins.tip_height import TipHeight
 
 #: A few short episodes of the report's learner on the new task.
 ON_TIP_HEIGHT = PRESETS["report"].replace(
-    task="tip_height", frame_skip=4, max_episode_steps=40, episodes=6, eval_episodes=2
+    task="tip_height", frame_skip=4, max_episode_steps=40, episodes=6
 )
 
 
@@ -110,7 +111,7 @@ def test_the_new_agent_trains_checkpoints_resumes_and_evaluates(tmp_path) -> Non
     for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
         assert resumed[key] == whole[key], key
     assert (
-        evaluate(tmp_path / "whole", episodes=2)["episode_lengths"][0]
+        evaluate(tmp_path / "whole", Protocol(episodes=2))["rest"]["length"]
         == (whole["greedy_from_rest"]["length"])
     )
     # Its hyperparameters are the ones its spec declares: lam does not apply to it.

@@ -9,6 +9,7 @@ import pytest
 from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.heldout import Protocol
 from acrobot_mj.train.learner import train_agent
 from acrobot_mj.train.population import learner_seed
 from acrobot_mj.train.presets import PRESETS
@@ -54,9 +55,9 @@ def test_population_run_keeps_the_best_learner(tmp_path):
     assert config == CONFIG and seed == 2
     np.testing.assert_array_equal(agent.w, kept.w)
     assert not list(tmp_path.glob("learner_*/checkpoint.npz"))
-    # evaluate's episode 0 is the record's greedy run from rest.
-    ev = evaluate(tmp_path, episodes=1)
-    assert ev["episode_lengths"][0] == record["greedy_from_rest"]["length"]
+    # evaluate's rest episode is the record's greedy run from rest.
+    ev = evaluate(tmp_path, Protocol(episodes=1))
+    assert ev["rest"]["length"] == record["greedy_from_rest"]["length"]
 
 
 def test_population_runs_are_deterministic_and_resume_to_the_same_record(tmp_path):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
@@ -63,7 +64,19 @@ def test_local_sweep_resumes_and_records_failures(tmp_path) -> None:
     summary = run_sweep(spec, tmp_path)
     runs = sorted((tmp_path / "trials").glob("*/run.json"))
     assert len(runs) == 8 and summary["trials"] == 8
-    assert all(row["runs"] == 2 for row in summary["points"])
+    assert all(row["runs"] == 2 == row["held_out_runs"] for row in summary["points"])
+    # Every finished trial has its held-out evaluation, and each point's row is their summary.
+    row = summary["points"][0]
+    evaluations = [
+        json.loads((tmp_path / "trials" / f"{row['name']}__seed={s}" / "eval.json").read_text())
+        for s in (0, 1)
+    ]
+    assert row["held_out_median"] == np.median(
+        [e["summary"]["length"]["median"] for e in evaluations]
+    )
+    assert row["distinct_outcomes"]["held_out"] == len(
+        {json.dumps(e["actions"]) for e in evaluations}
+    )
     # Resume: finished trials are skipped (their files are not rewritten), a missing one reruns.
     stamps = {p: p.stat().st_mtime_ns for p in runs}
     victim = runs[3]
@@ -111,6 +124,11 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
     runs = sorted((out / "trials").glob("*/run.json"))
     assert len(runs) == 4  # one run record per trial
     assert {json.loads(p.read_text())["seed"] for p in runs} == {0, 1}
+    # Evaluated on the workers (no checkpoints come back), written by the driver.
+    for run in runs:
+        evaluation = json.loads(run.with_name("eval.json").read_text())
+        assert evaluation["run"] == str(run.parent) and len(evaluation["start_states"]) == 100
+        assert not run.with_name("checkpoint.npz").exists()
     assert "4 trials" in capsys.readouterr().out
 
 

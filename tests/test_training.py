@@ -12,6 +12,7 @@ from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_c
 from acrobot_mj.train.config import TrainConfig, parse_value
 from acrobot_mj.train.episodes import make_env
 from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.heldout import Protocol
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.rundir import CHECKPOINT_FILE, load_agent
 from acrobot_mj.train.seeds import train_seeds
@@ -25,7 +26,7 @@ RECORD_KEYS = (
     "steps",
     "greedy_from_rest",
 )
-TINY_BOOK = PRESETS["book"].replace(episodes=6, checkpoint_every=2, eval_episodes=2)
+TINY_BOOK = PRESETS["book"].replace(episodes=6, checkpoint_every=2)
 
 
 def test_checkpoint_round_trip(tmp_path) -> None:
@@ -122,14 +123,14 @@ def test_train_writes_run_record_checkpoint_and_curve(tmp_path) -> None:
     assert (tmp_path / "learning_curve.png").read_bytes()[:4] == b"\x89PNG"
     config, seed, _agent = load_agent(tmp_path)
     assert config == TINY_BOOK and seed == 0
-    # Evaluate: episode 0 from rest, the others with small start noise.
-    result = evaluate(tmp_path, episodes=3)
-    assert result["start_noise"] == [0.0, 0.05, 0.05]
-    assert (
-        json.loads((tmp_path / "eval.json").read_text())["episode_lengths"]
-        == result["episode_lengths"]
-    )
-    assert result["episode_lengths"][0] == record["greedy_from_rest"]["length"]
+    # Evaluate: held-out starts of the protocol, and the run's greedy episode from rest apart.
+    result = evaluate(tmp_path, Protocol(episodes=3))
+    assert json.loads((tmp_path / "eval.json").read_text()) == json.loads(json.dumps(result))
+    assert result["protocol"] == {"episodes": 3, "start_noise": 0.05, "seed": 0}
+    assert len(result["start_states"]) == len(result["actions"]) == 3
+    assert [len(a) for a in result["actions"]] == result["episode_lengths"]
+    rest = {k: result["rest"][k] for k in ("length", "return", "success")}
+    assert rest == record["greedy_from_rest"]
 
 
 def test_resume_after_interrupt_matches_an_uninterrupted_run(tmp_path) -> None:

@@ -14,6 +14,7 @@ from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves
 from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
 from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.heldout import DEFAULT, Protocol
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import EVAL_FILE, RUN_FILE, SUMMARY_FILE
@@ -125,24 +126,49 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
 
 
 def add_evaluate(commands: Commands) -> None:
-    p = commands.add_parser("evaluate", help="greedy episodes of a trained run -> eval.json")
+    p = commands.add_parser(
+        "evaluate",
+        help="greedy episodes of a trained run from held-out starts -> eval.json",
+        description="Greedy episodes from held-out starts (rest plus U(-S, S) on each angle and "
+        "velocity, drawn with a seed no training uses), and apart from rest. eval.json holds "
+        "every episode's start state and actions, so any simulator can replay it.",
+    )
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
-    p.add_argument("--episodes", type=positive_int, help="default: the run's eval_episodes")
-    p.add_argument("--seed", type=seed, default=0, help="seed of start noise and tie-breaking")
+    p.add_argument("--episodes", type=positive_int, default=DEFAULT.episodes)
+    p.add_argument("--start-noise", type=float, default=DEFAULT.start_noise, metavar="S")
+    p.add_argument("--seed", type=seed, default=DEFAULT.seed, help="seed of the held-out starts")
+    p.add_argument(
+        "--minima",
+        action="store_true",
+        help="compute the per-start minimum-time references (a beam search, about 4 s per "
+        "start) where none are stored for this protocol and env",
+    )
     p.set_defaults(func=evaluate_command)
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
-    record = evaluate(args.run_dir, args.episodes, seed=args.seed)
-    lengths, successes = record["episode_lengths"], record["episode_successes"]
-    task = get_task(record["config"]["task"])
-    print(
-        f"{len(lengths)} greedy episodes of {args.run_dir}: {sum(successes)} {task.success_text}; "
-        f"from rest {lengths[0]} decisions"
-        + ("" if successes[0] else " (no goal)")
-        + f"; wrote {Path(args.run_dir) / EVAL_FILE}"
-    )
+    protocol = Protocol(args.episodes, args.start_noise, args.seed)
+    record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
+    print(evaluation_words(record) + f"; wrote {Path(args.run_dir) / EVAL_FILE}")
     return record
+
+
+def evaluation_words(record: dict[str, Any]) -> str:
+    """One line on an evaluation record: held-out scores, against the minima, and from rest."""
+    task = get_task(record["config"]["task"])
+    quantity, unit = task.score.quantity, task.score.unit
+    summary, rest = record["summary"], record["rest"]
+    values = summary[quantity]
+    words = (
+        f"{summary['episodes']} held-out starts: {summary['successes']} {task.success_text}, "
+        f"{quantity} median {values['median']:g} {unit} (IQR {values['q25']:g}-{values['q75']:g})"
+    )
+    if "minima" in record:
+        ratio = record["minima"]["ratio"]
+        words += f", {ratio['median']:.3g} x the per-start minima (IQR {ratio['q25']:.3g}-"
+        words += f"{ratio['q75']:.3g})"
+    words += f"; from rest {rest[quantity]:g} {unit}"
+    return words + ("" if rest["success"] else " (no goal)")
 
 
 def add_sweep(commands: Commands) -> None:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +11,10 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from acrobot_mj.checks import check_bool, check_float, check_int
+from acrobot_mj.checks import check_bool, check_int
 from acrobot_mj.envs.assets import link_lengths, load_model
 from acrobot_mj.envs.gl import make_renderer
+from acrobot_mj.envs.resets import RESET_OPTIONS, reset_noise, reset_state
 from acrobot_mj.envs.spaces import (
     INT_TYPES,
     MAX_VEL1,
@@ -28,11 +28,6 @@ from acrobot_mj.envs.tasks import SCALAR, Task, get_task
 from acrobot_mj.physics.angles import wrap_angle
 
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
-#: Reset options of the single env: ``start_noise`` (this episode's noise) or ``state`` (an exact
-#: start ``(q1, q2, dq1, dq2)`` [rad, rad/s], as evaluation records store them, for replays).
-RESET_OPTIONS = ("start_noise", "state")
-#: Reset options the vector env shares with the single env.
-SHARED_RESET_OPTIONS = ("start_noise",)
 
 #: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
 HUGE = 1e10
@@ -368,44 +363,3 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-def reset_noise(
-    options: Any,
-    default: float,
-    also_known: tuple[str, ...] = (),
-    known: tuple[str, ...] = SHARED_RESET_OPTIONS,
-) -> float:
-    """The start noise of a reset: ``options["start_noise"]`` if given (validated), else
-    ``default``; options outside ``known`` or a non-dict raise (``also_known``: options the
-    caller took out before, named in the error)."""
-    if options is not None and not isinstance(options, Mapping):
-        raise TypeError(f"reset options must be a dict, got {options!r}")
-    if not options:
-        return default
-    unknown = sorted(set(options) - set(known))
-    if unknown:
-        raise ValueError(f"unknown reset options {unknown}; known: {[*also_known, *known]}")
-    if "start_noise" in options:
-        return check_float("start_noise", options["start_noise"], 0.0, 1.0)
-    return default
-
-
-def reset_state(options: Any) -> np.ndarray | None:
-    """The exact start ``options["state"]`` of a reset, as 4 floats (None without); giving
-    ``start_noise`` as well is refused (the state is the whole start)."""
-    if not isinstance(options, Mapping) or options.get("state") is None:
-        return None
-    if "start_noise" in options:
-        raise ValueError("reset options 'state' and 'start_noise' exclude each other; give one")
-    try:
-        state = np.array(options["state"], dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"reset option 'state' must be 4 numbers (q1, q2, dq1, dq2), got {options['state']!r}"
-        ) from None
-    if state.shape != (4,):
-        raise ValueError(
-            f"reset option 'state' must be 4 numbers (q1, q2, dq1, dq2), got shape {state.shape}"
-        )
-    return state

@@ -20,7 +20,8 @@ from gymnasium.vector.utils import batch_space
 from mujoco.batch import Batch
 
 from acrobot_mj.checks import check_int
-from acrobot_mj.envs.env import HUGE, MAX_ANGLE, AcrobotEnv, reset_noise
+from acrobot_mj.envs.env import HUGE, MAX_ANGLE, AcrobotEnv
+from acrobot_mj.envs.resets import reset_noise
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, action_torques
 from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.physics.angles import wrap_angle

@@ -6,7 +6,7 @@ name the command line (``--alpha 0.1``) and sweeps (``alpha=0.1``) use.
 Which fields apply is declared, not guessed: the algorithm's and the features' specs
 (:mod:`acrobot_mj.agents.registry`) list the fields they read, the task lists its options
 (:mod:`acrobot_mj.envs.tasks`), and two fields depend on another's value (``noise_until`` on
-``start_noise > 0``, ``eval_noise`` on ``eval_episodes > 1``). A field that does not apply holds
+``start_noise > 0``). A field that does not apply holds
 ``None``; setting it raises an error naming why it has no effect. :meth:`TrainConfig.replace`
 drops the values that stop applying (switching a preset's algorithm keeps nothing stale) and
 gives fields that start to apply their defaults.
@@ -98,14 +98,6 @@ class TrainConfig:
         1,
     )
     checkpoint_every: int = _always("episodes between checkpoints (and at the end)", 50)
-    eval_episodes: int = _always("greedy evaluation episodes after training", 10)
-    eval_noise: float | None = _when(
-        "start noise of evaluation episodes after the first",
-        0.05,
-        "eval_episodes",
-        lambda episodes: episodes > 1,
-        "eval_episodes > 1",
-    )
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -152,8 +144,11 @@ class TrainConfig:
 
         Records written before the fields were declared per algorithm hold values for fields
         that do not apply (defaults, or a ``noise_until`` without start noise); they had no
-        effect then and are read as not set."""
-        data = dict(data)
+        effect then and are read as not set. Records before 0.3.0 hold ``eval_episodes`` and
+        ``eval_noise``: evaluation is no longer part of a run's config (it must not be, so that
+        what training sees cannot depend on it; :mod:`acrobot_mj.train.heldout`), and they
+        are dropped."""
+        data = {k: v for k, v in data.items() if k not in RETIRED}
         probe = _Values({**cls().to_dict(), **data})
         _check_names(probe)
         for f in fields(cls):
@@ -180,6 +175,8 @@ class TrainConfig:
 
 
 FIELD_NAMES = tuple(f.name for f in fields(TrainConfig))
+#: Fields of older records that no longer exist (see :meth:`TrainConfig.from_dict`).
+RETIRED = ("eval_episodes", "eval_noise")
 
 
 class _Values:
@@ -288,7 +285,7 @@ def _check_ranges(c: TrainConfig) -> None:
             f"config frame_skip must be in [1, {MAX_FRAME_SKIP}] (0.05 s physics steps per "
             f"decision), got {c.frame_skip}"
         )
-    unit = ("noise_until", "gamma", "epsilon", "lam", "eval_noise", "start_noise")
+    unit = ("noise_until", "gamma", "epsilon", "lam", "start_noise")
     for name in unit:
         value = getattr(c, name)
         if value is not None and not 0.0 <= value <= 1.0:
@@ -301,8 +298,6 @@ def _check_ranges(c: TrainConfig) -> None:
         raise ValueError(f"config traces must be one of {TRACES}, got {c.traces!r}")
     if c.integrator not in ("euler", "rk4"):
         raise ValueError(f"config integrator must be one of ('euler', 'rk4'), got {c.integrator!r}")
-    if c.eval_episodes < 0:
-        raise ValueError(f"config eval_episodes must be >= 0, got {c.eval_episodes}")
     if c.energy_shaping < 0:
         raise ValueError(f"config energy_shaping must be >= 0, got {c.energy_shaping}")
     if c.velocity_centre_max is not None and not c.velocity_centre_max > 0:

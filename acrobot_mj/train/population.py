@@ -105,6 +105,7 @@ def train_population(
         interrupted=records[best]["interrupted"],
         env=records[best].get("env"),
         greedy=greedy,
+        greedy_steps=sum(r["decisions_total"] - r["steps"] for r in records),
         population={
             "learners": config.population,
             "seeds": [r["seed"] for r in records],

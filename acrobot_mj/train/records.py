@@ -1,9 +1,9 @@
 """The run record: one definition of what ``run.json`` and a checkpoint's meta document hold.
 
 A run record has the config, the seed, package versions, progress (episodes, decisions, wall
-time, whether it was interrupted), the per-episode ``episode_lengths``, ``episode_returns`` and
-``episode_successes``, and the greedy episode from rest; population and lockstep runs add their
-own entries.
+time, whether it was interrupted, ``decisions_total`` with its greedy episodes), the per-episode
+``episode_lengths``, ``episode_returns`` and ``episode_successes``, and the greedy episode from
+rest; population and lockstep runs add their own entries.
 """
 
 from __future__ import annotations
@@ -68,9 +68,14 @@ def run_record(
     interrupted: bool = False,
     env: str | None = None,
     greedy: Episode | None = None,
+    greedy_steps: int = 0,
     **extra: Any,
 ) -> dict[str, Any]:
-    """The ``run.json`` of one run (``extra``: the entries of population or lockstep runs)."""
+    """The ``run.json`` of one run (``extra``: the entries of population or lockstep runs).
+
+    ``steps`` counts the decisions of learning episodes; ``decisions_total`` adds every greedy
+    episode the run took (``greedy``, and ``greedy_steps`` of others, a population's per-learner
+    greedy runs): the experience a run cost the env, its budget."""
     record: dict[str, Any] = {
         "config": config.to_dict(),
         "seed": seed,
@@ -85,6 +90,8 @@ def run_record(
     record.update(history.to_dict())
     if greedy is not None:
         record["greedy_from_rest"] = greedy_result(greedy)
+        greedy_steps += greedy.length
+    record["decisions_total"] = history.steps + greedy_steps
     record.update(extra)
     return record
 

@@ -10,6 +10,8 @@ from typing import Any
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
+from acrobot_mj.train.heldout import DEFAULT, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.records import recent_score
@@ -31,6 +33,7 @@ def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, A
     quantity = get_task(config.task).score.quantity
     greedy = [r["greedy_from_rest"] for r in records if "greedy_from_rest" in r]
     return {
+        "decisions": spread([r["steps"] for r in records]),
         "seeds": [r["seed"] for r in records],
         "successes": spread([sum(r["episode_successes"]) for r in records]),
         "runs_with_a_success": sum(any(r["episode_successes"]) for r in records),
@@ -52,16 +55,18 @@ def train_seeds(
     resume: bool = False,
     progress: bool = False,
     overwrite: bool = False,
+    protocol: Protocol | None = DEFAULT,
 ) -> dict[str, Any]:
-    """Train one run per seed into ``out_dir/seed_S``, then write ``out_dir/summary.json`` and
-    the learning curve across seeds (see the module docstring; ``jobs`` processes)."""
+    """Train one run per seed into ``out_dir/seed_S``, evaluate each on the held-out
+    ``protocol`` (its ``eval.json``; None: no evaluation), then write ``out_dir/summary.json``
+    and the learning curve across seeds (see the module docstring; ``jobs`` processes)."""
     out = Path(out_dir)
     with RunLock(out, "train --seeds"):
         if not resume and not overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
         records = _train_all(config, seeds, out, jobs, resume, progress)
-        return _summarize_into(out, config, seeds, records)
+        return _summarize_into(out, config, seeds, records, protocol)
 
 
 def _train_all(config, seeds, out, jobs, resume, progress) -> list[dict[str, Any]]:
@@ -82,13 +87,38 @@ def _train_all(config, seeds, out, jobs, resume, progress) -> list[dict[str, Any
     return [by_seed[s] for s in seeds]
 
 
-def _summarize_into(out, config, seeds, records) -> dict[str, Any]:
+def summarize_evaluations(evaluations: list[dict[str, Any]], config: TrainConfig) -> dict:
+    """Across seeds' held-out evaluations: the spread of their medians (and of learned /
+    minimum), and how many distinct greedy behaviours the seeds produced (seeds whose greedy
+    policies take the same actions from every start count once), from rest and held out."""
+    quantity = get_task(config.task).score.quantity
+    summary = {
+        "protocol": evaluations[0]["protocol"],
+        f"median_{quantity}": spread([e["summary"][quantity]["median"] for e in evaluations]),
+        "successes": spread([e["summary"]["successes"] for e in evaluations]),
+        "distinct_outcomes": distinct_outcomes(evaluations),
+    }
+    if all("minima" in e for e in evaluations):
+        summary["median_ratio"] = spread([e["minima"]["ratio"]["median"] for e in evaluations])
+    return summary
+
+
+def _evaluate_all(out: Path, seeds: list[int], protocol: Protocol | None) -> list[dict] | None:
+    if protocol is None:
+        return None
+    return [evaluate_run(seed_dir(out, s), protocol) for s in seeds]
+
+
+def _summarize_into(out, config, seeds, records, protocol) -> dict[str, Any]:
+    evaluations = _evaluate_all(out, seeds, protocol)
     summary = {
         "config": config.to_dict(),
         "versions": versions(),
         **summarize(records, config),
         "runs": [seed_dir(Path(), s).name for s in seeds],
     }
+    if evaluations is not None:
+        summary["held_out"] = summarize_evaluations(evaluations, config)
     write_json(out / SUMMARY_FILE, summary)
     plot_learning_curves(out / CURVE_FILE, config, records, f"{len(seeds)} seeds")
     return summary

@@ -24,7 +24,7 @@ from acrobot_mj.train.sweep_trials import (
     ERROR_FILE,
     run_trial,
     run_trial_in_worker,
-    train_or_error,
+    train_elsewhere,
     trial_dir,
     trial_state,
     write_trial,
@@ -109,24 +109,28 @@ def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | 
     if started_here:
         kwargs = {"address": address} if address else {"num_cpus": num_cpus}
         ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
-    # Tasks return their records and this process writes them as each finishes: the workers
-    # need no file system shared with the driver (and keep no checkpoints).
-    task = ray.remote(train_or_error)
-    trial_of = {task.remote(t.config.to_dict(), t.seed, None): t for t in todo}
+    # Tasks return their records and held-out evaluations, and this process writes them as
+    # each finishes: the workers need no file system shared with the driver (and keep no
+    # checkpoints).
+    task = ray.remote(train_elsewhere)
+    trial_of = {task.remote(t.config.to_dict(), t.seed): t for t in todo}
     pending = list(trial_of)
     try:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             trial = trial_of[done[0]]
             try:
-                record = ray.get(done[0])
+                record, evaluation = ray.get(done[0])
             except Exception as error:  # the worker itself died (crash, out of memory)
-                record = {
-                    "error": f"{type(error).__name__}: {error}",
-                    "seed": trial.seed,
-                    "config": trial.config.to_dict(),
-                }
-            write_trial(out, trial, record)
+                record, evaluation = (
+                    {
+                        "error": f"{type(error).__name__}: {error}",
+                        "seed": trial.seed,
+                        "config": trial.config.to_dict(),
+                    },
+                    None,
+                )
+            write_trial(out, trial, record, evaluation)
     finally:
         for ref in pending:  # Ctrl-C: the queued and running tasks are given up
             ray.cancel(ref)

@@ -8,13 +8,16 @@ has one, and :func:`trial_state` says why.
 from __future__ import annotations
 
 import json
+import tempfile
 import traceback
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.rundir import CHECKPOINT_FILE, RUN_FILE
+from acrobot_mj.train.evaluate import evaluate_run
+from acrobot_mj.train.heldout import DEFAULT
+from acrobot_mj.train.rundir import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE
 from acrobot_mj.train.sweep_spec import Trial
 from acrobot_mj.train.trainer import train
 
@@ -78,13 +81,41 @@ def train_or_error(config: dict[str, Any], seed: int, run_dir: str | None) -> di
 
 
 def run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
-    """One trial in this process: its files, or ``error.json``."""
+    """One trial in this process: its files and its held-out evaluation, or ``error.json``."""
     record = train_or_error(config, seed, run_dir)
     if "error" in record:
         write_json(Path(run_dir) / ERROR_FILE, record)
     else:
         (Path(run_dir) / ERROR_FILE).unlink(missing_ok=True)
+        evaluate_run(run_dir)
     return record
+
+
+def train_elsewhere(config: dict[str, Any], seed: int) -> tuple[dict[str, Any], dict | None]:
+    """One trial in a temporary directory of this (remote) process: its record and its
+    held-out evaluation (None if it failed), for a driver without a shared file system."""
+    with tempfile.TemporaryDirectory(prefix="acrobot-mj-trial-") as scratch:
+        record = train_or_error(config, seed, scratch)
+        return record, None if "error" in record else evaluate_run(scratch)
+
+
+def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
+    """A finished trial's held-out evaluation on the default protocol: its ``eval.json`` if
+    that is of this trial and protocol, else evaluated now from its checkpoint (None without
+    one)."""
+    run_dir = trial_dir(out, trial)
+    path = run_dir / EVAL_FILE
+    if path.exists():
+        saved = json.loads(path.read_text())
+        if (
+            saved.get("protocol") == DEFAULT.to_dict()
+            and saved.get("run_seed") == trial.seed
+            and saved.get("config") == trial.config.to_dict()
+        ):
+            return saved
+    if not (run_dir / CHECKPOINT_FILE).exists():
+        return None
+    return evaluate_run(run_dir)
 
 
 def run_trial_in_worker(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
@@ -96,11 +127,15 @@ def run_trial_in_worker(config: dict[str, Any], seed: int, run_dir: str) -> dict
         return {"interrupted": True, "seed": seed, "config": config}
 
 
-def write_trial(out: Path, trial: Trial, record: dict[str, Any]) -> None:
-    """A trial's record (or its error), written by the driver."""
+def write_trial(
+    out: Path, trial: Trial, record: dict[str, Any], evaluation: dict[str, Any] | None = None
+) -> None:
+    """A trial's record (or its error) and its held-out evaluation, written by the driver."""
     run = trial_dir(out, trial)
     if "error" in record:
         write_json(run / ERROR_FILE, record)
         return
     write_json(run / RUN_FILE, record)
     (run / ERROR_FILE).unlink(missing_ok=True)  # an earlier failure of this trial
+    if evaluation is not None:
+        write_json(run / EVAL_FILE, {**evaluation, "run": str(run)})
