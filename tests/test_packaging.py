@@ -1,4 +1,5 @@
-"""The MJCF loads from a source checkout and from an installed (non-editable) wheel."""
+"""The MJCF loads from a source checkout and from an installed (non-editable) wheel, which
+carries the PEP 561 ``py.typed`` marker."""
 
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ def test_models_load_from_an_installed_wheel(tmp_path: Path) -> None:
     (wheel,) = wheels.glob("acrobot_mj-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     assert "acrobot_mj/models/acrobot.xml" in names and "acrobot_mj/models/scene.xml" in names
+    assert "acrobot_mj/py.typed" in names  # PEP 561: type checkers read the package's hints
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     assert "acrobot-mj = acrobot_mj.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
 

@@ -50,6 +50,7 @@ def register_task(task: type[Task]) -> type[Task]:
             entry_point="acrobot_mj.envs.env:AcrobotEnv",
             vector_entry_point="acrobot_mj.envs.vector:AcrobotVectorEnv",
             max_episode_steps=task.max_episode_steps,
+            reward_threshold=task.reward_threshold,
             kwargs={"task": task.name},
         )
     return task

@@ -94,6 +94,9 @@ class Task(ABC):
     max_episode_steps: ClassVar[int]
     #: How its results are scored.
     score: ClassVar[Score]
+    #: The registered spec's ``reward_threshold``: the mean return that counts as solved with
+    #: the registered defaults, or None where the task names none.
+    reward_threshold: ClassVar[float | None] = None
     #: Keyword options of the constructor besides ``start_noise`` (also the config fields that
     #: apply to this task).
     options: ClassVar[tuple[str, ...]] = ()
