@@ -111,7 +111,9 @@ def test_bad_continuous_actions_are_refused(actions, match) -> None:
         ({"num_envs": 0}, ValueError, "num_envs"),
         ({"autoreset_mode": "same_step"}, ValueError, "autoreset_mode"),
         ({"frame_skip": 0}, ValueError, "frame_skip"),
-        ({"render_mode": "rgb_array"}, ValueError, "does not render"),
+        ({"render_mode": "human"}, ValueError, "render_mode"),
+        ({"num_envs": 3, "render_envs": 4}, ValueError, "render_envs"),
+        ({"render_envs": 0}, ValueError, "render_envs"),
     ],
 )
 def test_bad_options_are_refused(kwargs, error, match) -> None:

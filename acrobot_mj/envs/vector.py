@@ -10,9 +10,11 @@ step across threads. ``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -27,6 +29,29 @@ from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.physics.angles import wrap_angle
 
 _LIMITS = np.array([MAX_VEL1, MAX_VEL2])
+#: Sub-env attributes with one value per sub-env (get_attr), and those of them set_attr sets.
+PER_ENV = ("state", "np_random", "np_random_seed")
+SETTABLE = ("np_random",)
+#: Sub-env attributes every sub-env of a batch shares (get_attr repeats the one value); fixed
+#: when the env is built, so set_attr refuses them.
+SHARED = (
+    "frame_skip",
+    "integrator",
+    "continuous",
+    "start_noise",
+    "dt",
+    "task",
+    "model",
+    "metadata",
+    "render_mode",
+    "width",
+    "height",
+    "camera",
+    "action_space",
+    "observation_space",
+)
+#: Sub-env methods call() runs (with the same arguments for every sub-env).
+METHODS = ("set_state", "render")
 
 
 class AcrobotVectorEnv(VectorEnv):
@@ -35,8 +60,9 @@ class AcrobotVectorEnv(VectorEnv):
     Arguments: ``num_envs``; ``max_episode_steps`` (default: the task's, 1000 for the height
     goal: the truncation the single env gets from ``gymnasium.make``); ``autoreset_mode``
     (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads of the batch,
-    0 for all CPUs); and the single env's ``frame_skip``, ``integrator``, ``task``,
-    ``continuous``, ``model_path`` and task options (validated by the single env's rules).
+    0 for all CPUs); ``render_envs`` (below); and the single env's ``frame_skip``,
+    ``integrator``, ``task``, ``continuous``, ``model_path``, ``render_mode``, ``width``,
+    ``height``, ``camera`` and task options (validated by the single env's rules).
 
     Autoreset (``AutoresetMode.NEXT_STEP``): when a sub-env terminates or truncates, the next
     ``step`` ignores its action, resets it and returns the reset observation with reward 0 and
@@ -50,9 +76,27 @@ class AcrobotVectorEnv(VectorEnv):
     ``info`` holds the task's entries as arrays (for the height goal ``tip_height`` and
     ``is_success``), each with Gymnasium's ``_`` mask. ``unwrapped.model`` is the shared
     ``MjModel``, ``unwrapped.task`` the task.
+
+    Sub-env attributes (``get_attr``, ``set_attr``, ``call``, as ``SyncVectorEnv``'s, tuples of
+    one value per sub-env): :data:`PER_ENV` ones differ per sub-env (``state``, ``np_random``,
+    ``np_random_seed``; only ``np_random`` can be set, one Generator per sub-env or one for
+    all); :data:`SHARED` ones (``frame_skip``, ``task``, ``model``, the single spaces, ...) are
+    one value for the whole batch, repeated, and ``set_attr`` refuses them (build a new env).
+    ``call`` runs :data:`METHODS` (``set_state(q, dq)`` on every sub-env, ``render`` for every
+    sub-env's frame) or returns an attribute. Unknown names raise ``AttributeError``.
+
+    Rendering (``render_mode="rgb_array"``, the single env's ``width``, ``height``, ``camera``):
+    ``render()`` returns one frame, sub-env 0's, identical to a single env's in the same state;
+    with ``render_envs=k`` the first ``k`` sub-envs' frames tiled row by row in a grid of
+    ``ceil(sqrt(k))`` columns (black where the grid has no sub-env); with ``render_envs=None``
+    a tuple of every sub-env's frame, as ``SyncVectorEnv.render`` (Gymnasium's vector
+    ``RecordVideo`` and ``HumanRendering`` wrappers need that form).
+
+    Pickling (and ``copy.deepcopy``) rebuilds the batch and restores every sub-env's full
+    MuJoCo state, elapsed steps, pending autoresets and generators: the copy steps identically.
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["rgb_array"]}
 
     def __init__(
         self,
@@ -61,14 +105,17 @@ class AcrobotVectorEnv(VectorEnv):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         nthread: int = 0,
         render_mode: str | None = None,
+        render_envs: int | None = 1,
         **env_kwargs: Any,
     ) -> None:
         self.num_envs = check_int("num_envs", num_envs, 1)
         mode = _autoreset_mode(autoreset_mode)
-        if render_mode is not None:
-            raise ValueError("AcrobotVectorEnv does not render; use AcrobotEnv for frames")
-        # One single env validates the options and builds the model (integrator, no autoreset).
-        self._template = AcrobotEnv(**env_kwargs)
+        self.render_envs = (
+            None if render_envs is None else check_int("render_envs", render_envs, 1, self.num_envs)
+        )
+        # One single env validates the options and builds the model (integrator, no autoreset);
+        # it also renders, one sub-env's state at a time.
+        self._template = AcrobotEnv(render_mode=render_mode, **env_kwargs)
         self.task = self._template.task
         if max_episode_steps is None:
             max_episode_steps = self.task.max_episode_steps
@@ -79,15 +126,13 @@ class AcrobotVectorEnv(VectorEnv):
             "autoreset_mode": mode,
             "render_fps": self._template.metadata["render_fps"],
         }
-        self.render_mode = None
+        self.render_mode = render_mode
         self._frame_skip = self._template.frame_skip
         self._continuous = self._template.continuous
-        self.batch = Batch(self.model, self.num_envs, nthread=check_int("nthread", nthread, 0))
-        self._qpos, self._qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
-        self._ctrl = self.batch.bind("ctrl")
+        self._nthread = check_int("nthread", nthread, 0)
+        self._build_batch()
         start = self.model.key(self.task.start_keyframe)
         self._start_qpos, self._start_qvel = start.qpos.copy(), start.qvel.copy()
-        self._outcome = self.task.outcome(ARRAY)
 
         self.single_action_space = self._template.action_space
         self.single_observation_space = self._template.observation_space
@@ -96,8 +141,32 @@ class AcrobotVectorEnv(VectorEnv):
 
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._pending = np.zeros(self.num_envs, dtype=bool)  # reset at the next step
-        self._rngs = [seeding.np_random()[0] for _ in range(self.num_envs)]
+        self._rngs, self._rng_seeds = map(
+            list, zip(*(seeding.np_random() for _ in range(self.num_envs)), strict=True)
+        )
         self._reset_envs(np.ones(self.num_envs, dtype=bool), self.task.start_noise)
+
+    def _build_batch(self) -> None:
+        """The batch of ``num_envs`` simulations and the views into it (redone by unpickling)."""
+        self.batch = Batch(self.model, self.num_envs, nthread=self._nthread)
+        self._qpos, self._qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
+        self._ctrl = self.batch.bind("ctrl")
+        self._outcome = self.task.outcome(ARRAY)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for key in ("batch", "_qpos", "_qvel", "_ctrl", "_outcome"):
+            state.pop(key)
+        # Every simulation's whole MuJoCo state row (time, qpos, qvel, ctrl, warm start, ...).
+        state["batch_state"] = self.batch.state.copy()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        state = dict(state)
+        rows = state.pop("batch_state")
+        self.__dict__.update(state)
+        self._build_batch()
+        self.batch.state[...] = rows
 
     # -- resets ----------------------------------------------------------------------------
 
@@ -131,7 +200,7 @@ class AcrobotVectorEnv(VectorEnv):
         if seed is not None:
             for i, s in zip(np.flatnonzero(mask), self._seeds(seed)[mask], strict=True):
                 if s is not None:
-                    self._rngs[i] = seeding.np_random(s)[0]
+                    self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
         obs, _, _, info = self._observe()
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
@@ -201,6 +270,96 @@ class AcrobotVectorEnv(VectorEnv):
             out[key] = value
             out[f"_{key}"] = every
         return out
+
+    # -- sub-env attributes, as SyncVectorEnv's ---------------------------------------------
+
+    @property
+    def np_random(self) -> tuple[np.random.Generator, ...]:
+        """Each sub-env's generator (as ``SyncVectorEnv.np_random``)."""
+        return tuple(self._rngs)
+
+    @property
+    def np_random_seed(self) -> tuple[int, ...]:
+        """Each sub-env's seed, -1 where its generator was set directly."""
+        return tuple(self._rng_seeds)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """One value of attribute ``name`` per sub-env (see the class docstring)."""
+        if name == "state":
+            return tuple(np.concatenate([self._qpos, self._qvel], axis=1))  # copies
+        if name in PER_ENV:
+            return getattr(self, name)
+        if name in SHARED:
+            return (getattr(self._template, name),) * self.num_envs
+        raise AttributeError(
+            f"AcrobotVectorEnv's sub-envs have no attribute {name!r}; per sub-env: "
+            f"{list(PER_ENV)}, shared by all: {list(SHARED)}, methods (call): {list(METHODS)}"
+        )
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set ``name`` on every sub-env: a list or tuple of one value per sub-env, or one value
+        for all (as ``SyncVectorEnv.set_attr``). Only :data:`SETTABLE` names can be set."""
+        if name in SHARED:
+            raise AttributeError(
+                f"{name!r} is shared by all {self.num_envs} sub-envs of the batch and fixed when "
+                f"it is built: it cannot be set per sub-env; make a new env with it instead"
+            )
+        if name not in SETTABLE:
+            why = "is read-only" if name in PER_ENV else "is no attribute of the sub-envs"
+            hint = "; call('set_state', q, dq) sets the state" if name == "state" else ""
+            raise AttributeError(f"{name!r} {why}; settable: {list(SETTABLE)}{hint}")
+        if not isinstance(values, (list, tuple)):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(
+                "Values must be a list or tuple with length equal to the number of environments. "
+                f"Got `{len(values)}` values for {self.num_envs} environments."
+            )
+        bad = [v for v in values if not isinstance(v, np.random.Generator)]
+        if bad:
+            raise TypeError(f"np_random must be numpy Generators, got {bad[0]!r}")
+        self._rngs, self._rng_seeds = list(values), [-1] * self.num_envs
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Run method ``name`` of every sub-env with the same arguments (``set_state``,
+        ``render``), or return attribute ``name`` (as ``SyncVectorEnv.call``)."""
+        if name == "set_state":
+            self._template.set_state(*args, **kwargs)  # the single env's checks
+            self._qpos[...] = self._template.data.qpos
+            self._qvel[...] = self._template.data.qvel
+            return (None,) * self.num_envs
+        if name == "render":
+            if self.render_mode is None:
+                return (self.render(),) * self.num_envs  # warns, as each single env would
+            return tuple(self._frame(i) for i in range(self.num_envs))
+        return self.get_attr(name)
+
+    # -- rendering -------------------------------------------------------------------------
+
+    def render(self) -> np.ndarray | tuple[np.ndarray, ...] | None:
+        """Sub-env 0's frame, the first ``render_envs`` sub-envs' frames in a grid, or (with
+        ``render_envs=None``) every sub-env's frame."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called with render_mode=None: nothing is rendered")
+            return None
+        if self.render_envs is None:
+            return self.call("render")
+        frames = [self._frame(i) for i in range(self.render_envs)]
+        if len(frames) == 1:
+            return frames[0]
+        h, w, c = frames[0].shape
+        cols = math.ceil(math.sqrt(len(frames)))
+        rows = math.ceil(len(frames) / cols)
+        grid = np.zeros((rows * h, cols * w, c), dtype=frames[0].dtype)
+        for k, frame in enumerate(frames):
+            r, col = divmod(k, cols)
+            grid[r * h : (r + 1) * h, col * w : (col + 1) * w] = frame
+        return grid
+
+    def _frame(self, i: int) -> np.ndarray:
+        """Sub-env ``i``'s frame, rendered by the single env put in its state."""
+        self.batch.get_data(i, self._template.data)
+        return self._template.render()
 
     def close_extras(self, **kwargs: Any) -> None:
         self._template.close()
