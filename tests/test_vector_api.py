@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 
 import acrobot_mj
+from acrobot_mj.control.trajectory import shipped
 from acrobot_mj.envs.tasks import Balance, HeightGoal
 from acrobot_mj.envs.vector import PER_ENV, SHARED, AcrobotVectorEnv
+from acrobot_mj.report.balance import balance_env, closed_loop
 
 KWARGS = {"frame_skip": 4, "start_noise": 0.1}
 
@@ -247,3 +249,19 @@ def test_reward_threshold_on_the_specs() -> None:
         total, done = total + reward, terminated or truncated
     assert total == -199.0 and total >= env.spec.reward_threshold
     assert 101 - HeightGoal.MIN_DECISIONS[1] == -151
+
+
+@pytest.mark.parametrize(
+    ("name", "discrete", "solved"),
+    [("reserve", False, True), ("reserve", True, True), ("min_time", True, False)],
+)
+def test_the_balance_threshold_separates_balancing_from_falling(name, discrete, solved) -> None:
+    # The shipped controllers over one registered episode (2000 steps): those that swing up and
+    # balance return about 1610, the minimum-time swing-up with {-1, 0, +1} torques falls (592).
+    trajectory, rewards = shipped(name), []
+    env = balance_env(trajectory, discrete, hold=(2000 - trajectory.steps) * trajectory.dt)
+    env = gym.wrappers.TransformReward(env, lambda r: rewards.append(r) or r)
+    result = closed_loop(trajectory, discrete=discrete, env=env)
+    assert len(rewards) == gym.spec(Balance.env_id).max_episode_steps == 2000
+    assert result["balanced"] is solved
+    assert (sum(rewards) >= Balance.reward_threshold) is solved

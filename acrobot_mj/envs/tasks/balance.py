@@ -67,9 +67,10 @@ class Balance(Task):
     env_id = "acrobot_mj/AcrobotBalance-v0"
     max_episode_steps = 2000
     # The report's objective is 60 s balanced after the swing-up: 1200 steps of 0.05 s at a
-    # reward of nearly 1 each (the shipped controller swings up in 476 steps, then balances for
-    # the remaining 1524). Rewards are at most 1, so a mean return of 1200 needs at least 1200
-    # steps' worth of upright; spinning through every angle earns about 1/4 a step (500 in all).
+    # reward of nearly 1 each. Rewards are at most 1, so a mean return of 1200 needs at least
+    # 1200 steps' worth of upright; spinning through every angle earns about 1/4 a step (500 in
+    # all). Measured: the shipped controller (476-step swing-up, then balance) returns 1610; the
+    # minimum-time swing-up with {-1, 0, +1} torques, which falls, 592.
     reward_threshold = 1200.0
     score = Score(
         "return", lower_is_better=False, label="return per episode", unit="", best_word="highest"
