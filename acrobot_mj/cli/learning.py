@@ -122,6 +122,16 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
         f"{g['median']:g} (IQR {g['q25']:g}-{g['q75']:g}), "
         f"{summary['greedy_from_rest_successes']}/{len(seeds)} {get_task(config.task).success_text}"
     )
+    held = summary["held_out"]
+    m, n = held[f"median_{score.quantity}"], held["protocol"]["episodes"]
+    words = (
+        f"held out ({n} starts): per-seed median {score.unit}, median over seeds {m['median']:g} "
+        f"(IQR {m['q25']:g}-{m['q75']:g})"
+    )
+    if "median_ratio" in held:
+        words += f", {held['median_ratio']['median']:.3g} x the per-start minima"
+    distinct = held["distinct_outcomes"]["held_out"]
+    print(words + f"; {distinct} distinct greedy behaviours in {len(seeds)} seeds")
     return summary
 
 
