@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -45,3 +46,18 @@ def random_states(seed: int, n: int = N_STATES) -> tuple[np.ndarray, np.ndarray]
     dq = rng.uniform(-1, 1, (n, 2)) * [p.max_vel1, p.max_vel2]
     tau = rng.uniform(-p.max_torque, p.max_torque, n)
     return np.concatenate([q, dq], 1), tau
+
+
+@pytest.fixture
+def figures(monkeypatch) -> dict:
+    """The matplotlib figures the package saves during a test, by file name (still saved)."""
+    from acrobot_mj.report import plots
+
+    saved, save = {}, plots.save_figure
+
+    def capture(figure, path):
+        saved[Path(path).name] = figure
+        return save(figure, path)
+
+    monkeypatch.setattr(plots, "save_figure", capture)
+    return saved

@@ -59,9 +59,18 @@ def test_bad_sweep_files(text, match) -> None:
         parse_sweep(text)
 
 
-def test_local_sweep_resumes_and_records_failures(tmp_path) -> None:
+def test_local_sweep_resumes_and_records_failures(tmp_path, figures) -> None:
     spec = parse_sweep(TINY)
     summary = run_sweep(spec, tmp_path)
+    # The summary figure: each grid point's greedy median with its 25-75 % band over seeds.
+    (ax,) = figures["summary.png"].axes
+    (line,) = ax.get_lines()
+    np.testing.assert_array_equal(line.get_xdata(), range(4))
+    np.testing.assert_array_equal(line.get_ydata(), [p["greedy_median"] for p in summary["points"]])
+    vertices = ax.collections[0].get_paths()[0].vertices
+    assert vertices[:, 1].min() == min(p["greedy_q25"] for p in summary["points"])
+    assert vertices[:, 1].max() == max(p["greedy_q75"] for p in summary["points"])
+    assert ax.get_xlabel().startswith("grid point") and ax.get_ylabel() == "decisions from rest"
     runs = sorted((tmp_path / "trials").glob("*/run.json"))
     assert len(runs) == 8 and summary["trials"] == 8
     assert all(row["runs"] == 2 == row["held_out_runs"] for row in summary["points"])

@@ -11,7 +11,7 @@ from typing import Any
 
 from acrobot_mj.cli.common import Commands, positive_int, seed
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.report.plots import compare_curves
+from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.heldout import DEFAULT, Protocol
@@ -217,9 +217,11 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def add_curves(commands: Commands) -> None:
-    p = commands.add_parser("curves", help="learning curves of several --seeds runs, one PNG")
+    p = commands.add_parser("curves", help="learning curves of several --seeds runs, one figure")
     p.add_argument("run_dirs", nargs="+", help="directories written by train --seeds")
-    p.add_argument("--out", required=True, help="the PNG file")
+    p.add_argument(
+        "--out", required=True, help="the figure file: .png, .svg or .pdf (by its suffix)"
+    )
     p.add_argument("--title", default="Learning curves")
     p.add_argument(
         "--minimum",
@@ -230,6 +232,7 @@ def add_curves(commands: Commands) -> None:
 
 
 def curves_command(args: argparse.Namespace) -> None:
+    figure_format(args.out)  # a bad suffix is refused before any run is read
     groups, config = {}, None
     for folder in args.run_dirs:
         summary_file = Path(folder) / SUMMARY_FILE
