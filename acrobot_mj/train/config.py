@@ -97,6 +97,11 @@ class TrainConfig:
         "is kept",
         1,
     )
+    max_decisions: int = _always(
+        "learning decisions per run at most, split equally between a population's learners "
+        "(the last episode is cut short); 0: no cap, the episodes decide",
+        0,
+    )
     checkpoint_every: int = _always("episodes between checkpoints (and at the end)", 50)
 
     def __post_init__(self) -> None:
@@ -128,7 +133,25 @@ class TrainConfig:
         """Whether seeds can train together on one vector env (an algorithm with a lockstep
         form, one learner per run, no shaping)."""
         spec = agent_spec(self.algorithm)
-        return spec.lockstep is not None and self.energy_shaping == 0.0 and self.population == 1
+        return (
+            spec.lockstep is not None
+            and self.energy_shaping == 0.0
+            and self.population == 1
+            and self.max_decisions == 0
+        )
+
+    @property
+    def learner_decisions(self) -> int:
+        """The decision cap of each learner (0: none): ``max_decisions`` split equally."""
+        return self.max_decisions // self.population
+
+    def finished(self, record: dict[str, Any]) -> bool:
+        """Whether a run record of this config spent its whole budget: every episode, or every
+        learner's decision cap."""
+        if record.get("episodes_done") == self.episodes * self.population:
+            return True
+        cap = self.learner_decisions
+        return cap > 0 and record.get("steps") == cap * self.population
 
     @property
     def env_id(self) -> str:
@@ -298,6 +321,11 @@ def _check_ranges(c: TrainConfig) -> None:
         raise ValueError(f"config traces must be one of {TRACES}, got {c.traces!r}")
     if c.integrator not in ("euler", "rk4"):
         raise ValueError(f"config integrator must be one of ('euler', 'rk4'), got {c.integrator!r}")
+    if c.max_decisions < 0 or 0 < c.max_decisions < c.population:
+        raise ValueError(
+            f"config max_decisions must be 0 (no cap) or >= population ({c.population}), got "
+            f"{c.max_decisions}"
+        )
     if c.energy_shaping < 0:
         raise ValueError(f"config energy_shaping must be >= 0, got {c.energy_shaping}")
     if c.velocity_centre_max is not None and not c.velocity_centre_max > 0:

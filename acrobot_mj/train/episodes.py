@@ -77,10 +77,14 @@ def noise_options(noise: float) -> dict[str, float] | None:
 
 
 def learn_episode(
-    env: gym.Env, agent: Agent, seed: int | None = None, options: dict[str, Any] | None = None
+    env: gym.Env,
+    agent: Agent,
+    seed: int | None = None,
+    options: dict[str, Any] | None = None,
+    max_steps: int | None = None,
 ) -> Episode:
-    """One learning episode."""
-    return run_episode(env, Learning(agent), seed, options)
+    """One learning episode (cut after ``max_steps`` decisions: a truncation to the agent)."""
+    return run_episode(env, Learning(agent), seed, options, max_steps)
 
 
 def greedy_from_rest(env: gym.Env, agent: Agent, run_seed: int) -> Episode:

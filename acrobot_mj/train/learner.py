@@ -63,6 +63,12 @@ def diverged(
     )
 
 
+def budget_left(config: TrainConfig, history: History) -> int | None:
+    """Decisions a learner may still take under ``config.max_decisions`` (None: no cap)."""
+    cap = config.learner_decisions
+    return None if cap == 0 else max(cap - history.steps, 0)
+
+
 def train_agent(
     config: TrainConfig,
     seed: int,
@@ -71,8 +77,11 @@ def train_agent(
     resume: bool = False,
     progress: bool = False,
     on_episode: OnEpisode | None = None,
+    greedy: bool = True,
 ) -> tuple[dict[str, Any], Agent]:
-    """:func:`train` for one learner (no freshness check); returns the record and the agent."""
+    """:func:`train` for one learner (no freshness check); returns the record and the agent.
+    ``greedy=False`` skips the greedy episode from rest after training (a population's
+    learners: nothing uses theirs, and it would cost the env decisions)."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = training_env(config, env)
     agent = make_agent(config, seed=seed)
@@ -90,10 +99,13 @@ def train_agent(
     stop: KeyboardInterrupt | None = None  # Ctrl-C (or SIGTERM) during an episode
     try:
         for episode in range(len(history), config.episodes):
+            left = budget_left(config, history)
+            if left == 0:
+                break
             noise = noise_options(config.start_noise_at(episode))
             try:
                 with np.errstate(over="ignore", invalid="ignore"):  # checked here, by value
-                    result = learn_episode(env, agent, episode_seed(seed, episode), noise)
+                    result = learn_episode(env, agent, episode_seed(seed, episode), noise, left)
                 check_finite_return(result.episode_return)
             except DivergenceError as error:
                 checkpoints.save()  # the state after the last finite episode
@@ -110,9 +122,9 @@ def train_agent(
     elapsed = time.perf_counter() - started
     checkpoints.save()
     # The greedy policy from rest, on the training env (ties broken by a fixed stream).
-    greedy = None if stop else greedy_from_rest(env, agent, seed)
+    rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
     record = run_record(
-        config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=greedy
+        config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
     )
     if out is not None:
         write_run(out, record, f"seed {seed}")

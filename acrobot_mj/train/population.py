@@ -5,7 +5,9 @@ few dozen episodes, and which one depends on its first episodes (the README's re
 restarts turn that lottery into a choice: ``population`` learners of ``episodes`` episodes each
 (own seeds, own start noise), and the run keeps the learner whose last 20 training episodes had
 the best median score by the run's task (for the height goal: the fewest decisions). The choice
-uses training episodes only (each learner's greedy run from rest is recorded, not used).
+uses training episodes only, from the learners' own training starts; no greedy runs are made
+for it (the learners make none), so the run's decisions are its learning episodes' and the
+kept learner's one greedy run from rest.
 
 A run directory holds ``learner_K/`` (each a run of its own: record, learning curve, and its
 checkpoints while the population trains, so an interrupted run resumes) and, at the top, the
@@ -74,7 +76,7 @@ def train_population(
             if old.is_dir():
                 shutil.rmtree(old)
     score = get_task(config.task).score
-    single = config.replace(population=1)
+    single = config.replace(population=1, max_decisions=config.learner_decisions)
     records, scores = [], []
     best, agent = 0, None
     for k in range(config.population):
@@ -82,7 +84,7 @@ def train_population(
         again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
         try:
             record, learner = train_agent(
-                single, learner_seed(seed, k), sub, env, again, progress, on_episode
+                single, learner_seed(seed, k), sub, env, again, progress, on_episode, greedy=False
             )
         except KeyboardInterrupt as error:
             raise type(error)(
@@ -105,14 +107,12 @@ def train_population(
         interrupted=records[best]["interrupted"],
         env=records[best].get("env"),
         greedy=greedy,
-        greedy_steps=sum(r["decisions_total"] - r["steps"] for r in records),
         population={
             "learners": config.population,
             "seeds": [r["seed"] for r in records],
             "scores": scores,
             "kept": best,
             "rule": f"{score.best_word} median of the last {RECENT} training episodes",
-            "greedy_from_rest_lengths": [r["greedy_from_rest"]["length"] for r in records],
         },
     )
     if out is not None:

@@ -68,14 +68,12 @@ def run_record(
     interrupted: bool = False,
     env: str | None = None,
     greedy: Episode | None = None,
-    greedy_steps: int = 0,
     **extra: Any,
 ) -> dict[str, Any]:
     """The ``run.json`` of one run (``extra``: the entries of population or lockstep runs).
 
-    ``steps`` counts the decisions of learning episodes; ``decisions_total`` adds every greedy
-    episode the run took (``greedy``, and ``greedy_steps`` of others, a population's per-learner
-    greedy runs): the experience a run cost the env, its budget."""
+    ``steps`` counts the decisions of learning episodes; ``decisions_total`` adds the run's
+    greedy episode from rest (``greedy``): all the experience the run cost the env."""
     record: dict[str, Any] = {
         "config": config.to_dict(),
         "seed": seed,
@@ -88,10 +86,9 @@ def run_record(
         record["env"] = env
     record["wall_seconds"] = wall_seconds
     record.update(history.to_dict())
+    record["decisions_total"] = history.steps + (0 if greedy is None else greedy.length)
     if greedy is not None:
         record["greedy_from_rest"] = greedy_result(greedy)
-        greedy_steps += greedy.length
-    record["decisions_total"] = history.steps + greedy_steps
     record.update(extra)
     return record
 

@@ -30,10 +30,10 @@ def trial_dir(out: Path, trial: Trial) -> Path:
 
 
 def complete(record: dict[str, Any], config: TrainConfig) -> bool:
-    """Whether a run record says its run finished every episode of ``config``."""
+    """Whether a run record says its run spent its whole budget (``config.finished``)."""
     return (
         record.get("interrupted") is False
-        and record.get("episodes_done") == config.episodes * config.population
+        and config.finished(record)
         and isinstance(record.get("greedy_from_rest"), dict)
     )
 
