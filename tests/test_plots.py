@@ -65,6 +65,16 @@ def test_curves_figure_draws_median_band_and_reference() -> None:
     assert legend == ["best known: 63 decisions", a.get_label(), b.get_label()]
 
 
+def test_runs_of_different_lengths_count_where_they_have_episodes() -> None:
+    # A decision budget ends each run after its own number of episodes.
+    runs = [[10.0, 20.0, 30.0], [20.0, 40.0], [30.0, 60.0, 90.0, 120.0]]
+    (ax,) = plots.curves_figure({"": runs}, "Budget").axes
+    (line,) = ax.get_lines()
+    assert line.get_label() == "median of 3 seeds, 25-75 % band (of the runs still going)"
+    # Medians by hand: of 3, 3, 2 and 1 runs.
+    np.testing.assert_array_equal(line.get_ydata(), [20.0, 40.0, 60.0, 120.0])
+
+
 def test_one_run_is_a_line_without_band_on_linear_axes() -> None:
     figure = plots.curves_figure({"": [RUNS[0]]}, "One", ylabel="return", log_y=False)
     (ax,) = figure.axes

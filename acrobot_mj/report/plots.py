@@ -137,17 +137,21 @@ def curves_figure(
     log_y: bool = True,
 ) -> Figure:
     """A per-episode score against episode for each group of runs: one run as a line, several
-    as the median with the 25-75 % band across runs (label ``""``: a group with no name)."""
+    as the median with the 25-75 % band across runs (label ``""``: a group with no name). Runs
+    of different lengths (a decision budget ends each after its own number of episodes) count
+    at each episode where they have one."""
     series = []
     for label, runs in groups.items():
-        values = np.asarray(runs, dtype=float)
+        values = padded(runs)
         episodes = np.arange(1, values.shape[1] + 1)
         prefix = f"{label}: " if label else ""
         if len(values) == 1:
             series.append(Series(f"{prefix}one run", episodes, values[0]))
             continue
-        low, median, high = np.percentile(values, [25, 50, 75], axis=0)
+        low, median, high = np.nanpercentile(values, [25, 50, 75], axis=0)
         text = f"{prefix}median of {len(values)} seeds, 25-75 % band"
+        if np.isnan(values).any():
+            text += " (of the runs still going)"
         series.append(Series(text, episodes, median, low, high))
     return line_figure(
         series,
@@ -157,6 +161,14 @@ def curves_figure(
         log_y=log_y,
         hlines=reference,
     )
+
+
+def padded(runs: Sequence[Sequence[float]]) -> np.ndarray:
+    """Runs as rows of one array, the shorter ones padded with NaN."""
+    values = np.full((len(runs), max(len(r) for r in runs)), np.nan)
+    for row, run in zip(values, runs, strict=True):
+        row[: len(run)] = run
+    return values
 
 
 def learning_curve(
