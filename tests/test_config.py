@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.presets import PRESETS, TUNED_0_2
 
 BOOK, REPORT = PRESETS["book"], PRESETS["report"]
 TILES = ("tilings", "subset_tilings", "angle_tiles", "velocity_tiles")
@@ -49,9 +49,9 @@ def test_fields_that_depend_on_a_value_follow_it() -> None:
     assert BOOK.noise_until is None
     noisy = BOOK.replace(start_noise=0.1)
     assert noisy.noise_until == 0.0 and noisy.start_noise_at(400) == 0.1  # constant noise
-    assert PRESETS["tuned"].noise_until == 0.5
+    assert TUNED_0_2.noise_until == 0.5 and PRESETS["tuned"].noise_until == 0.0
     with pytest.raises(ValueError, match=r"noise_until must be in \[0, 1\]"):
-        PRESETS["tuned"].replace(noise_until=1.5)
+        TUNED_0_2.replace(noise_until=1.5)
 
 
 def test_records_written_before_fields_were_declared_read_back() -> None:

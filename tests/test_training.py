@@ -11,8 +11,9 @@ from acrobot_mj.envs.compat import make_gymnasium_acrobot
 from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig, parse_value
 from acrobot_mj.train.episodes import make_env
-from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.evaluate import evaluate, evaluate_agent
 from acrobot_mj.train.heldout import Protocol
+from acrobot_mj.train.learner import train_agent
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.rundir import CHECKPOINT_FILE, load_agent
 from acrobot_mj.train.seeds import train_seeds
@@ -270,19 +271,17 @@ def test_book_preset_learns_the_swing_up() -> None:
 
 
 @pytest.mark.slow
-def test_tuned_preset_swings_up_near_the_minimum() -> None:
-    # The full tuned preset (10 learners of 50 episodes, about 4 s a seed). Measured over seeds
-    # 0-99: greedy swing-up from rest in 64-83 decisions, 65 for seeds 0-4, 83 of 100 at 70 or
-    # less. The bound of 76 (the target, 1.2 times the minimum of 63) holds for 92 of
-    # those 100 seeds; seeds 0 and 1 are at 65, so a failure here means the learner or its
-    # selection changed, not bad luck.
-    for seed in (0, 1):
-        record = train(PRESETS["tuned"], seed=seed)
-        assert sum(record["episode_successes"]) >= 490  # of 500 episodes
-        assert record["greedy_from_rest"]["success"]
-        assert record["greedy_from_rest"]["length"] <= 76
-        pop = record["population"]
-        assert pop["scores"][pop["kept"]] == min(pop["scores"])
+def test_tuned_preset_generalises_within_the_budget() -> None:
+    # The full tuned preset (one learner, exactly 48,000 decisions, about 5 s). Measured over
+    # training seeds 300-399 on the 100 held-out starts: per-seed medians 65-92, 39 of 100 at
+    # 76 or less; seed 301 lands in the 65 family (65 from rest and held out), so the bound of
+    # 70 fails only if the learner, its budget or the protocol changed, not by bad luck.
+    record, agent = train_agent(PRESETS["tuned"], 301, None)
+    assert record["steps"] == 48_000 and record["decisions_total"] == 48_000 + 65
+    assert record["greedy_from_rest"] == {"length": 65, "return": -65.0, "success": True}
+    held_out = evaluate_agent(PRESETS["tuned"], agent, 301)
+    assert held_out["summary"]["length"]["median"] <= 70
+    assert held_out["summary"]["successes"] >= 95  # the worst of the 100 measured seeds: 95
 
 
 @pytest.mark.parametrize(

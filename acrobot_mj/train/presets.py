@@ -23,16 +23,32 @@ _BOOK = TrainConfig(
 PRESETS: dict[str, TrainConfig] = {
     "report": _REPORT,
     "book": _BOOK,
-    # Not the book: its learner with finer tiles (12 per angle, 14 per velocity, still 48
-    # tilings), start noise U(-0.1, 0.1) falling to 0 by half of each learner's run, and the
-    # book's 500 episodes spent as 10 independent learners of 50, keeping the one whose last 20
-    # training episodes were shortest (acrobot_mj.train.population). See the README's results.
+    # Not the book: its learner on the book's budget of about 48,000 learning decisions (capped
+    # exactly), trained from the evaluation's start distribution (U(-0.05, 0.05) around rest,
+    # constant) with finer tiles (12 per angle, 14 per velocity, still 48 tilings) and
+    # potential-based energy shaping (scale 20, which leaves the optimal policies unchanged).
+    # One learner: restarts split the budget too thin. The episodes never bind (a swing-up
+    # takes at least 63 decisions, so 1000 episodes need more than 48,000). Chosen on held-out
+    # starts over training seeds 0-29, 100-119 and 200-219; the README reports it on other
+    # seeds.
     "tuned": _BOOK.replace(
         angle_tiles=12,
         velocity_tiles=14,
-        start_noise=0.1,
-        noise_until=0.5,
-        episodes=50,
-        population=10,
+        start_noise=0.05,
+        energy_shaping=20.0,
+        episodes=1000,
+        max_decisions=48_000,
     ),
 }
+
+#: The ``tuned`` preset of 0.2.0 (10 learners of 50 episodes, start noise 0.1 falling to 0 by
+#: half of each run): 65 decisions from rest, but 85 from held-out starts, with about 88,000
+#: decisions. Kept for comparison and for its golden run.
+TUNED_0_2 = _BOOK.replace(
+    angle_tiles=12,
+    velocity_tiles=14,
+    start_noise=0.1,
+    noise_until=0.5,
+    episodes=50,
+    population=10,
+)
