@@ -1,19 +1,46 @@
-"""The README's Python examples run as printed (they are the package's public face)."""
+"""The Python examples of the README and of the docs pages run as printed (they are the
+package's public face)."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+PAGES = sorted((ROOT / "docs").glob("*.md"))
+
+
+def _blocks(text: str) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", text, re.S)
 
 
 def test_the_readme_python_examples_run(capsys, tmp_path, monkeypatch) -> None:
-    blocks = re.findall(r"```python\n(.*?)```", README, re.S)
-    assert len(blocks) >= 3
+    blocks = _blocks(README)
+    assert len(blocks) >= 2
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}  # one session, as a reader runs them in order
     for block in blocks:
         exec(compile(block, "README.md", "exec"), namespace)
     # The first example's printed result, as its comment says.
     assert capsys.readouterr().out.startswith("96 100.0 {'tip_height': 1.357")
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES if _blocks(p.read_text())], ids=lambda p: p.name)
+def test_the_docs_python_examples_run(page, tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": "docs"}  # one session per page, in order
+    for block in _blocks(page.read_text()):
+        exec(
+            compile("import gymnasium as gym\nimport acrobot_mj\n" + block, page.name, "exec"),
+            namespace,
+        )
+
+
+def test_the_readme_links_to_pages_that_exist() -> None:
+    for text, base in [(README, ROOT)] + [(p.read_text(), p.parent) for p in PAGES]:
+        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text):
+            if not target.startswith("http"):
+                assert (base / target).exists(), target
