@@ -102,6 +102,11 @@ class TrainConfig:
         "(the last episode is cut short); 0: no cap, the episodes decide",
         0,
     )
+    identify_decisions: int = _always(
+        "env decisions of random torques to identify the dynamics from; > 0: the learners "
+        "train in the identified model (acrobot_mj.train.model_based); 0: in the env",
+        0,
+    )
     checkpoint_every: int = _always("episodes between checkpoints (and at the end)", 50)
 
     def __post_init__(self) -> None:
@@ -138,6 +143,7 @@ class TrainConfig:
             and self.energy_shaping == 0.0
             and self.population == 1
             and self.max_decisions == 0
+            and self.identify_decisions == 0
         )
 
     @property
@@ -326,6 +332,8 @@ def _check_ranges(c: TrainConfig) -> None:
             f"config max_decisions must be 0 (no cap) or >= population ({c.population}), got "
             f"{c.max_decisions}"
         )
+    if c.identify_decisions < 0:
+        raise ValueError(f"config identify_decisions must be >= 0, got {c.identify_decisions}")
     if c.energy_shaping < 0:
         raise ValueError(f"config energy_shaping must be >= 0, got {c.energy_shaping}")
     if c.velocity_centre_max is not None and not c.velocity_centre_max > 0:

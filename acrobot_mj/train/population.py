@@ -22,12 +22,14 @@ lists are every learner's episodes in order (the whole budget spent); ``populati
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
+from acrobot_mj.agents.protocol import Agent
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import greedy_from_rest, training_env
@@ -42,6 +44,11 @@ from acrobot_mj.train.rundir import (
     write_run,
 )
 from acrobot_mj.train.stats import RECENT, recent_median
+
+LAST = "training episodes"
+#: Scores a trained learner ``k`` (instead of its last training episodes); its ``rule``
+#: attribute, if any, says how in the run record.
+Judge = Callable[[Agent, int], float]
 
 
 def learner_seed(seed: int, k: int) -> int:
@@ -67,8 +74,11 @@ def train_population(
     resume: bool = False,
     progress: bool = False,
     on_episode: OnEpisode | None = None,
-) -> dict[str, Any]:
-    """Train ``config.population`` learners and keep the best; see the module docstring."""
+    judge: Judge | None = None,
+) -> tuple[dict[str, Any], Agent]:
+    """Train ``config.population`` learners and keep the best (see the module docstring): the
+    run record and the kept learner. ``judge`` replaces the rule: it scores learner ``k`` from
+    the learner itself, by the task's score (a model-based run's greedy runs in its model)."""
     if resume:
         _check_population_resume(out, config, seed)
     elif out is not None:
@@ -91,7 +101,7 @@ def train_population(
                 f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
             ) from error
         records.append(record)
-        scores.append(recent_median(score.values(record)))
+        scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
         if agent is None or score.is_better(scores[k], scores[best]):  # ties: the first
             best, agent = k, learner  # only the best so far stays in memory
 
@@ -112,7 +122,9 @@ def train_population(
             "seeds": [r["seed"] for r in records],
             "scores": scores,
             "kept": best,
-            "rule": f"{score.best_word} median of the last {RECENT} training episodes",
+            "rule": getattr(
+                judge, "rule", f"{score.best_word} median of the last {RECENT} training episodes"
+            ),
         },
     )
     if out is not None:
@@ -123,4 +135,20 @@ def train_population(
         write_run(out, record, f"{config.population} learners, seed {seed}")
         for k in range(config.population):
             (learner_dir(out, k) / CHECKPOINT_FILE).unlink(missing_ok=True)
-    return record
+    return record, agent
+
+
+def train_learners(
+    config: TrainConfig,
+    seed: int,
+    out: Path | None,
+    env: gym.Env | None = None,
+    resume: bool = False,
+    progress: bool = False,
+    on_episode: OnEpisode | None = None,
+    judge: Judge | None = None,
+) -> tuple[dict[str, Any], Agent]:
+    """One learner, or ``config.population`` of them with the best kept: record and agent."""
+    if config.population > 1:
+        return train_population(config, seed, out, env, resume, progress, on_episode, judge)
+    return train_agent(config, seed, out, env, resume, progress, on_episode)

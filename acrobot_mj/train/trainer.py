@@ -13,9 +13,10 @@ from typing import Any
 import gymnasium as gym
 
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.learner import OnEpisode, train_agent
+from acrobot_mj.train.learner import OnEpisode
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.population import train_population
+from acrobot_mj.train.model_based import train_in_model
+from acrobot_mj.train.population import train_learners
 from acrobot_mj.train.rundir import check_fresh
 
 
@@ -49,9 +50,9 @@ def train(
 
 
 def _train(config, seed, out, env, resume, progress, on_episode) -> dict[str, Any]:
-    if config.population > 1:
-        return train_population(config, seed, out, env, resume, progress, on_episode)
-    return train_agent(config, seed, out, env, resume, progress, on_episode)[0]
+    if config.identify_decisions > 0:
+        return train_in_model(config, seed, out, env, resume, progress, on_episode)
+    return train_learners(config, seed, out, env, resume, progress, on_episode)[0]
 
 
 def check_seed(seed: Any) -> int:
