@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> dict:
     record = evaluate_heldout(act, protocol=Protocol(episodes=args.episodes))
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")
-    return report("DQN", args, record, HYPERPARAMETERS, train_seconds, started)
+    return report("DQN", args, record, HYPERPARAMETERS, train_seconds, started, model.num_timesteps)
 
 
 if __name__ == "__main__":

@@ -141,13 +141,16 @@ def report(
     hyperparameters: dict[str, Any],
     train_seconds: float,
     started: float,
+    decisions: int,
 ) -> dict[str, Any]:
     """Add the run's settings to ``record``, write ``eval.json`` under ``--out`` and print one
-    summary line."""
+    summary line. ``decisions``: the training decisions SB3 took (``model.num_timesteps``; PPO
+    rounds ``--steps`` up to whole rollouts)."""
     record = {
         "learner": learner,
         "seed": args.seed,
-        "training_decisions": args.steps,
+        "steps_asked": args.steps,
+        "training_decisions": decisions,
         "train_start_noise": TRAIN_START_NOISE,
         "hyperparameters": hyperparameters,
         "train_seconds": round(train_seconds, 1),
@@ -159,7 +162,7 @@ def report(
     median = record["summary"]["decisions"]["median"]
     ratio = record.get("minima", {}).get("ratio", {}).get("median")
     print(
-        f"{learner} seed {args.seed}: {args.steps} decisions, held-out median {median:g}"
+        f"{learner} seed {args.seed}: {decisions} decisions, held-out median {median:g}"
         + (f" ({ratio:.2f} x minimum)" if ratio is not None else "")
         + f", successes {record['summary']['successes']}/{record['summary']['episodes']}"
         f", rest {record['rest']['length']}, train {train_seconds:.0f} s"

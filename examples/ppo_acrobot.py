@@ -5,7 +5,8 @@ package's held-out starts.
 
 Hyperparameters: rl-zoo3's for Gymnasium's Acrobot-v1 (hyperparams/ppo.yml): normalize (obs
 and reward, VecNormalize), n_envs 16, n_steps 256, gae_lambda 0.94, gamma 0.99, n_epochs 4,
-ent_coef 0.0, MlpPolicy; the zoo trains 1e6 steps, this example 1e5 by default.
+ent_coef 0.0, MlpPolicy; the zoo trains 1e6 steps, this example 1e5 by default (SB3 rounds up to
+whole rollouts of 16 x 256: 102,400 decisions).
 """
 
 from __future__ import annotations
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")
         venv.save(str(Path(args.out) / "vecnormalize.pkl"))
-    return report("PPO", args, record, HYPERPARAMETERS, train_seconds, started)
+    return report("PPO", args, record, HYPERPARAMETERS, train_seconds, started, model.num_timesteps)
 
 
 if __name__ == "__main__":

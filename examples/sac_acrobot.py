@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> dict:
     record = evaluate_heldout(act, continuous=True, protocol=Protocol(episodes=args.episodes))
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")
-    return report("SAC", args, record, HYPERPARAMETERS, train_seconds, started)
+    return report("SAC", args, record, HYPERPARAMETERS, train_seconds, started, model.num_timesteps)
 
 
 if __name__ == "__main__":

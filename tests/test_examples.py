@@ -38,7 +38,8 @@ def test_an_example_trains_and_writes_a_replayable_record(name, tmp_path, capsys
     assert stored["episode_lengths"] == record["episode_lengths"]
     assert len(stored["start_states"]) == len(stored["actions"]) == 2
     assert [len(a) for a in stored["actions"]] == stored["episode_lengths"]
-    assert stored["summary"]["episodes"] == 2 and stored["training_decisions"] == 500
+    assert stored["summary"]["episodes"] == 2 and stored["steps_asked"] == 500
+    assert stored["training_decisions"] >= 500
 
 
 def test_the_helper_replays_a_record_exactly() -> None:
