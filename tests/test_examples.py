@@ -1,0 +1,70 @@
+"""The Stable-Baselines3 examples (examples/) import and run at a tiny budget; skipped where
+stable_baselines3 is not installed (the package does not depend on it: the `examples` extra)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("stable_baselines3", reason="the examples need stable-baselines3 (extra)")
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def load(name: str):
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    return module
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ppo_acrobot", "dqn_acrobot", "sac_acrobot"])
+def test_an_example_trains_and_writes_a_replayable_record(name, tmp_path, capsys) -> None:
+    record = load(name).main(
+        ["--steps", "500", "--seed", "0", "--episodes", "2", "--out", str(tmp_path)]
+    )
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "held-out median" in line and "successes" in line
+    stored = json.loads((tmp_path / "eval.json").read_text())
+    assert stored["episode_lengths"] == record["episode_lengths"]
+    assert len(stored["start_states"]) == len(stored["actions"]) == 2
+    assert [len(a) for a in stored["actions"]] == stored["episode_lengths"]
+    assert stored["summary"]["episodes"] == 2 and stored["steps_asked"] == 500
+    assert stored["training_decisions"] >= 500
+
+
+def test_the_helper_replays_a_record_exactly() -> None:
+    helper = load("heldout_sb3")
+    from acrobot_mj.train.heldout import Protocol
+
+    def act(obs):  # a fixed law: pump against the shoulder's velocity
+        return 0 if obs[4] > 0 else 2
+
+    record = helper.evaluate_heldout(act, protocol=Protocol(episodes=3))
+    assert (
+        record["start_states"]
+        == Protocol(episodes=3).starts(record["rest"]["start_state"]).tolist()
+    )
+    env = helper.make_env(start_noise=0.0)
+    for start, actions, length in zip(
+        record["start_states"], record["actions"], record["episode_lengths"], strict=True
+    ):
+        env.reset(options={"state": start})
+        for action in actions:
+            *_, terminated, truncated, _ = env.step(action)
+        assert len(actions) == length and (terminated or truncated)
+
+
+def test_the_package_does_not_import_the_examples() -> None:
+    package = EXAMPLES.parent / "acrobot_mj"
+    for path in package.rglob("*.py"):
+        assert "heldout_sb3" not in path.read_text() and "examples." not in path.read_text()
