@@ -70,8 +70,8 @@ def test_run_directories_written_before_still_load_and_evaluate(name, tmp_path) 
     # Every setting that applies reads back as written; the old record's values for settings
     # that do not apply (it wrote defaults for them) read as not set.
     applied = {k: v for k, v in config.to_dict().items() if v is not None and k != "task"}
-    applied.pop("max_decisions")  # new in 0.3.0, read as no cap (0)
-    assert config.max_decisions == 0
+    for new in ("max_decisions", "identify_decisions"):  # new in 0.3.0, read as 0 (off)
+        assert applied.pop(new) == 0
     assert applied == {k: old_eval["config"][k] for k in applied}
     assert None in config.to_dict().values() and seed == 0
     assert {"eval_episodes", "eval_noise"} <= old_eval["config"].keys()

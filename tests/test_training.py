@@ -238,8 +238,8 @@ def test_noisy_training_starts_follow_the_schedule_and_the_seed() -> None:
             self.starts.append(obs)  # only the first reset of the greedy run has no noise
             return obs, info
 
-    config = PRESETS["tuned"].replace(
-        episodes=5, population=1, max_episode_steps=5, start_noise=0.2, noise_until=0.8
+    config = PRESETS["model_free"].replace(
+        episodes=5, max_decisions=0, max_episode_steps=5, start_noise=0.2, noise_until=0.8
     )
     runs = []
     for seed in (1, 1, 2):
