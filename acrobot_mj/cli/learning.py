@@ -10,11 +10,18 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.cli.common import Commands, positive_int, seed
+from acrobot_mj.cli.planning import (
+    add_plan_options,
+    check_no_plan_options,
+    evaluate_plan_command,
+    train_plan_command,
+)
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.heldout import DEFAULT, Protocol
+from acrobot_mj.train.plan_config import BALANCE_NOISE, PLANNERS, is_plan_run
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import EVAL_FILE, RUN_FILE, SUMMARY_FILE
@@ -42,7 +49,7 @@ def add_train(commands: Commands) -> None:
         description="Train the report's or the book's learner. Every config field can be "
         "overridden with --FIELD VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
     )
-    p.add_argument("--preset", choices=sorted(PRESETS), default="report")
+    p.add_argument("--preset", choices=sorted([*PRESETS, *PLANNERS]), default="report")
     p.add_argument("--seed", type=seed, default=0, help="seed (the first one with --seeds)")
     p.add_argument(
         "--seeds",
@@ -67,12 +74,16 @@ def add_train(commands: Commands) -> None:
         group.add_argument(
             f"--{f.name.replace('_', '-')}", dest=f.name, metavar="VALUE", help=f.metadata["doc"]
         )
+    add_plan_options(p)
     p.set_defaults(func=train_command)
 
 
 def train_command(args: argparse.Namespace) -> dict[str, Any]:
-    config = config_of(args)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
+    if args.preset in PLANNERS:
+        return train_plan_command(args, progress)
+    check_no_plan_options(args)
+    config = config_of(args)
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
     if args.seeds is not None:
@@ -145,7 +156,13 @@ def add_evaluate(commands: Commands) -> None:
     )
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
     p.add_argument("--episodes", type=positive_int, default=DEFAULT.episodes)
-    p.add_argument("--start-noise", type=float, default=DEFAULT.start_noise, metavar="S")
+    p.add_argument(
+        "--start-noise",
+        type=float,
+        metavar="S",
+        help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a balance-preset "
+        f"run {BALANCE_NOISE:g})",
+    )
     p.add_argument("--seed", type=seed, default=DEFAULT.seed, help="seed of the held-out starts")
     p.add_argument(
         "--minima",
@@ -157,7 +174,10 @@ def add_evaluate(commands: Commands) -> None:
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
-    protocol = Protocol(args.episodes, args.start_noise, args.seed)
+    if is_plan_run(args.run_dir):
+        return evaluate_plan_command(args)
+    noise = DEFAULT.start_noise if args.start_noise is None else args.start_noise
+    protocol = Protocol(args.episodes, noise, args.seed)
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
     print(evaluation_words(record) + f"; wrote {Path(args.run_dir) / EVAL_FILE}")
     return record

@@ -16,6 +16,7 @@ from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import render_policy
 from acrobot_mj.train.evaluate import render_run
+from acrobot_mj.train.plan_config import is_plan_run
 from acrobot_mj.train.records import History
 from acrobot_mj.version import versions
 
@@ -56,13 +57,19 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
         "strip": args.strip,
         "captions": args.captions,
     }
-    if args.run_dir is not None:
+    if args.run_dir is not None and is_plan_run(args.run_dir):
+        from acrobot_mj.train.plan_eval import render_plan  # the balance preset's runs
+
+        record = render_plan(args.run_dir, args.out, max_steps=args.steps, **common)
+    elif args.run_dir is not None:
         record = render_run(args.run_dir, args.out, max_steps=args.steps, **common)
     else:
         record = render_policy(
             args.policy, args.out, steps=args.steps, frame_skip=args.frame_skip, **common
         )
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
+    if "balanced" in record:  # a balance-preset run
+        outcome = "stays balanced" if record["balanced"] else "does not stay balanced"
     print(
         f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
         f"{outcome} in {record['length']} actions"

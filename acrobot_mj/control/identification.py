@@ -122,3 +122,34 @@ def identify(
     if not np.all(np.isfinite(theta)):
         raise ValueError("identification diverged: the data do not fit the acrobot's structure")
     return theta, math.sqrt(cost / r.size)
+
+
+def realise(theta: Sequence[float], s: StepStructure, max_torque: float = 1.0) -> AcrobotParams:
+    """Physical parameters with the dynamics of the lumped ``theta``, for the model-based tools
+    that take :class:`AcrobotParams` (trajectory optimisation, LQR, TVLQR).
+
+    Five lumped values cannot fix nine physical ones: every choice of the gauge below gives the
+    same equations of motion, to rounding (``tests/test_plan.py`` checks another gauge). The
+    gauge is ``m1 = m2 = l1 = 1`` (``l2`` does not enter the dynamics; it is set to 1 too): then
+    ``lc2 = b``, ``g = e / b``, ``I2 = c - b^2``, ``lc1 = d / g - 1`` and
+    ``I1 = a - lc1^2 - 1 - b^2 - I2``. These are not claims about the real acrobot's masses or
+    lengths; a realisation with a value <= 0 is refused (no physical acrobot has this model)."""
+    a, b, c, d, e = (float(v) for v in theta)
+    if not (b > 0 and e > 0):
+        raise ValueError(f"the identified parameters {list(theta)} have no physical acrobot")
+    g = e / b
+    lc1, i2 = d / g - 1.0, c - b * b
+    values = {"lc1": lc1, "lc2": b, "I1": a - lc1 * lc1 - 1.0 - b * b - i2, "I2": i2, "g": g}
+    bad = sorted(name for name, value in values.items() if not value > 0)
+    if bad:
+        raise ValueError(
+            f"the identified parameters {list(theta)} have no physical acrobot ({bad} <= 0 in "
+            "the gauge m1 = m2 = l1 = 1)"
+        )
+    return AcrobotParams(
+        **values,
+        max_torque=max_torque,
+        max_vel1=s.max_vel1,
+        max_vel2=s.max_vel2,
+        dt=s.dt,
+    )

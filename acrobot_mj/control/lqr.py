@@ -39,17 +39,20 @@ class LQR:
 
     q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0)
     r: float = 1.0
+    #: The model it is designed on (the report's acrobot, or an identified one).
+    p: AcrobotParams = P
     gain: np.ndarray = field(init=False)
     #: The Riccati solution: the infinite-horizon cost-to-go ``x' S x`` of the error.
     cost: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
-        a, b = discrete_model()
+        a, b = discrete_model(p=self.p)
         self.gain, self.cost = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         error = state_error(x)
-        return np.clip(-(error @ self.gain.T)[..., 0], -P.max_torque, P.max_torque)
+        limit = self.p.max_torque
+        return np.clip(-(error @ self.gain.T)[..., 0], -limit, limit)
 
 
 def balances(

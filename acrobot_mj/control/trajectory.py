@@ -10,7 +10,7 @@ package ships trajectories found by :func:`acrobot_mj.control.trajopt.min_time`
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from acrobot_mj.control.model import HANGING, P, state_error, step
 from acrobot_mj.files import write_json
+from acrobot_mj.physics.params import AcrobotParams
 
 #: Largest difference [rad, rad/s] between a stored state and the model's step of the one
 #: before: 1e-9 is ~1e5 times the rounding of one step, and any modelling difference (another
@@ -30,13 +31,15 @@ FORMAT = "acrobot_mj.trajectory"
 @dataclass(frozen=True)
 class Trajectory:
     """``states`` ``(N + 1, 4)`` [rad, rad/s] and ``torques`` ``(N,)`` [N m], one per physics
-    step of ``dt`` [s] under ``method``, with ``|u| <= u_max``."""
+    step of ``dt`` [s] under ``method``, with ``|u| <= u_max``, on the model of ``params`` (the
+    report's acrobot, or one identified from data: :mod:`acrobot_mj.train.plan`)."""
 
     states: np.ndarray
     torques: np.ndarray
     dt: float
     method: str
     u_max: float
+    params: AcrobotParams = P
 
     @property
     def steps(self) -> int:
@@ -48,7 +51,7 @@ class Trajectory:
 
     def residual(self) -> float:
         """Largest gap between each stored state and the model's step of the one before."""
-        nxt = step(self.states[:-1], self.torques, method=self.method)
+        nxt = step(self.states[:-1], self.torques, method=self.method, p=self.params)
         return float(np.abs(nxt - self.states[1:]).max())
 
     def check(self, tolerance: float = TOLERANCE) -> Trajectory:
@@ -58,11 +61,12 @@ class Trajectory:
                              f"{self.states.shape} and {self.torques.shape}")  # fmt: skip
         if not (np.isfinite(self.states).all() and np.isfinite(self.torques).all()):
             raise ValueError("the trajectory holds non-finite numbers")
-        if self.dt != P.dt or self.method not in ("semi_implicit_euler", "rk4"):
+        p = self.params
+        if self.dt != p.dt or self.method not in ("semi_implicit_euler", "rk4"):
             raise ValueError(f"the trajectory is for dt={self.dt}, {self.method!r}: not the env's")
-        if np.abs(self.torques).max() > self.u_max + 1e-12:
-            raise ValueError(f"a torque exceeds u_max={self.u_max} N m")
-        limits = np.array([P.max_vel1, P.max_vel2])
+        if not 0.0 < self.u_max <= p.max_torque or np.abs(self.torques).max() > self.u_max + 1e-12:
+            raise ValueError(f"a torque exceeds u_max={self.u_max} N m (at most {p.max_torque})")
+        limits = np.array([p.max_vel1, p.max_vel2])
         if (np.abs(self.states[:, 2:]) > limits + 1e-12).any():
             raise ValueError("a state exceeds the velocity limits")
         end = state_error(self.states[-1])
@@ -74,8 +78,10 @@ class Trajectory:
         return self
 
     def to_dict(self) -> dict[str, Any]:
+        model = {} if self.params == P else {"params": asdict(self.params)}
         return {
             "format": FORMAT,
+            **model,
             "dt": self.dt,
             "method": self.method,
             "u_max": self.u_max,
@@ -102,6 +108,7 @@ class Trajectory:
                 float(data["dt"]),
                 str(data["method"]),
                 float(data["u_max"]),
+                AcrobotParams(**data["params"]) if "params" in data else P,
             )
             return trajectory.check()
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:

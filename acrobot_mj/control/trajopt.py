@@ -146,52 +146,59 @@ def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> tuple:
     return xs, us
 
 
-def approach(horizon: int, target: np.ndarray, warm: tuple, u_max: float, method: str) -> tuple:
+def approach(
+    horizon: int, target: np.ndarray, warm: tuple, u_max: float, method: str, p: AcrobotParams = P
+) -> tuple:
     """From ``warm``, the ``horizon``-step trajectory whose end is closest to ``target``, and,
     if that end is within 0.1 of it, the exact one: ``(near, exact)``, each None if not found."""
-    near = solve(horizon, target, warm, u_max, method, "closest")
+    near = solve(horizon, target, warm, u_max, method, "closest", p=p)
     if near is None or np.abs(near[0][-1] - target).max() > 0.1:
         return None, None
-    exact = solve(horizon, target, near[:2], u_max, method, "feasible")
+    exact = solve(horizon, target, near[:2], u_max, method, "feasible", p=p)
     return near[:2], None if exact is None else exact[:2]
 
 
 def reach(
-    horizon: int, target: np.ndarray, warm: tuple, u_max: float, method: str
+    horizon: int, target: np.ndarray, warm: tuple, u_max: float, method: str, p: AcrobotParams = P
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """A trajectory of exactly ``horizon`` steps to ``target`` from ``warm`` (None if
     :func:`approach` finds none)."""
-    return approach(horizon, target, warm, u_max, method)[1]
+    return approach(horizon, target, warm, u_max, method, p)[1]
 
 
 def shorten(
-    start: tuple[np.ndarray, np.ndarray], target: np.ndarray, u_max: float, method: str
+    start: tuple[np.ndarray, np.ndarray],
+    target: np.ndarray,
+    u_max: float,
+    method: str,
+    p: AcrobotParams = P,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The shortest fixed-step trajectory near ``start`` (one that reaches ``target``, or ends
     near it): the free-time optimum of its family (same steps, the step length a variable, so
     the phase of the swings can adjust), rounded up to whole 0.05 s steps."""
-    free = solve(len(start[1]), target, start, u_max, method, "feasible", free_time=True)
+    free = solve(len(start[1]), target, start, u_max, method, "feasible", free_time=True, p=p)
     if free is None:
         return None
-    horizon = int(np.ceil(len(start[1]) * free[2] / P.dt - 1e-9))
+    horizon = int(np.ceil(len(start[1]) * free[2] / p.dt - 1e-9))
     for steps in range(horizon, horizon + 8):
-        result = reach(steps, target, resample(free[0], free[1], steps), u_max, method)
+        result = reach(steps, target, resample(free[0], free[1], steps), u_max, method, p)
         if result is not None:
             return result
     return None
 
 
 def candidates(
-    horizon: int, target: np.ndarray, u_max: float, method: str
+    horizon: int, target: np.ndarray, u_max: float, method: str, p: AcrobotParams = P
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """The trajectories one warm start leads to: from the energy-pumping rollout of
     ``horizon`` steps, the closest end state; if it is near ``target``, the exact trajectory of
     that many steps (where there is one) and the shortened one of its family."""
-    near, exact = approach(horizon, target, pumping_warm_start(horizon, u_max), u_max, method)
+    warm = pumping_warm_start(horizon, u_max, p)
+    near, exact = approach(horizon, target, warm, u_max, method, p)
     if near is None:
         return []
     found = [] if exact is None else [exact]
-    short = shorten(exact if found else near, target, u_max, method)
+    short = shorten(exact if found else near, target, u_max, method, p)
     return found + ([] if short is None else [short])
 
 
@@ -207,6 +214,8 @@ def min_time(
     method: str = "semi_implicit_euler",
     horizons: range | None = None,
     targets: tuple[np.ndarray, ...] = TARGETS,
+    p: AcrobotParams = P,
+    progress: bool = False,
 ) -> Trajectory:
     """The shortest swing-up to upright at rest found by this multi-start procedure:
 
@@ -218,26 +227,36 @@ def min_time(
        target exactly (:func:`candidates`);
     3. keep the shortest (ties: the least effort).
 
-    A local method: the result is an upper bound on the true minimum."""
-    _check_u_max(u_max)
+    A local method: the result is an upper bound on the true minimum. ``p``: the model
+    (default the report's acrobot); ``progress``: a tqdm bar over the warm starts."""
+    _check_u_max(u_max, p)
     horizons = default_horizons(u_max) if horizons is None else horizons
     best = None
-    for horizon in horizons:
-        for target in targets:
-            for found in candidates(horizon, target, u_max, method):
-                if best is None or _better(found, best):
-                    best = found
+    starts = [(horizon, target) for horizon in horizons for target in targets]
+    for horizon, target in _bar(starts, progress, "swing-up search (warm starts)"):
+        for found in candidates(horizon, target, u_max, method, p):
+            if best is None or _better(found, best):
+                best = found
     if best is None:
         raise ValueError(
             f"no swing-up to upright found with u_max={u_max} N m over horizons "
             f"{horizons.start}..{horizons.stop - 1}: try longer horizons"
         )
-    return Trajectory(best[0], best[1], P.dt, method, u_max)
+    return Trajectory(best[0], best[1], p.dt, method, u_max, p)
 
 
-def _check_u_max(u_max: Any) -> None:
-    if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= P.max_torque):
-        raise ValueError(f"u_max must be in (0, {P.max_torque:g}] N m, got {u_max!r}")
+def _bar(items: list, enabled: bool, label: str) -> Any:
+    """``items`` behind a tqdm bar when ``enabled`` (tqdm imported only then)."""
+    if not enabled:
+        return items
+    from tqdm import tqdm
+
+    return tqdm(items, desc=label, unit="start")
+
+
+def _check_u_max(u_max: Any, p: AcrobotParams = P) -> None:
+    if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= p.max_torque):
+        raise ValueError(f"u_max must be in (0, {p.max_torque:g}] N m, got {u_max!r}")
 
 
 def _better(a: tuple, b: tuple) -> bool:
@@ -284,10 +303,20 @@ def min_effort(reference: Trajectory, extra_steps: int = 0) -> Trajectory:
     ``extra_steps`` more steps than it (warm-started from it, stretched)."""
     horizon = reference.steps + extra_steps
     warm = resample(reference.states, reference.torques, horizon)
-    result = solve(horizon, reference.states[-1], warm, reference.u_max, reference.method, "effort")
+    result = solve(
+        horizon,
+        reference.states[-1],
+        warm,
+        reference.u_max,
+        reference.method,
+        "effort",
+        p=reference.params,
+    )
     if result is None:
         raise ValueError(f"no least-effort trajectory of {horizon} steps was found")
-    return Trajectory(result[0], result[1], P.dt, reference.method, reference.u_max)
+    return Trajectory(
+        result[0], result[1], reference.dt, reference.method, reference.u_max, reference.params
+    )
 
 
 def shortest_to_height(

@@ -12,14 +12,14 @@ from __future__ import annotations
 import numpy as np
 
 from acrobot_mj.control.lqr import LQR
-from acrobot_mj.control.model import P, state_error, step_jacobians
+from acrobot_mj.control.model import state_error, step_jacobians
 from acrobot_mj.control.trajectory import Trajectory
 
 
 class SwingUpController:
     """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory`` (angles of the error
-    wrapped), then the saturated LQR at upright. ``q`` and ``r`` weight the state error and the
-    torque in both."""
+    wrapped), then the saturated LQR at upright, both on the trajectory's model
+    (``trajectory.params``). ``q`` and ``r`` weight the state error and the torque in both."""
 
     def __init__(
         self,
@@ -27,12 +27,13 @@ class SwingUpController:
         q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
         r: float = 1.0,
     ) -> None:
-        self.trajectory = trajectory
-        self.lqr = LQR(q, r)
+        self.trajectory, p = trajectory, trajectory.params
+        self.lqr = LQR(q, r, p)
         weights, cost, riccati = np.diag(q), np.array([[r]]), self.lqr.cost
         self.gains = np.zeros((trajectory.steps, 4))
         for k in reversed(range(trajectory.steps)):
-            a, b = step_jacobians(trajectory.states[k], trajectory.torques[k], trajectory.method)
+            x, u = trajectory.states[k], trajectory.torques[k]
+            a, b = step_jacobians(x, u, trajectory.method, p)
             gain = np.linalg.solve(cost + b.T @ riccati @ b, b.T @ riccati @ a)
             riccati = weights + a.T @ riccati @ (a - b @ gain)
             self.gains[k] = gain[0]
@@ -43,7 +44,8 @@ class SwingUpController:
             return float(self.lqr(x))
         error = state_error(x, self.trajectory.states[k])
         u = self.trajectory.torques[k] - self.gains[k] @ error
-        return float(np.clip(u, -P.max_torque, P.max_torque))
+        limit = self.trajectory.params.max_torque
+        return float(np.clip(u, -limit, limit))
 
 
 class SigmaDelta:

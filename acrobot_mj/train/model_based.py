@@ -35,7 +35,7 @@ from acrobot_mj.agents.random_stream import RandomStream
 from acrobot_mj.control.identification import StepStructure, Transition, identify
 from acrobot_mj.envs.episode import run_episode
 from acrobot_mj.envs.model_env import ModelEnv
-from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, TORQUES
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import greedy_from_rest, make_env, shape_rewards
@@ -79,8 +79,18 @@ class ModelJudge:
         return float(np.median(values))
 
 
+def random_action(env: gym.Env, rng: np.random.Generator) -> Any:
+    """A uniformly random action of ``env``: one of ``Discrete(3)``'s torques, or a torque in
+    the ``Box``'s range (float32, as the env takes it)."""
+    space = env.action_space
+    if isinstance(space, gym.spaces.Discrete):
+        return int(rng.integers(space.n))
+    return rng.uniform(space.low, space.high).astype(space.dtype)
+
+
 def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Transition]:
-    """``decisions`` transitions of uniformly random torques in ``env`` (unwrapped states)."""
+    """``decisions`` transitions of uniformly random actions in ``env`` (unwrapped states, and
+    the torque [N m] MuJoCo applied)."""
     acrobot = env.unwrapped
     tree = np.random.SeedSequence([seed, DATA_BRANCH])
     rng = np.random.default_rng(tree)
@@ -88,9 +98,11 @@ def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Trans
     for child in tree.spawn(decisions):  # at least one decision per episode: enough
         env.reset(seed=int(child.generate_state(1)[0]), options={"start_noise": noise})
         for _ in range(DATA_EPISODE):
-            x, action = acrobot.state.tolist(), int(rng.integers(3))
-            _, _, terminated, truncated, _ = env.step(action)
-            data.append((x, TORQUES[action], acrobot.state.tolist()))
+            x = acrobot.state.tolist()
+            _, _, terminated, truncated, _ = env.step(random_action(env, rng))
+            data.append(
+                (x, float(acrobot.data.actuator("elbow_motor").ctrl[0]), acrobot.state.tolist())
+            )
             if terminated or truncated or len(data) == decisions:
                 break
         if len(data) == decisions:
