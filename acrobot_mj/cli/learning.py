@@ -56,11 +56,12 @@ def add_train(commands: Commands) -> None:
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
+    add_progress(p)
     p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: when stderr is a terminal)",
+        "--tensorboard",
+        metavar="DIR",
+        help="write each training episode's length, return and success to DIR for "
+        "TensorBoard (needs the tensorboard extra)",
     )
     group = p.add_argument_group("config overrides (defaults: the preset's)")
     for f in fields(TrainConfig):
@@ -72,14 +73,20 @@ def add_train(commands: Commands) -> None:
 
 def train_command(args: argparse.Namespace) -> dict[str, Any]:
     config = config_of(args)
-    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    progress = show_progress(args)
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
     if args.seeds is not None:
         return _train_seeds(args, config, progress)
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
     record = train(
-        config, args.seed, out, resume=args.resume, progress=progress, overwrite=args.force
+        config,
+        args.seed,
+        out,
+        resume=args.resume,
+        progress=progress,
+        overwrite=args.force,
+        tensorboard=args.tensorboard,
     )
     task = get_task(config.task)
     pop = record.get("population")
@@ -91,6 +98,21 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
         f"{task.score.unit}; greedy from rest: {_greedy_words(record['greedy_from_rest'], task)}"
     )
     return record
+
+
+def add_progress(p: argparse.ArgumentParser) -> None:
+    """``--progress/--no-progress``: a bar on stderr, by default when stderr is a terminal."""
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Whether to show a bar: as asked, else when stderr is a terminal."""
+    return sys.stderr.isatty() if args.progress is None else args.progress
 
 
 def _greedy_words(greedy: dict[str, Any], task: Any) -> str:
@@ -113,6 +135,7 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
         resume=args.resume,
         progress=progress,
         overwrite=args.force,
+        tensorboard=args.tensorboard,
     )
     score = get_task(config.task).score
     g, s = summary[f"greedy_from_rest_{score.quantity}"], summary["successes"]
@@ -195,6 +218,7 @@ def add_sweep(commands: Commands) -> None:
     p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
+    add_progress(p)
     p.set_defaults(func=sweep_command)
 
 
@@ -208,6 +232,7 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
         address=args.address,
         jobs=args.jobs,
         ray_num_cpus=args.num_cpus,
+        progress=show_progress(args),
     )
     print(summary_table(summary), end="")
     print(
