@@ -24,6 +24,7 @@ from acrobot_mj.train.rundir import (
     seed_dir,
 )
 from acrobot_mj.train.stats import spread
+from acrobot_mj.train.tensorboard import summary_writer
 from acrobot_mj.train.trainer import train
 from acrobot_mj.train.workers import WorkerPool
 from acrobot_mj.version import versions
@@ -72,6 +73,8 @@ def train_seeds(
     and the learning curve across seeds (see the module docstring; ``jobs`` processes).
     ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1: over the seeds
     finished); ``tensorboard``: each seed's scalars in ``tensorboard/seed_S``."""
+    if tensorboard is not None:
+        summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
     with RunLock(out, "train --seeds"):
         if not resume and not overwrite:
