@@ -169,6 +169,21 @@ def test_a_sweep_shows_a_bar_over_its_trials_when_asked(tmp_path) -> None:
     assert "sweep sw: 100%|" in done.stderr and "2/2" in done.stderr
 
 
+def test_a_steps_bar_names_each_step_and_is_silent_when_off(capsys) -> None:
+    from acrobot_mj.bars import Steps
+
+    steps = Steps(2, "validate", True, unit="checks")
+    steps.done("cross-check")
+    steps.done("balance")
+    steps.close()
+    err = capsys.readouterr().err
+    assert "validate: 100%|" in err and "2/2" in err and "balance" in err
+    off = Steps(2, "validate", False)
+    off.done("cross-check")
+    off.close()
+    assert capsys.readouterr().err == ""
+
+
 # -- TensorBoard --------------------------------------------------------------------------
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -76,13 +77,20 @@ def add_validate(commands: Commands) -> None:
     )
     p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="a bar over the checks on stderr (default: when stderr is a terminal)",
+    )
     p.set_defaults(func=validate_command)
 
 
 def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     from acrobot_mj.report.validation import summary_rows, validate  # heavy: on demand
 
-    report = validate(args.out, quick=args.quick)
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    report = validate(args.out, quick=args.quick, progress=progress)
     rows = summary_rows(report)
     width = max(len(what) for what, _ in rows)
     for what, value in rows:

@@ -11,7 +11,6 @@ bar is shown.
 from __future__ import annotations
 
 import contextlib
-import sys
 import time
 from collections import deque
 from collections.abc import Iterator
@@ -19,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from acrobot_mj.bars import make_bar
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.records import History
 from acrobot_mj.train.stats import RECENT
@@ -41,15 +41,10 @@ class Progress:
     median length and the successes; nothing at all (and no tqdm) when not ``enabled``."""
 
     def __init__(self, total: int, label: str, enabled: bool, unit: str = "episodes") -> None:
-        self.unit, self.bar = unit, None
+        self.unit = unit
         self.recent: deque[int] = deque(maxlen=RECENT)
         self.successes, self._shown = 0, 0.0
-        if enabled:
-            from tqdm import tqdm  # only when a bar is shown
-
-            self.bar = tqdm(
-                total=total, desc=label, unit=f" {unit}", file=sys.stderr, dynamic_ncols=True
-            )
+        self.bar = make_bar(total, label, enabled, unit)
 
     def skip(self, history: History) -> None:
         """Count a resumed learner's episodes as done (before it trains on)."""
