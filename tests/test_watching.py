@@ -184,6 +184,15 @@ def test_a_steps_bar_names_each_step_and_is_silent_when_off(capsys) -> None:
     assert capsys.readouterr().err == ""
 
 
+def test_render_shows_a_bar_of_its_frames_when_asked(tmp_path, capsys) -> None:
+    args = ["render", "--policy", "zero", "--steps", "3", "--width", "32", "--height", "32"]
+    assert main([*args, "--out", str(tmp_path / "v.mp4"), "--progress"]) == 0
+    err = capsys.readouterr().err
+    assert "render: 100%|" in err and "4/4" in err  # 4 frames: the reset's and 3 steps'
+    assert main([*args, "--out", str(tmp_path / "w.mp4")]) == 0  # pytest's stderr: no terminal
+    assert "%|" not in capsys.readouterr().err
+
+
 # -- TensorBoard --------------------------------------------------------------------------
 
 

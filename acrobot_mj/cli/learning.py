@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.common import Commands, positive_int, seed
+from acrobot_mj.cli.common import Commands, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
@@ -98,21 +97,6 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
         f"{task.score.unit}; greedy from rest: {_greedy_words(record['greedy_from_rest'], task)}"
     )
     return record
-
-
-def add_progress(p: argparse.ArgumentParser) -> None:
-    """``--progress/--no-progress``: a bar on stderr, by default when stderr is a terminal."""
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: when stderr is a terminal)",
-    )
-
-
-def show_progress(args: argparse.Namespace) -> bool:
-    """Whether to show a bar: as asked, else when stderr is a terminal."""
-    return sys.stderr.isatty() if args.progress is None else args.progress
 
 
 def _greedy_words(greedy: dict[str, Any], task: Any) -> str:
