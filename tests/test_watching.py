@@ -88,13 +88,51 @@ def test_lockstep_and_population_logs_name_their_learners(tmp_path) -> None:
         rows = read_rows(tmp_path / "lock" / f"seed_{seed}" / "episodes.jsonl", 100)
         assert [r["learner"] for r in rows] == [i] * 3
         assert log_lists(rows) == {key: record[key] for key in HISTORY_KEYS}
-    record = train(config.replace(population=3), seed=1, out_dir=tmp_path / "pop")
+    seen = []
+
+    def look(episode: int, history: History) -> None:  # the run's own log, while it trains
+        seen.append(len(read_rows(tmp_path / "pop" / "episodes.jsonl", 100)))
+
+    pop = config.replace(population=3)
+    record = train(pop, seed=1, out_dir=tmp_path / "pop", on_episode=look)
+    assert seen == list(range(1, 10))
     rows = read_rows(tmp_path / "pop" / "episodes.jsonl", 100)
     assert [r["episode"] for r in rows] == list(range(9))
     assert [r["learner"] for r in rows] == [0, 0, 0, 1, 1, 1, 2, 2, 2]
     assert log_lists(rows) == {key: record[key] for key in HISTORY_KEYS}
     times = [r["wall_seconds"] for r in rows]  # one clock through the learners
     assert times == sorted(times)
+
+
+def test_a_resumed_population_rebuilds_its_log_without_duplicates(tmp_path) -> None:
+    calls = []
+
+    def stop(episode: int, history: History) -> None:
+        calls.append(episode)
+        if len(calls) == 5:  # learner 1, its second episode
+            raise KeyboardInterrupt
+
+    config = PRESETS["report"].replace(episodes=3, max_episode_steps=20, population=3)
+    with pytest.raises(KeyboardInterrupt, match="learner 1 of 3"):
+        train(config, seed=2, out_dir=tmp_path, on_episode=stop)
+    log = tmp_path / "episodes.jsonl"
+    before = read_rows(log, 100)
+    assert [(r["episode"], r["learner"]) for r in before] == [
+        (0, 0),
+        (1, 0),
+        (2, 0),
+        (3, 1),
+        (4, 1),
+    ]
+    with open(log, "a") as f:
+        f.write('{"episode": 5, "le')  # a kill in the middle of a line
+    record = train(config, seed=2, out_dir=tmp_path, resume=True)
+    rows = read_rows(log, 100)
+    assert log.read_bytes().endswith(b"\n")
+    assert rows[:5] == before  # rebuilt from the learners' logs: the same lines
+    assert [r["episode"] for r in rows] == list(range(9))
+    assert [r["learner"] for r in rows] == [0, 0, 0, 1, 1, 1, 2, 2, 2]
+    assert log_lists(rows) == {key: record[key] for key in HISTORY_KEYS}
 
 
 # -- the progress bar ---------------------------------------------------------------------

@@ -59,8 +59,8 @@ def history_rows(history: History, learner: int | None = None) -> Iterator[dict[
 class EpisodeLog:
     """Appends a learner's episodes to ``path`` as they finish (see the module docstring)."""
 
-    def __init__(self, path: Path, learner: int | None = None) -> None:
-        self.path, self.learner = path, learner
+    def __init__(self, path: Path, learner: int | None = None, tee: RunLog | None = None) -> None:
+        self.path, self.learner, self.tee = path, learner, tee
         self._file: IO[bytes] | None = None
         self._offset, self._clock = 0.0, time.perf_counter()
 
@@ -91,6 +91,8 @@ class EpisodeLog:
             row["learner"] = self.learner
         self._file.write(log_line(row))
         self._file.flush()
+        if self.tee is not None:
+            self.tee.append(row)
 
     def sync(self) -> None:
         """Make the lines logged so far durable (before a checkpoint counts them)."""
@@ -104,21 +106,46 @@ class EpisodeLog:
             self._file = None
 
 
-def concatenate(target: Path, sources: list[Path], counts: list[int]) -> None:
+def concatenate(target: Path, sources: list[Path], counts: list[int]) -> tuple[int, float]:
     """Write ``target`` (atomically) as the first ``counts[k]`` lines of each ``sources[k]`` in
     turn: one run's log made of its learners' (numbered through, ``learner`` set to ``k``, the
-    times running on from the learner before)."""
+    times running on from the learner before). Returns where the last source's lines begin:
+    their first episode number and the time they start from."""
     rows, offset, episode = [], 0.0, 0
     for k, (source, count) in enumerate(zip(sources, counts, strict=True)):
-        own = read_rows(source, count)
+        start = (episode, offset)
+        own = read_rows(source, count) if count else []
         if len(own) != count:
             raise ValueError(f"{source} holds {len(own)} episodes, its learner ran {count}")
-        last = 0.0
-        for row in own:
-            last = float(row.get("wall_seconds", 0.0))
-            rows.append(
-                {**row, "episode": episode, "learner": k, "wall_seconds": round(offset + last, 6)}
-            )
-            episode += 1
-        offset += last
+        rows.extend(_renumbered(row, start, k) for row in own)
+        episode += count
+        offset += float(own[-1].get("wall_seconds", 0.0)) if own else 0.0
     write_atomic(target, lambda f: f.writelines(log_line(row) for row in rows))
+    return start if sources else (0, 0.0)
+
+
+def _renumbered(row: dict[str, Any], start: tuple[int, float], learner: int) -> dict[str, Any]:
+    """A learner's line as a line of its run's log (``start``: the learner's first episode
+    number and start time there)."""
+    moved = {**row, "episode": start[0] + row["episode"], "learner": learner}
+    if "wall_seconds" in row:
+        moved["wall_seconds"] = round(start[1] + row["wall_seconds"], 6)
+    return moved
+
+
+class RunLog:
+    """A population run's own ``episodes.jsonl`` while learner ``learner`` trains: the lines
+    of the learners before it and its own so far (rebuilt from their logs: ``sources``,
+    ``counts``), then each line the learner logs, renumbered, as it is logged."""
+
+    def __init__(self, path: Path, sources: list[Path], counts: list[int]) -> None:
+        self.learner = len(sources) - 1
+        self._start = concatenate(path, sources, counts)
+        self._file = open(path, "ab")  # kept open: closed by close()
+
+    def append(self, row: dict[str, Any]) -> None:
+        self._file.write(log_line(_renumbered(row, self._start, self.learner)))
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()

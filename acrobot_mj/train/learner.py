@@ -15,6 +15,7 @@ import numpy as np
 from acrobot_mj.agents.protocol import Agent, DivergenceError
 from acrobot_mj.agents.registry import make_agent, make_features
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episode_log import RunLog
 from acrobot_mj.train.episodes import (
     episode_seed,
     greedy_from_rest,
@@ -78,16 +79,19 @@ def train_agent(
     progress: bool | Monitor = False,
     on_episode: OnEpisode | None = None,
     greedy: bool = True,
+    tee: RunLog | None = None,
 ) -> tuple[dict[str, Any], Agent]:
     """:func:`train` for one learner (no freshness check); returns the record and the agent.
     ``greedy=False`` skips the greedy episode from rest after training (a population's
     learners: nothing uses theirs, and it would cost the env decisions). ``progress``: show a
-    bar, or the :class:`~acrobot_mj.train.progress.Monitor` of the run this learner is in."""
+    bar, or the :class:`~acrobot_mj.train.progress.Monitor` of the run this learner is in;
+    ``tee``: the population's log, which gets each episode's line too."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = training_env(config, env)
     agent = make_agent(config, seed=seed)
     history = History()
-    checkpoints = Checkpoints(None if out is None else out / CHECKPOINT_FILE, config, seed)
+    path = None if out is None else out / CHECKPOINT_FILE
+    checkpoints = Checkpoints(path, config, seed, tee=tee)
     if resume:
         if out is None:
             raise ValueError("resume needs the run directory (out_dir)")

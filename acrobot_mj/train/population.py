@@ -16,7 +16,9 @@ usual ``run.json``, ``checkpoint.npz`` (the kept learner's agent) and learning c
 learners' checkpoints are deleted (ten of them would take ten times the disk); resuming a
 finished run trains the learners again and gets the same result. The top-level per-episode
 lists are every learner's episodes in order (the whole budget spent); ``population`` in
-``run.json`` says which learner was kept and why.
+``run.json`` says which learner was kept and why. The top-level ``episodes.jsonl`` gets each
+learner's lines as they are logged (numbered through the run, with the learner's index); a
+resumed run rebuilds it from the learners' own logs first.
 """
 
 from __future__ import annotations
@@ -31,9 +33,9 @@ import numpy as np
 
 from acrobot_mj.agents.protocol import Agent
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.train.checkpoint import save_checkpoint
+from acrobot_mj.train.checkpoint import load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episode_log import concatenate
+from acrobot_mj.train.episode_log import RunLog
 from acrobot_mj.train.episodes import greedy_from_rest, training_env
 from acrobot_mj.train.learner import OnEpisode, train_agent
 from acrobot_mj.train.progress import Monitor, run_total, watching
@@ -118,8 +120,6 @@ def train_population(
         },
     )
     if out is not None:
-        logs = [learner_dir(out, k) / EPISODE_LOG for k in range(config.population)]
-        concatenate(out / EPISODE_LOG, logs, [r["episodes_done"] for r in records])
         meta = checkpoint_meta(config, seed, len(history), history.steps, EPISODE_LOG)
         save_checkpoint(out / CHECKPOINT_FILE, agent.state_dict(), meta)
         write_run(out, record, f"{config.population} learners, seed {seed}")
@@ -138,6 +138,7 @@ def _train_each(config, seed, out, env, resume, monitor, on_episode, judge):
     for k in range(config.population):
         sub = learner_dir(out, k) if out is not None else None
         again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
+        tee = None if out is None else _run_log(out, records, again)
         try:
             record, learner = train_agent(
                 single,
@@ -148,16 +149,33 @@ def _train_each(config, seed, out, env, resume, monitor, on_episode, judge):
                 monitor.scoped(learner_dir(Path(), k).name),
                 on_episode,
                 greedy=False,
+                tee=tee,
             )
         except KeyboardInterrupt as error:
             raise type(error)(
                 f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
             ) from error
+        finally:
+            if tee is not None:
+                tee.close()
         records.append(record)
         scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
         if agent is None or score.is_better(scores[k], scores[best]):  # ties: the first
             best, agent = k, learner
     return records, scores, best, agent
+
+
+def _run_log(out: Path, records: list[dict[str, Any]], again: bool) -> RunLog:
+    """The run's ``episodes.jsonl`` for the next learner: the learners' before it (``records``)
+    and, resuming (``again``), the next one's episodes its checkpoint counts."""
+    k = len(records)
+    counts = [r["episodes_done"] for r in records]
+    if again:
+        counts.append(load_checkpoint(learner_dir(out, k) / CHECKPOINT_FILE)[0]["episodes_done"])
+    else:
+        counts.append(0)
+    logs = [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)]
+    return RunLog(out / EPISODE_LOG, logs, counts)
 
 
 def train_learners(

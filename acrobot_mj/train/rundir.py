@@ -25,7 +25,7 @@ from acrobot_mj.files import write_json
 from acrobot_mj.report.plots import learning_curve
 from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episode_log import EpisodeLog, read_rows
+from acrobot_mj.train.episode_log import EpisodeLog, RunLog, read_rows
 from acrobot_mj.train.records import HISTORY_KEYS, History, checkpoint_meta
 
 RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = (
@@ -193,7 +193,8 @@ class Checkpoints:
     """A learner's checkpoint and episode log: the checkpoint holds the state after the
     learner's last completed episode (:meth:`snapshot`), so a run stopped in the middle of an
     episode resumes exactly (that episode is run again from its start). ``path`` None keeps
-    nothing; ``learner`` is the learner's index in its log's lines (lockstep runs).
+    nothing; ``learner`` is the learner's index in its log's lines (lockstep runs), ``tee``
+    its population run's log, which gets each line too.
 
     A snapshot copies the agent's arrays, logs the episodes since the last one to
     ``episodes.jsonl`` (:class:`~acrobot_mj.train.episode_log.EpisodeLog`, flushed at once) and
@@ -202,10 +203,15 @@ class Checkpoints:
     does, and a checkpoint stays the size of the agent."""
 
     def __init__(
-        self, path: Path | None, config: TrainConfig, seed: int, learner: int | None = None
+        self,
+        path: Path | None,
+        config: TrainConfig,
+        seed: int,
+        learner: int | None = None,
+        tee: RunLog | None = None,
     ) -> None:
         self.path, self.config, self.seed = path, config, seed
-        self.log = None if path is None else EpisodeLog(path.parent / EPISODE_LOG, learner)
+        self.log = None if path is None else EpisodeLog(path.parent / EPISODE_LOG, learner, tee)
         self._state: tuple[dict[str, np.ndarray], int, int] | None = None
         self._logged = 0
 
