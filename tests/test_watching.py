@@ -198,6 +198,39 @@ def test_a_terminal_gets_one_bar_over_every_learner(tmp_path) -> None:
     assert code == 0 and "%|" not in shown  # turned off on a terminal too
 
 
+def test_seeds_in_worker_processes_share_one_bar_read_from_their_logs(tmp_path) -> None:
+    args = ["train", "--preset", "book", "--episodes", "10", "--seeds", "2", "--jobs", "2"]
+    done = _cli([*args, "--out", "s", "--progress"], tmp_path, capture_output=True)
+    assert done.returncode == 0, done.stderr
+    assert "sarsa_lambda x2 seeds, 2 processes: 100%|" in done.stderr and "20/20" in done.stderr
+
+
+def test_a_followed_log_that_is_cut_back_is_counted_again(tmp_path, capsys) -> None:
+    from acrobot_mj.files import write_text
+    from acrobot_mj.train.follow import LogFollower
+    from acrobot_mj.train.progress import Progress
+
+    def lines(n: int, length: int) -> str:
+        row = {"length": length, "return": -1.0, "success": True}
+        return "".join(json.dumps({"episode": k, **row}) + "\n" for k in range(n))
+
+    log = tmp_path / "episodes.jsonl"
+    bar = Progress(10, "follow", True)
+    follower = LogFollower([log, tmp_path / "not_yet.jsonl"], bar)
+    log.write_text(lines(6, 30) + '{"episode": 6, "len')  # the last line still being written
+    follower.poll()
+    assert (bar.bar.n, bar.successes) == (6, 6)
+    write_text(log, lines(4, 50))  # a resume cut it back: a new file
+    follower.poll()
+    assert (bar.bar.n, bar.successes) == (4, 4) and list(bar.recent)[-4:] == [50] * 4
+    with open(log, "a") as f:
+        f.write(lines(5, 50).splitlines(keepends=True)[4])
+    follower.poll()
+    assert bar.bar.n == 5
+    bar.close()
+    capsys.readouterr()
+
+
 def test_a_sweep_shows_a_bar_over_its_trials_when_asked(tmp_path) -> None:
     sweep = 'preset = "report"\nepisodes = 2\nmax_episode_steps = 20\nseeds = [0, 1]\n'
     (tmp_path / "s.toml").write_text(sweep)

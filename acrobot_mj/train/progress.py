@@ -75,6 +75,12 @@ class Progress:
         median = float(np.median(self.recent))
         return f"median {median:.0f} decisions (last {RECENT}), {self.successes} successes"
 
+    def retract(self, units: int, successes: int) -> None:
+        """Take back ``units`` counted and ``successes`` (a log that was cut back)."""
+        self.successes -= successes
+        if self.bar is not None and units:
+            self.bar.update(-units)
+
     def advance(self, count: int = 1) -> None:
         """Count ``count`` units done without episode statistics (a finished trial)."""
         if self.bar is not None:

@@ -11,6 +11,7 @@ from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
+from acrobot_mj.train.follow import LogFollower
 from acrobot_mj.train.heldout import DEFAULT, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import train_lockstep
@@ -18,6 +19,7 @@ from acrobot_mj.train.progress import Progress, run_total, watching
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import (
     CURVE_FILE,
+    EPISODE_LOG,
     SUMMARY_FILE,
     check_fresh,
     plot_learning_curves,
@@ -71,8 +73,9 @@ def train_seeds(
     """Train one run per seed into ``out_dir/seed_S``, evaluate each on the held-out
     ``protocol`` (its ``eval.json``; None: no evaluation), then write ``out_dir/summary.json``
     and the learning curve across seeds (see the module docstring; ``jobs`` processes).
-    ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1: over the seeds
-    finished); ``tensorboard``: each seed's scalars in ``tensorboard/seed_S``."""
+    ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1, read from their
+    episode logs as the workers write them); ``tensorboard``: each seed's scalars in
+    ``tensorboard/seed_S``."""
     if tensorboard is not None:
         summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
@@ -102,20 +105,19 @@ def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[s
         (config, s, str(seed_dir(out, s)), resume, False, b)
         for s, b in zip(seeds, boards, strict=True)
     ]
-    bar = Progress(len(seeds), f"{label}, {jobs} processes", progress, unit="runs")
-    with WorkerPool(jobs) as pool:
-        try:
-            finished = []
-            for future in pool.run(_train_one, calls):
-                finished.append(future.result())
-                bar.advance()
-        except KeyboardInterrupt as stop:
-            pool.stop()
-            raise type(stop)(
-                "interrupted; each seed's checkpoint holds its last completed episode"
-            ) from None
-        finally:
-            bar.close()
+    bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
+    logs = [seed_dir(out, s) / EPISODE_LOG for s in seeds]
+    try:
+        with WorkerPool(jobs) as pool, LogFollower(logs, bar):
+            try:
+                finished = [future.result() for future in pool.run(_train_one, calls)]
+            except KeyboardInterrupt as stop:
+                pool.stop()
+                raise type(stop)(
+                    "interrupted; each seed's checkpoint holds its last completed episode"
+                ) from None
+    finally:
+        bar.close()
     by_seed = {record["seed"]: record for record in finished}
     return [by_seed[s] for s in seeds]
 
