@@ -89,6 +89,54 @@ def test_an_interrupted_run_saves_and_resumes_to_the_same_result(tmp_path, sig, 
         assert resumed[key] == whole[key], key
 
 
+def complete_lines(path: Path) -> list[dict]:
+    """The episode log's complete lines (a line a kill cut short is not one)."""
+    lines = path.read_bytes().splitlines(keepends=True)
+    return [json.loads(line) for line in lines if line.endswith(b"\n")]
+
+
+def test_a_killed_run_keeps_every_logged_episode_and_resumes_without_duplicates(tmp_path):
+    args = ["train", "--preset", "book", "--checkpoint-every", "100", "--no-progress"]
+    child = start([*args, "--episodes", "5000", "--out", "run"], tmp_path)
+    log, checkpoint = tmp_path / "run" / "episodes.jsonl", tmp_path / "run" / "checkpoint.npz"
+    wait_for(checkpoint)
+    # The log grows while the run goes on, episode by episode, between checkpoints.
+    seen = [len(complete_lines(log))]
+    deadline = time.monotonic() + 60
+    while seen[-1] < 130 or len(seen) < 3:
+        assert time.monotonic() < deadline, f"the log stopped growing at {seen[-1]} lines"
+        time.sleep(0.05)
+        if len(complete_lines(log)) > seen[-1]:
+            seen.append(len(complete_lines(log)))
+    child.kill()  # kill -9: nothing saved on the way out
+    child.communicate(timeout=30)
+    assert child.returncode == -signal.SIGKILL
+    before = complete_lines(log)
+    counted = load_checkpoint(checkpoint)[0]["episodes_done"]
+    # Lines appeared between checkpoints (written every 100 episodes), not 100 at a time.
+    assert any(n % 100 for n in seen), seen
+    assert counted % 100 == 0 and counted <= len(before)
+    assert [row["episode"] for row in before] == list(range(len(before)))
+    with open(log, "a") as f:
+        f.write('{"episode": 99999, "len')  # as if killed in the middle of a line
+    episodes = counted + 150  # past every episode logged before the kill
+    assert episodes > len(before)
+    resume = [*args, "--episodes", str(episodes), "--out", str(tmp_path / "run"), "--resume"]
+    assert main(resume) == 0
+    after = complete_lines(log)
+    assert log.read_bytes().endswith(b"\n")  # the half line is gone
+    assert [row["episode"] for row in after] == list(range(episodes))  # each once, in order
+    assert after[:counted] == before[:counted]  # the counted lines kept as they were
+    # The episodes the kill lost from the checkpoint ran again, to the same results.
+    same = ("length", "return", "success")
+    for old, new in zip(before[counted:], after[counted : len(before)], strict=True):
+        assert [old[k] for k in same] == [new[k] for k in same]
+    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert record["episode_lengths"] == [row["length"] for row in after]
+    assert record["episode_returns"] == [row["return"] for row in after]
+    assert record["episode_successes"] == [row["success"] for row in after]
+
+
 #: Four Sarsa(lambda) trials of a few seconds each, two at a time.
 SWEEP = """
 preset = "book"

@@ -59,6 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ValueError,
         TypeError,
         OSError,
+        ImportError,  # an optional extra not installed (the message names it)
         ArithmeticError,  # a learner that diverged
         CheckpointError,
         GLBackendError,

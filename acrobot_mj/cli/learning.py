@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.common import Commands, positive_int, seed
+from acrobot_mj.cli.common import Commands, add_progress, positive_int, seed, show_progress
 from acrobot_mj.cli.planning import (
     add_plan_options,
     check_no_plan_options,
@@ -63,11 +62,12 @@ def add_train(commands: Commands) -> None:
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
+    add_progress(p)
     p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: when stderr is a terminal)",
+        "--tensorboard",
+        metavar="DIR",
+        help="write each training episode's length, return and success to DIR for "
+        "TensorBoard (needs the tensorboard extra)",
     )
     group = p.add_argument_group("config overrides (defaults: the preset's)")
     for f in fields(TrainConfig):
@@ -79,7 +79,7 @@ def add_train(commands: Commands) -> None:
 
 
 def train_command(args: argparse.Namespace) -> dict[str, Any]:
-    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    progress = show_progress(args)
     if args.preset in PLANNERS:
         return train_plan_command(args, progress)
     check_no_plan_options(args)
@@ -90,7 +90,13 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
         return _train_seeds(args, config, progress)
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
     record = train(
-        config, args.seed, out, resume=args.resume, progress=progress, overwrite=args.force
+        config,
+        args.seed,
+        out,
+        resume=args.resume,
+        progress=progress,
+        overwrite=args.force,
+        tensorboard=args.tensorboard,
     )
     task = get_task(config.task)
     pop = record.get("population")
@@ -124,6 +130,7 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
         resume=args.resume,
         progress=progress,
         overwrite=args.force,
+        tensorboard=args.tensorboard,
     )
     score = get_task(config.task).score
     g, s = summary[f"greedy_from_rest_{score.quantity}"], summary["successes"]
@@ -215,6 +222,7 @@ def add_sweep(commands: Commands) -> None:
     p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
+    add_progress(p)
     p.set_defaults(func=sweep_command)
 
 
@@ -228,6 +236,7 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
         address=args.address,
         jobs=args.jobs,
         ray_num_cpus=args.num_cpus,
+        progress=show_progress(args),
     )
     print(summary_table(summary), end="")
     print(

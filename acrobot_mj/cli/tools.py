@@ -9,7 +9,14 @@ from typing import Any
 
 import gymnasium as gym
 
-from acrobot_mj.cli.common import Commands, positive_int, seed, write_record
+from acrobot_mj.cli.common import (
+    Commands,
+    add_progress,
+    positive_int,
+    seed,
+    show_progress,
+    write_record,
+)
 from acrobot_mj.control.baselines import POLICY_NAMES, make_policy
 from acrobot_mj.envs.episode import PolicyActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
@@ -43,6 +50,7 @@ def add_render(commands: Commands) -> None:
         default=True,
         help="time, torque and tip height on each frame",
     )
+    add_progress(p)
     p.set_defaults(func=render_command)
 
 
@@ -56,6 +64,7 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
         "camera": args.camera,
         "strip": args.strip,
         "captions": args.captions,
+        "progress": show_progress(args),
     }
     if args.run_dir is not None and is_plan_run(args.run_dir):
         from acrobot_mj.train.plan_eval import render_plan  # the balance preset's runs
@@ -83,13 +92,14 @@ def add_validate(commands: Commands) -> None:
     )
     p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
+    add_progress(p)
     p.set_defaults(func=validate_command)
 
 
 def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     from acrobot_mj.report.validation import summary_rows, validate  # heavy: on demand
 
-    report = validate(args.out, quick=args.quick)
+    report = validate(args.out, quick=args.quick, progress=show_progress(args))
     rows = summary_rows(report)
     width = max(len(what) for what, _ in rows)
     for what, value in rows:

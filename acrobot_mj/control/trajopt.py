@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.bars import Steps
 from acrobot_mj.control.energy import energy_pumping_torque
 from acrobot_mj.control.model import HANGING, P, step
 from acrobot_mj.control.trajectory import Trajectory
@@ -228,30 +229,23 @@ def min_time(
     3. keep the shortest (ties: the least effort).
 
     A local method: the result is an upper bound on the true minimum. ``p``: the model
-    (default the report's acrobot); ``progress``: a tqdm bar over the warm starts."""
+    (default the report's acrobot); ``progress``: a bar over the warm starts, on stderr."""
     _check_u_max(u_max, p)
     horizons = default_horizons(u_max) if horizons is None else horizons
     best = None
     starts = [(horizon, target) for horizon in horizons for target in targets]
-    for horizon, target in _bar(starts, progress, "swing-up search (warm starts)"):
-        for found in candidates(horizon, target, u_max, method, p):
-            if best is None or _better(found, best):
-                best = found
+    with Steps(len(starts), "swing-up search", progress, "warm starts") as bar:
+        for horizon, target in starts:
+            for found in candidates(horizon, target, u_max, method, p):
+                if best is None or _better(found, best):
+                    best = found
+            bar.done("" if best is None else f"best {len(best[1])} steps")
     if best is None:
         raise ValueError(
             f"no swing-up to upright found with u_max={u_max} N m over horizons "
             f"{horizons.start}..{horizons.stop - 1}: try longer horizons"
         )
     return Trajectory(best[0], best[1], p.dt, method, u_max, p)
-
-
-def _bar(items: list, enabled: bool, label: str) -> Any:
-    """``items`` behind a tqdm bar when ``enabled`` (tqdm imported only then)."""
-    if not enabled:
-        return items
-    from tqdm import tqdm
-
-    return tqdm(items, desc=label, unit="start")
 
 
 def _check_u_max(u_max: Any, p: AcrobotParams = P) -> None:

@@ -15,6 +15,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from acrobot_mj.bars import Steps
 from acrobot_mj.control.model import HANGING, step
 from acrobot_mj.control.trajectory import shipped
 from acrobot_mj.files import write_json, write_text
@@ -74,8 +75,11 @@ def phase_figures(actions_fs4: list[int], out: Path) -> list[str]:
     return ["phase_portrait.png", "swing_up_phase.png"]
 
 
-def validate(out: str | Path = "runs/validation", quick: bool = False) -> dict[str, Any]:
-    """Run every check and write ``validation.json``, the figures and ``validation.md``."""
+def validate(
+    out: str | Path = "runs/validation", quick: bool = False, progress: bool = False
+) -> dict[str, Any]:
+    """Run every check and write ``validation.json``, the figures and ``validation.md``
+    (``progress``: a bar over the checks on stderr)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -84,24 +88,33 @@ def validate(out: str | Path = "runs/validation", quick: bool = False) -> dict[s
         "quick": quick,
         "versions": {"acrobot_mj": __version__, "mujoco": mujoco.__version__},
     }
-    report["cross_check"] = cross_check(
-        n_states=50 if quick else 200, n_trajectories=1 if quick else 3
-    )
-    report["integrators"] = integrator_study(
-        seconds=20.0 if quick else 100.0, reference_substeps=10 if quick else 50, out=out
-    )
-    report["linearisation"] = linearisation()
-    report["controllers"] = controllers(quick)
-    report["minimum_time"] = minimum_time(quick)
-    report["min_time_steps_frame_skip_1"] = report["minimum_time"]["min_time_steps_frame_skip_1"]
-    report["min_time_decisions_frame_skip_4"] = report["minimum_time"][
-        "min_time_decisions_frame_skip_4"
-    ]
-    report["figures"] = [
-        "energy_drift.png",
-        *phase_figures(report["minimum_time"]["actions_frame_skip_4"], out),
-    ]
-    report["balance"] = balance_section(report, quick)
+    steps = Steps(7, "validate", progress, unit="checks")
+    try:
+        report["cross_check"] = cross_check(
+            n_states=50 if quick else 200, n_trajectories=1 if quick else 3
+        )
+        steps.done("cross-check")
+        report["integrators"] = integrator_study(
+            seconds=20.0 if quick else 100.0, reference_substeps=10 if quick else 50, out=out
+        )
+        steps.done("integrators")
+        report["linearisation"] = linearisation()
+        steps.done("linearisation")
+        report["controllers"] = controllers(quick)
+        steps.done("controllers")
+        minimum = report["minimum_time"] = minimum_time(quick)
+        steps.done("minimum time")
+        report["min_time_steps_frame_skip_1"] = minimum["min_time_steps_frame_skip_1"]
+        report["min_time_decisions_frame_skip_4"] = minimum["min_time_decisions_frame_skip_4"]
+        report["figures"] = [
+            "energy_drift.png",
+            *phase_figures(minimum["actions_frame_skip_4"], out),
+        ]
+        steps.done("figures")
+        report["balance"] = balance_section(report, quick)
+        steps.done("balance")
+    finally:
+        steps.close()
     report["wall_seconds"] = time.perf_counter() - started
     write_json(out / "validation.json", report)
     write_text(out / "validation.md", markdown(report))

@@ -20,6 +20,7 @@ import imageio.v2 as imageio
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from acrobot_mj.bars import Steps
 from acrobot_mj.control.baselines import make_policy
 from acrobot_mj.envs.episode import Actor, PolicyActor, run_episode
 from acrobot_mj.envs.spaces import TORQUES
@@ -144,8 +145,10 @@ def _torque_of(env: Any, action: Any) -> float:
 class _Frames:
     """The episode loop's hooks that render, caption and write each frame."""
 
-    def __init__(self, env: Any, writer: VideoWriter, captions: bool, keep: bool) -> None:
-        self.env, self.writer, self.captions = env, writer, captions
+    def __init__(
+        self, env: Any, writer: VideoWriter, captions: bool, keep: bool, bar: Steps
+    ) -> None:
+        self.env, self.writer, self.captions, self.bar = env, writer, captions, bar
         self.task, self.dt = env.unwrapped.task, env.unwrapped.dt
         self.kept: list[np.ndarray] | None = [] if keep else None
         self.steps = 0
@@ -159,6 +162,7 @@ class _Frames:
                 f"{self.task.caption(info)}{note}",
             )
         self.writer.append(frame)
+        self.bar.done()
         if self.kept is not None:
             self.kept.append(frame)
 
@@ -219,13 +223,14 @@ def record_episode(
     strip: str | Path | None = None,
     strip_frames: int = 6,
     on_reset: Any = None,
+    progress: bool = False,
 ) -> dict[str, Any]:
     """Run one episode of ``actor`` on ``env`` (``render_mode="rgb_array"``) and write an MP4.
 
     Stops at termination, truncation or ``max_steps``. With ``strip``, also writes a PNG of
     ``strip_frames`` frames spread over the episode; ``on_reset(obs, info)`` runs after the
-    reset, before the first frame. Returns a record of the episode, also written as JSON beside
-    the video.
+    reset, before the first frame; ``progress`` shows a bar of the frames on stderr. Returns a
+    record of the episode, also written as JSON beside the video.
     """
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
@@ -233,8 +238,10 @@ def record_episode(
     check_outputs(path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata["render_fps"]
-    with VideoWriter(path, fps) as writer:
-        frames = _Frames(env, writer, captions, keep=strip is not None)
+    limit = max_steps or getattr(env.spec, "max_episode_steps", None)  # None: not known
+    bar = Steps(limit + 1 if limit else None, "render", progress, "frames")
+    with VideoWriter(path, fps) as writer, bar:
+        frames = _Frames(env, writer, captions, strip is not None, bar)
 
         def reset_hook(obs: np.ndarray, info: dict[str, Any]) -> None:
             if on_reset is not None:
@@ -276,8 +283,10 @@ def render_policy(
     camera: str = "side",
     strip: str | Path | None = None,
     captions: bool = True,
+    progress: bool = False,
 ) -> dict[str, Any]:
-    """A video of a fixed policy (``pump``, ``zero`` or ``random``) from rest."""
+    """A video of a fixed policy (``pump``, ``zero`` or ``random``) from rest (``progress``: a
+    bar of the frames on stderr)."""
     env = gym.make(
         HeightGoal.env_id,
         frame_skip=frame_skip,
@@ -295,6 +304,7 @@ def render_policy(
             max_steps=steps,
             captions=captions,
             strip=strip,
+            progress=progress,
         )
     finally:
         env.close()

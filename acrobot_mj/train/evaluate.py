@@ -152,9 +152,11 @@ def render_run(
     max_steps: int | None = None,
     strip: str | Path | None = None,
     captions: bool = True,
+    progress: bool = False,
 ) -> dict[str, Any]:
     """A video of a trained run's greedy policy from rest, on the run's own env settings (the
-    video and its record must not replace a file of the run)."""
+    video and its record must not replace a file of the run; ``progress``: a bar of the
+    frames on stderr)."""
     with RunLock(run_dir, "render", create=False):
         config, run_seed, agent = load_agent(run_dir)
         env = make_env(config, render_mode="rgb_array", width=width, height=height, camera=camera)
@@ -169,6 +171,7 @@ def render_run(
             reset_options={"start_noise": 0.0},
             captions=captions,
             strip=strip,
+            progress=progress,
         )
     finally:
         env.close()

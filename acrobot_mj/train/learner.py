@@ -15,6 +15,7 @@ import numpy as np
 from acrobot_mj.agents.protocol import Agent, DivergenceError
 from acrobot_mj.agents.registry import make_agent, make_features
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episode_log import RunLog
 from acrobot_mj.train.episodes import (
     episode_seed,
     greedy_from_rest,
@@ -22,7 +23,7 @@ from acrobot_mj.train.episodes import (
     noise_options,
     training_env,
 )
-from acrobot_mj.train.progress import Progress
+from acrobot_mj.train.progress import Monitor, run_total, watching
 from acrobot_mj.train.records import History, run_record
 from acrobot_mj.train.rundir import (
     CHECKPOINT_FILE,
@@ -75,18 +76,22 @@ def train_agent(
     out: Path | None,
     env: gym.Env | None = None,
     resume: bool = False,
-    progress: bool = False,
+    progress: bool | Monitor = False,
     on_episode: OnEpisode | None = None,
     greedy: bool = True,
+    tee: RunLog | None = None,
 ) -> tuple[dict[str, Any], Agent]:
     """:func:`train` for one learner (no freshness check); returns the record and the agent.
     ``greedy=False`` skips the greedy episode from rest after training (a population's
-    learners: nothing uses theirs, and it would cost the env decisions)."""
+    learners: nothing uses theirs, and it would cost the env decisions). ``progress``: show a
+    bar, or the :class:`~acrobot_mj.train.progress.Monitor` of the run this learner is in;
+    ``tee``: the population's log, which gets each episode's line too."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = training_env(config, env)
     agent = make_agent(config, seed=seed)
     history = History()
-    checkpoints = Checkpoints(None if out is None else out / CHECKPOINT_FILE, config, seed)
+    path = None if out is None else out / CHECKPOINT_FILE
+    checkpoints = Checkpoints(path, config, seed, tee=tee)
     if resume:
         if out is None:
             raise ValueError("resume needs the run directory (out_dir)")
@@ -94,9 +99,27 @@ def train_agent(
         load_into(agent.load_state_dict, arrays, out / CHECKPOINT_FILE)
     checkpoints.start(history)
     checkpoints.snapshot(agent.state_dict, history)
-    bar = Progress(config.episodes, f"{config.algorithm} seed {seed}", progress)
-    started = time.perf_counter()
-    stop: KeyboardInterrupt | None = None  # Ctrl-C (or SIGTERM) during an episode
+    with watching(progress, run_total(config), f"{config.algorithm} seed {seed}") as monitor:
+        monitor.restored(history)
+        started = time.perf_counter()
+        stop = _learn(config, seed, env, agent, history, checkpoints, monitor, on_episode)
+    elapsed = time.perf_counter() - started
+    checkpoints.save()
+    checkpoints.close()
+    # The greedy policy from rest, on the training env (ties broken by a fixed stream).
+    rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
+    record = run_record(
+        config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
+    )
+    if out is not None:
+        write_run(out, record, f"seed {seed}")
+    if stop:
+        raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
+    return record, agent
+
+
+def _learn(config, seed, env, agent, history, checkpoints, monitor, on_episode):
+    """The learning episodes left (checkpoints as they go); the Ctrl-C that stopped them."""
     try:
         for episode in range(len(history), config.episodes):
             left = budget_left(config, history)
@@ -109,25 +132,15 @@ def train_agent(
                 check_finite_return(result.episode_return)
             except DivergenceError as error:
                 checkpoints.save()  # the state after the last finite episode
+                checkpoints.close()
                 raise diverged(config, seed, episode, len(history), error) from None
             history.add_episode(result)
             checkpoints.snapshot(agent.state_dict, history)
-            bar.update(len(history), history)
+            monitor.episode(episode, result.length, result.episode_return, result.success)
             if (episode + 1) % config.checkpoint_every == 0:
                 checkpoints.save()
             if on_episode is not None:
                 on_episode(episode, history)
     except KeyboardInterrupt as interrupt:
-        stop = interrupt
-    elapsed = time.perf_counter() - started
-    checkpoints.save()
-    # The greedy policy from rest, on the training env (ties broken by a fixed stream).
-    rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
-    record = run_record(
-        config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
-    )
-    if out is not None:
-        write_run(out, record, f"seed {seed}")
-    if stop:
-        raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
-    return record, agent
+        return interrupt
+    return None

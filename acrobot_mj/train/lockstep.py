@@ -24,7 +24,7 @@ from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import episode_seed, greedy_from_rest, make_env
 from acrobot_mj.train.learner import check_finite_return, diverged
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.progress import Progress
+from acrobot_mj.train.progress import Monitor, watching
 from acrobot_mj.train.records import History, run_record
 from acrobot_mj.train.rundir import (
     CHECKPOINT_FILE,
@@ -40,18 +40,20 @@ def train_lockstep(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path | None = None,
-    progress: bool = False,
+    progress: bool | Monitor = False,
     greedy: bool = True,
     resume: bool = False,
     run_dirs: list[Path] | None = None,
+    tensorboard: str | Path | None = None,
 ) -> list[dict[str, Any]]:
     """Train one learner per seed together, on one :class:`AcrobotVectorEnv`.
 
     Writes ``out_dir/seed_S/`` (or ``run_dirs[k]`` for learner ``k``) like
     :func:`~acrobot_mj.train.trainer.train`, with each learner's checkpoint every
     ``checkpoint_every`` of its episodes, at the end and on Ctrl-C; ``resume`` continues from
-    them; ``greedy=False`` skips the final greedy runs from rest. Returns the run records, one
-    per seed.
+    them; ``greedy=False`` skips the final greedy runs from rest. ``progress``: one bar over
+    every learner's episodes (or the monitor of a bigger run), ``tensorboard``: a directory for
+    their scalars. Returns the run records, one per seed.
     """
     if not config.lockstep:
         able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
@@ -71,8 +73,11 @@ def train_lockstep(
         run = _Lockstep(config, seeds, run_dirs)
         if resume:
             run.restore()
-        started = time.perf_counter()
-        run.train(progress)
+        label = f"lockstep {config.algorithm} x{len(seeds)}"
+        total = (config.episodes * len(seeds), "episodes")
+        with watching(progress, total, label, tensorboard) as monitor:
+            started = time.perf_counter()
+            run.train(monitor)
         elapsed = time.perf_counter() - started
         return run.records(elapsed, greedy)
 
@@ -93,9 +98,10 @@ class _Lockstep:
         self.histories = [History() for _ in range(k)]
         self.episode = np.zeros(k, dtype=np.int64)
         self.checkpoints = [
-            Checkpoints(None if dirs is None else dirs[i] / CHECKPOINT_FILE, config, s)
+            Checkpoints(None if dirs is None else dirs[i] / CHECKPOINT_FILE, config, s, learner=i)
             for i, s in enumerate(self.seeds)
         ]
+        self.monitors: list[Monitor] = []
 
     def restore(self) -> None:
         """Continue every learner from its checkpoint."""
@@ -128,17 +134,22 @@ class _Lockstep:
         ids = np.flatnonzero(mask)
         return self.learners.begin_episodes(ids, obs[ids])
 
-    def train(self, progress: bool) -> None:
-        """Step every learner with episodes left until all are done; checkpoints as they go."""
+    def train(self, monitor: Monitor) -> None:
+        """Step every learner with episodes left until all are done; checkpoints as they go;
+        each finished episode to ``monitor``."""
         config, k = self.config, self.k
+        names = [seed_dir(Path(), s).name for s in self.seeds]
+        if self.dirs is not None:
+            names = [d.name for d in self.dirs]
+        self.monitors = [monitor.scoped(name) for name in names]
         for i in range(k):
             self.checkpoints[i].start(self.histories[i])
             self._snapshot(i)
+            self.monitors[i].restored(self.histories[i])
         length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
         active = self.episode < config.episodes
         actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
         actions[active] = self._restart(active)
-        bar = Progress(config.episodes * k, f"lockstep {config.algorithm} x{k}", progress)
         try:
             while active.any():
                 obs, reward, terminated, truncated, info = self.vec.step(actions)
@@ -157,8 +168,6 @@ class _Lockstep:
                 again = done & active
                 if again.any():
                     actions[again] = self._restart(again)
-                if done.any():
-                    bar.update(int(self.episode.sum()), self.histories[0])
         except KeyboardInterrupt as stop:
             for checkpoint in self.checkpoints:
                 checkpoint.save()
@@ -171,6 +180,7 @@ class _Lockstep:
             raise
         for checkpoint in self.checkpoints:
             checkpoint.save()
+            checkpoint.close()
 
     def _finish_episodes(
         self, done: np.ndarray, length: np.ndarray, total: np.ndarray, success: np.ndarray
@@ -190,6 +200,9 @@ class _Lockstep:
                 ) from None
             self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
             self._snapshot(i)
+            self.monitors[i].episode(
+                int(self.episode[i]) - 1, int(length[i]), float(total[i]), bool(success[i])
+            )
             if self.episode[i] % self.config.checkpoint_every == 0:
                 self.checkpoints[i].save()
 

@@ -41,6 +41,7 @@ from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import greedy_from_rest, make_env, shape_rewards
 from acrobot_mj.train.learner import OnEpisode
 from acrobot_mj.train.population import train_learners
+from acrobot_mj.train.progress import Monitor
 from acrobot_mj.train.records import greedy_result
 from acrobot_mj.train.rundir import write_run
 
@@ -136,7 +137,7 @@ def train_in_model(
     out: Path | None,
     env: gym.Env | None = None,
     resume: bool = False,
-    progress: bool = False,
+    progress: bool | Monitor = False,
     on_episode: OnEpisode | None = None,
 ) -> dict[str, Any]:
     """Train ``config`` in a model identified from ``config.identify_decisions`` env decisions

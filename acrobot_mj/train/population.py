@@ -16,7 +16,9 @@ usual ``run.json``, ``checkpoint.npz`` (the kept learner's agent) and learning c
 learners' checkpoints are deleted (ten of them would take ten times the disk); resuming a
 finished run trains the learners again and gets the same result. The top-level per-episode
 lists are every learner's episodes in order (the whole budget spent); ``population`` in
-``run.json`` says which learner was kept and why.
+``run.json`` says which learner was kept and why. The top-level ``episodes.jsonl`` gets each
+learner's lines as they are logged (numbered through the run, with the learner's index); a
+resumed run rebuilds it from the learners' own logs first.
 """
 
 from __future__ import annotations
@@ -31,13 +33,16 @@ import numpy as np
 
 from acrobot_mj.agents.protocol import Agent
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.train.checkpoint import load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episode_log import RunLog
 from acrobot_mj.train.episodes import greedy_from_rest, training_env
 from acrobot_mj.train.learner import OnEpisode, train_agent
-from acrobot_mj.train.records import History, run_record
+from acrobot_mj.train.progress import Monitor, run_total, watching
+from acrobot_mj.train.records import History, checkpoint_meta, run_record
 from acrobot_mj.train.rundir import (
     CHECKPOINT_FILE,
-    Checkpoints,
+    EPISODE_LOG,
     check_same_run,
     learner_dir,
     read_checkpoint,
@@ -72,42 +77,29 @@ def train_population(
     out: Path | None,
     env: gym.Env | None = None,
     resume: bool = False,
-    progress: bool = False,
+    progress: bool | Monitor = False,
     on_episode: OnEpisode | None = None,
     judge: Judge | None = None,
 ) -> tuple[dict[str, Any], Agent]:
     """Train ``config.population`` learners and keep the best (see the module docstring): the
     run record and the kept learner. ``judge`` replaces the rule: it scores learner ``k`` from
-    the learner itself, by the task's score (a model-based run's greedy runs in its model)."""
+    the learner itself, by the task's score (a model-based run's greedy runs in its model).
+    ``progress``: one bar over all the learners, or the run's monitor."""
     if resume:
         _check_population_resume(out, config, seed)
     elif out is not None:
         for old in sorted(out.glob("learner_*")):  # an overwritten run's learners
             if old.is_dir():
                 shutil.rmtree(old)
-    score = get_task(config.task).score
-    single = config.replace(population=1, max_decisions=config.learner_decisions)
-    records, scores = [], []
-    best, agent = 0, None
-    for k in range(config.population):
-        sub = learner_dir(out, k) if out is not None else None
-        again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
-        try:
-            record, learner = train_agent(
-                single, learner_seed(seed, k), sub, env, again, progress, on_episode, greedy=False
-            )
-        except KeyboardInterrupt as error:
-            raise type(error)(
-                f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
-            ) from error
-        records.append(record)
-        scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
-        if agent is None or score.is_better(scores[k], scores[best]):  # ties: the first
-            best, agent = k, learner  # only the best so far stays in memory
-
+    label = f"{config.algorithm} x{config.population} seed {seed}"
+    with watching(progress, run_total(config), label) as monitor:
+        records, scores, best, agent = _train_each(
+            config, seed, out, env, resume, monitor, on_episode, judge
+        )
     history = History()
     for r in records:
         history.extend(r)
+    score = get_task(config.task).score
     greedy = greedy_from_rest(training_env(config, env), agent, seed)
     record = run_record(
         config,
@@ -128,14 +120,62 @@ def train_population(
         },
     )
     if out is not None:
-        kept = Checkpoints(out / CHECKPOINT_FILE, config, seed)
-        kept.start(History())
-        kept.snapshot(agent.state_dict, history)
-        kept.save()
+        meta = checkpoint_meta(config, seed, len(history), history.steps, EPISODE_LOG)
+        save_checkpoint(out / CHECKPOINT_FILE, agent.state_dict(), meta)
         write_run(out, record, f"{config.population} learners, seed {seed}")
         for k in range(config.population):
             (learner_dir(out, k) / CHECKPOINT_FILE).unlink(missing_ok=True)
     return record, agent
+
+
+def _train_each(config, seed, out, env, resume, monitor, on_episode, judge):
+    """Train the population's learners in turn: their records, scores, the best one's index
+    and that learner (only the best so far stays in memory)."""
+    score = get_task(config.task).score
+    single = config.replace(population=1, max_decisions=config.learner_decisions)
+    records, scores = [], []
+    best, agent = 0, None
+    for k in range(config.population):
+        sub = learner_dir(out, k) if out is not None else None
+        again = resume and sub is not None and (sub / CHECKPOINT_FILE).exists()
+        tee = None if out is None else _run_log(out, records, again)
+        try:
+            record, learner = train_agent(
+                single,
+                learner_seed(seed, k),
+                sub,
+                env,
+                again,
+                monitor.scoped(learner_dir(Path(), k).name),
+                on_episode,
+                greedy=False,
+                tee=tee,
+            )
+        except KeyboardInterrupt as error:
+            raise type(error)(
+                f"interrupted in learner {k} of {config.population} ({error}); resume to continue"
+            ) from error
+        finally:
+            if tee is not None:
+                tee.close()
+        records.append(record)
+        scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
+        if agent is None or score.is_better(scores[k], scores[best]):  # ties: the first
+            best, agent = k, learner
+    return records, scores, best, agent
+
+
+def _run_log(out: Path, records: list[dict[str, Any]], again: bool) -> RunLog:
+    """The run's ``episodes.jsonl`` for the next learner: the learners' before it (``records``)
+    and, resuming (``again``), the next one's episodes its checkpoint counts."""
+    k = len(records)
+    counts = [r["episodes_done"] for r in records]
+    if again:
+        counts.append(load_checkpoint(learner_dir(out, k) / CHECKPOINT_FILE)[0]["episodes_done"])
+    else:
+        counts.append(0)
+    logs = [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)]
+    return RunLog(out / EPISODE_LOG, logs, counts)
 
 
 def train_learners(
@@ -144,7 +184,7 @@ def train_learners(
     out: Path | None,
     env: gym.Env | None = None,
     resume: bool = False,
-    progress: bool = False,
+    progress: bool | Monitor = False,
     on_episode: OnEpisode | None = None,
     judge: Judge | None = None,
 ) -> tuple[dict[str, Any], Agent]:

@@ -3,17 +3,15 @@ reading a run's checkpoint back (for resume, evaluation and videos), refusing an
 belong to the run asked for.
 
 A run directory holds ``run.json`` (:mod:`.records`), ``checkpoint.npz`` (:mod:`.checkpoint`),
-``episodes.jsonl`` (one line per training episode, written at each checkpoint: the checkpoint
-says how many lines are its own), ``learning_curve.png`` and, after evaluation, ``eval.json``;
-a run of several seeds holds ``summary.json`` and one ``seed_S/`` run directory per seed; a
-population run holds ``learner_K/`` directories besides its own files.
+``episodes.jsonl`` (one line per training episode, written as it ends: the checkpoint says
+how many lines are its own; :mod:`.episode_log`), ``learning_curve.png`` and, after evaluation,
+``eval.json``; a run of several seeds holds ``summary.json`` and one ``seed_S/`` run directory
+per seed; a population run holds ``learner_K/`` directories besides its own files.
 """
 
 from __future__ import annotations
 
-import itertools
 import json
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,10 +21,11 @@ import numpy as np
 from acrobot_mj.agents.protocol import Agent
 from acrobot_mj.agents.registry import make_agent
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import write_json, write_text
+from acrobot_mj.files import write_json
 from acrobot_mj.report.plots import learning_curve
 from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episode_log import EpisodeLog, RunLog, read_rows
 from acrobot_mj.train.records import HISTORY_KEYS, History, checkpoint_meta
 
 RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = (
@@ -94,10 +93,8 @@ def read_history(path: Path, meta: dict[str, Any]) -> History:
     log, count = path.parent / meta["episode_log"], meta["episodes_done"]
     history = History()
     try:
-        with open(log) as lines:
-            for line in itertools.islice(lines, count):
-                row = json.loads(line)
-                history.add(int(row["length"]), float(row["return"]), bool(row["success"]))
+        for row in read_rows(log, count):  # a line cut short by a kill is not counted
+            history.add(int(row["length"]), float(row["return"]), bool(row["success"]))
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise CheckpointError(f"{log} cannot give the episodes of {path}: {error!r}") from None
     if len(history) != count:
@@ -196,59 +193,59 @@ class Checkpoints:
     """A learner's checkpoint and episode log: the checkpoint holds the state after the
     learner's last completed episode (:meth:`snapshot`), so a run stopped in the middle of an
     episode resumes exactly (that episode is run again from its start). ``path`` None keeps
-    nothing.
+    nothing; ``learner`` is the learner's index in its log's lines (lockstep runs), ``tee``
+    its population run's log, which gets each line too.
 
-    A snapshot copies the agent's arrays but only notes how long the history is; a save appends
-    the episodes since the last save to ``episodes.jsonl`` (synced), then writes the checkpoint,
-    which counts them. So neither grows with the run: episode 10 costs what episode 10 million
+    A snapshot copies the agent's arrays, logs the episodes since the last one to
+    ``episodes.jsonl`` (:class:`~acrobot_mj.train.episode_log.EpisodeLog`, flushed at once) and
+    notes how long the history is; a save syncs the log, then writes the checkpoint, which
+    counts its lines. So neither grows with the run: episode 10 costs what episode 10 million
     does, and a checkpoint stays the size of the agent."""
 
-    def __init__(self, path: Path | None, config: TrainConfig, seed: int) -> None:
+    def __init__(
+        self,
+        path: Path | None,
+        config: TrainConfig,
+        seed: int,
+        learner: int | None = None,
+        tee: RunLog | None = None,
+    ) -> None:
         self.path, self.config, self.seed = path, config, seed
-        self.log = None if path is None else path.parent / EPISODE_LOG
-        self._state: tuple[dict[str, np.ndarray], History, int, int] | None = None
+        self.log = None if path is None else EpisodeLog(path.parent / EPISODE_LOG, learner, tee)
+        self._state: tuple[dict[str, np.ndarray], int, int] | None = None
         self._logged = 0
 
     def start(self, history: History) -> None:
         """Begin at ``history``: the log keeps exactly its episodes (none for a new run; for a
         resumed one, those its checkpoint counted, and not the ones after)."""
-        if self.log is None:
-            return
-        self._logged = len(history)
-        rows = "".join(_log_line(row) for row in _rows(history, 0, len(history)))
-        write_text(self.log, rows)
+        if self.log is not None:
+            self.log.start(history)
+            self._logged = len(history)
 
     def snapshot(self, state: Callable[[], dict[str, np.ndarray]], history: History) -> None:
-        """Remember the agent's arrays (``state()``, called only if there is a file to write)
-        and the progress, after a completed episode."""
-        if self.path is not None:
-            self._state = (state(), history, len(history), history.steps)
+        """Log the episodes ``history`` gained, and remember the agent's arrays (``state()``,
+        called only if there is a file to write) and the progress, after a completed episode."""
+        if self.log is None:
+            return
+        lists = history.episode_lengths, history.episode_returns, history.episode_successes
+        for k in range(self._logged, len(history)):
+            self.log.append(k, lists[0][k], lists[1][k], lists[2][k])
+        self._logged = len(history)
+        self._state = (state(), len(history), history.steps)
 
     def save(self) -> None:
-        """Append the new episodes to the log, then write the checkpoint (atomically)."""
-        if self.path is None or self._state is None:
+        """Sync the log, then write the checkpoint (atomically) that counts its lines."""
+        if self.log is None or self._state is None:
             return
-        arrays, history, length, steps = self._state
-        if length > self._logged:
-            with open(self.log, "a") as log:
-                log.writelines(_log_line(row) for row in _rows(history, self._logged, length))
-                log.flush()
-                os.fsync(log.fileno())
-            self._logged = length
+        arrays, length, steps = self._state
+        self.log.sync()
         meta = checkpoint_meta(self.config, self.seed, length, steps, EPISODE_LOG)
         save_checkpoint(self.path, arrays, meta)
 
-
-def _rows(history: History, start: int, stop: int):
-    lists = history.episode_lengths, history.episode_returns, history.episode_successes
-    for k in range(start, stop):
-        yield k, lists[0][k], lists[1][k], lists[2][k]
-
-
-def _log_line(row: tuple[int, int, float, bool]) -> str:
-    episode, length, total, success = row
-    line = {"episode": episode, "length": length, "return": total, "success": success}
-    return json.dumps(line, allow_nan=False) + "\n"
+    def close(self) -> None:
+        """Close the log (after the last save)."""
+        if self.log is not None:
+            self.log.close()
 
 
 def write_run(out: Path, record: dict[str, Any], label: str) -> None:

@@ -11,18 +11,22 @@ from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
+from acrobot_mj.train.follow import LogFollower
 from acrobot_mj.train.heldout import DEFAULT, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.progress import Progress, run_total, watching
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import (
     CURVE_FILE,
+    EPISODE_LOG,
     SUMMARY_FILE,
     check_fresh,
     plot_learning_curves,
     seed_dir,
 )
 from acrobot_mj.train.stats import spread
+from acrobot_mj.train.tensorboard import summary_writer
 from acrobot_mj.train.trainer import train
 from acrobot_mj.train.workers import WorkerPool
 from acrobot_mj.version import versions
@@ -43,8 +47,16 @@ def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, A
     }
 
 
-def _train_one(config: TrainConfig, seed: int, out_dir: str, resume: bool, progress: bool):
-    return train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True)
+def _train_one(config, seed, out_dir, resume, progress, tensorboard=None) -> dict[str, Any]:
+    return train(
+        config,
+        seed,
+        out_dir,
+        resume=resume,
+        progress=progress,
+        overwrite=True,
+        tensorboard=tensorboard,
+    )
 
 
 def train_seeds(
@@ -56,33 +68,56 @@ def train_seeds(
     progress: bool = False,
     overwrite: bool = False,
     protocol: Protocol | None = DEFAULT,
+    tensorboard: str | Path | None = None,
 ) -> dict[str, Any]:
     """Train one run per seed into ``out_dir/seed_S``, evaluate each on the held-out
     ``protocol`` (its ``eval.json``; None: no evaluation), then write ``out_dir/summary.json``
-    and the learning curve across seeds (see the module docstring; ``jobs`` processes)."""
+    and the learning curve across seeds (see the module docstring; ``jobs`` processes).
+    ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1, read from their
+    episode logs as the workers write them); ``tensorboard``: each seed's scalars in
+    ``tensorboard/seed_S``."""
+    if tensorboard is not None:
+        summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
     with RunLock(out, "train --seeds"):
         if not resume and not overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
-        records = _train_all(config, seeds, out, jobs, resume, progress)
+        records = _train_all(config, seeds, out, jobs, resume, progress, tensorboard)
         return _summarize_into(out, config, seeds, records, protocol)
 
 
-def _train_all(config, seeds, out, jobs, resume, progress) -> list[dict[str, Any]]:
-    calls = [(config, s, str(seed_dir(out, s)), resume, progress and jobs == 1) for s in seeds]
+def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[str, Any]]:
     if config.lockstep:
-        return train_lockstep(config, seeds, out, progress=progress, resume=resume)
+        return train_lockstep(
+            config, seeds, out, progress=progress, resume=resume, tensorboard=board
+        )
+    count, unit = run_total(config)
+    label = f"{config.algorithm} x{len(seeds)} seeds"
     if jobs == 1:
-        return [_train_one(*call) for call in calls]
-    with WorkerPool(jobs) as pool:
-        try:
-            finished = [future.result() for future in pool.run(_train_one, calls)]
-        except KeyboardInterrupt as stop:
-            pool.stop()
-            raise type(stop)(
-                "interrupted; each seed's checkpoint holds its last completed episode"
-            ) from None
+        with watching(progress, (count * len(seeds), unit), label, board) as monitor:
+            return [
+                _train_one(config, s, str(seed_dir(out, s)), resume, monitor.scoped(f"seed_{s}"))
+                for s in seeds
+            ]
+    boards = [None if board is None else str(seed_dir(Path(board), s)) for s in seeds]
+    calls = [
+        (config, s, str(seed_dir(out, s)), resume, False, b)
+        for s, b in zip(seeds, boards, strict=True)
+    ]
+    bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
+    logs = [seed_dir(out, s) / EPISODE_LOG for s in seeds]
+    try:
+        with WorkerPool(jobs) as pool, LogFollower(logs, bar):
+            try:
+                finished = [future.result() for future in pool.run(_train_one, calls)]
+            except KeyboardInterrupt as stop:
+                pool.stop()
+                raise type(stop)(
+                    "interrupted; each seed's checkpoint holds its last completed episode"
+                ) from None
+    finally:
+        bar.close()
     by_seed = {record["seed"]: record for record in finished}
     return [by_seed[s] for s in seeds]
 

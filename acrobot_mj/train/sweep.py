@@ -17,6 +17,7 @@ from typing import Any
 
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.progress import Progress
 from acrobot_mj.train.rundir import CHECKPOINT_FILE
 from acrobot_mj.train.sweep_spec import SweepSpec, Trial
 from acrobot_mj.train.sweep_summary import summarize_sweep
@@ -41,8 +42,10 @@ def run_sweep(
     address: str | None = None,
     jobs: int | None = None,
     ray_num_cpus: int | None = None,
+    progress: bool = False,
 ) -> dict[str, Any]:
-    """Run the trials that have not finished, then summarise all of them."""
+    """Run the trials that have not finished, then summarise all of them (``progress``: a bar
+    over the trials on stderr)."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     out = Path(out)
@@ -55,13 +58,16 @@ def run_sweep(
                 if why != "not run yet":
                     sys.stderr.write(f"sweep: running {trial.name} again: {why}\n")
         stop: KeyboardInterrupt | None = None
+        bar = Progress(len(todo), f"sweep {out.name}", progress, unit="trials")
         try:
             if backend == "local":
-                _run_local(todo, out, jobs)
+                _run_local(todo, out, jobs, bar)
             else:
-                _run_ray(todo, out, address, ray_num_cpus)
+                _run_ray(todo, out, address, ray_num_cpus, bar)
         except KeyboardInterrupt as interrupt:
             stop = interrupt
+        finally:
+            bar.close()
         summary = summarize_sweep(spec, out)
     if stop:
         raise type(stop)(
@@ -71,7 +77,7 @@ def run_sweep(
     return summary
 
 
-def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
+def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) -> None:
     # Tabular SARSA: one lockstep run per grid point (its seeds together on one vector env),
     # those with checkpoints resumed together, the others started together.
     groups: dict[tuple[str, bool], list[Trial]] = {}
@@ -86,21 +92,27 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None) -> None:
         except Exception:  # one trial at a time, each failure recorded
             for t in group:
                 run_trial(t.config.to_dict(), t.seed, str(trial_dir(out, t)))
+                bar.advance()
             continue
         for t in group:  # train_lockstep wrote each run.json; an earlier failure is over
             (trial_dir(out, t) / ERROR_FILE).unlink(missing_ok=True)
+        bar.advance(len(group))
     rest = [t for t in todo if not t.config.lockstep]
     calls = [(t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in rest]
     if jobs == 1:  # in this process, one after the other
         for call in calls:
             run_trial(*call)
+            bar.advance()
         return
     with WorkerPool(jobs) as pool:
         for future in pool.run(run_trial_in_worker, calls):
             future.result()
+            bar.advance()
 
 
-def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | None) -> None:
+def _run_ray(
+    todo: list[Trial], out: Path, address: str | None, num_cpus: int | None, bar: Progress
+) -> None:
     try:
         import ray
     except ImportError as error:
@@ -131,6 +143,7 @@ def _run_ray(todo: list[Trial], out: Path, address: str | None, num_cpus: int | 
                     None,
                 )
             write_trial(out, trial, record, evaluation)
+            bar.advance()
     finally:
         for ref in pending:  # Ctrl-C: the queued and running tasks are given up
             ray.cancel(ref)

@@ -17,6 +17,7 @@ from acrobot_mj.train.learner import OnEpisode
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import train_in_model
 from acrobot_mj.train.population import train_learners
+from acrobot_mj.train.progress import Monitor, run_total, watching
 from acrobot_mj.train.rundir import check_fresh
 
 
@@ -26,9 +27,10 @@ def train(
     out_dir: str | Path | None = None,
     env: gym.Env | None = None,
     resume: bool = False,
-    progress: bool = False,
+    progress: bool | Monitor = False,
     on_episode: OnEpisode | None = None,
     overwrite: bool = False,
+    tensorboard: str | Path | None = None,
 ) -> dict[str, Any]:
     """Train ``config``'s agent with ``seed`` for ``config.episodes`` episodes.
 
@@ -38,21 +40,30 @@ def train(
     any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)`` observations (default: the
     config's acrobot env). Returns the run record. With ``config.population > 1`` it trains
     that many learners and keeps one (:mod:`acrobot_mj.train.population`).
+
+    ``progress`` shows one bar over all the run's learners on stderr (or is the
+    :class:`~acrobot_mj.train.progress.Monitor` of a bigger run); ``tensorboard`` writes each
+    episode's length, return and success there (:mod:`acrobot_mj.train.tensorboard`). Every
+    episode is also logged to ``out_dir/episodes.jsonl`` as it ends
+    (:mod:`acrobot_mj.train.episode_log`).
     """
     check_seed(seed)
     if out_dir is None:
-        return _train(config, seed, None, env, resume, progress, on_episode)
+        return _train(config, seed, None, env, resume, progress, on_episode, tensorboard)
     out = Path(out_dir)
     with RunLock(out, "train", create=not resume):  # resume: the directory must be there
         if not resume and not overwrite:
             check_fresh(out)
-        return _train(config, seed, out, env, resume, progress, on_episode)
+        return _train(config, seed, out, env, resume, progress, on_episode, tensorboard)
 
 
-def _train(config, seed, out, env, resume, progress, on_episode) -> dict[str, Any]:
-    if config.identify_decisions > 0:
-        return train_in_model(config, seed, out, env, resume, progress, on_episode)
-    return train_learners(config, seed, out, env, resume, progress, on_episode)[0]
+def _train(config, seed, out, env, resume, progress, on_episode, tensorboard) -> dict[str, Any]:
+    learners = f" x{config.population}" if config.population > 1 else ""
+    label = f"{config.algorithm}{learners} seed {seed}"
+    with watching(progress, run_total(config), label, tensorboard) as monitor:
+        if config.identify_decisions > 0:
+            return train_in_model(config, seed, out, env, resume, monitor, on_episode)
+        return train_learners(config, seed, out, env, resume, monitor, on_episode)[0]
 
 
 def check_seed(seed: Any) -> int:
