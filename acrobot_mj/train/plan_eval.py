@@ -130,8 +130,10 @@ def render_plan(
     max_steps: int | None = None,
     strip: str | Path | None = None,
     captions: bool = True,
+    progress: bool = False,
 ) -> dict[str, Any]:
-    """A video of a balance run's policy from hanging at rest: the swing-up and the hold."""
+    """A video of a balance run's policy from hanging at rest: the swing-up and the hold
+    (``progress``: a bar of the frames)."""
     from acrobot_mj.report.video import record_episode
 
     with RunLock(Path(run_dir), "render", create=False):
@@ -142,7 +144,9 @@ def render_plan(
     try:
         actor = BalanceActor(env, SwingUpController(trajectory), config.discrete, None)
         options = {"state": HANGING}
-        record = record_episode(env, actor, out, seed, max_steps, options, captions, strip)
+        record = record_episode(
+            env, actor, out, seed, max_steps, options, captions, strip, progress=progress
+        )
     finally:
         env.close()
     states = np.array(actor.states)
