@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("stable_baselines3", reason="the examples need stable-baselines3 (extra)")
@@ -68,3 +69,22 @@ def test_the_package_does_not_import_the_examples() -> None:
     package = EXAMPLES.parent / "acrobot_mj"
     for path in package.rglob("*.py"):
         assert "heldout_sb3" not in path.read_text() and "examples." not in path.read_text()
+
+
+@pytest.mark.slow
+def test_the_balance_example_trains_and_writes_a_replayable_record(tmp_path, capsys) -> None:
+    module = load("sac_balance")
+    record = module.main(
+        ["--steps", "300", "--seed", "0", "--episodes", "2", "--out", str(tmp_path)]
+    )
+    assert "held-out starts" in capsys.readouterr().out.strip().splitlines()[-1]
+    stored = json.loads((tmp_path / "eval.json").read_text())
+    assert stored["protocol"]["start_noise"] == 0.01 and stored["summary"]["episodes"] == 2
+    env = module.make_env(0.0)
+    for start, actions, total in zip(
+        stored["start_states"], stored["actions"], stored["episode_returns"], strict=True
+    ):
+        env.reset(options={"state": np.array(start)})
+        replayed = sum(env.step(np.array([a], dtype=np.float32))[1] for a in actions)
+        assert replayed == pytest.approx(total, abs=1e-9)  # the same sum, maybe in another order
+    assert record["episode_returns"] == stored["episode_returns"]
