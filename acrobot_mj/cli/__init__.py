@@ -15,6 +15,7 @@ from acrobot_mj.cli import control, learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.lock import RunDirectoryBusy
+from acrobot_mj.train.plan_config import PLANNERS
 from acrobot_mj.version import __version__
 
 COMMANDS = (
@@ -69,7 +70,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise  # the whole traceback, for bug reports
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
-        hint = "; continue with --resume" if args.command == "train" else ""
+        resumable = args.command == "train" and args.preset not in PLANNERS
+        hint = "; continue with --resume" if resumable else ""
         code = 143 if isinstance(interrupt, Terminated) else 130  # 128 + the signal's number
         parser.exit(code, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
     return 0

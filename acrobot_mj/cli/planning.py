@@ -44,7 +44,9 @@ def plan_config_of(args: argparse.Namespace) -> Any:
                          "tabular or tile-coded learner)")  # fmt: skip
     overrides: dict[str, Any] = {}
     if args.identify_decisions is not None:
-        overrides["identify_decisions"] = _number(args.identify_decisions, int, "identify")
+        overrides["identify_decisions"] = _number(
+            args.identify_decisions, int, "--identify-decisions"
+        )
     for flag, dest, _ in OPTIONS:
         text = getattr(args, f"plan_{dest}")
         if text is None:

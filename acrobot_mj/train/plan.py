@@ -44,6 +44,7 @@ from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import check_fit, collect, step_structure
 from acrobot_mj.train.plan_config import KIND, TRAJECTORY_FILE, PlanConfig, read_plan_record
 from acrobot_mj.train.rundir import RUN_FILE, check_fresh
+from acrobot_mj.train.trainer import check_seed
 from acrobot_mj.version import versions
 
 
@@ -77,8 +78,7 @@ def train_plan(
     """Train the balance learner with ``seed`` (steps 1-4 of the module docstring) and try it
     from rest; with ``out``, write ``trajectory.json`` and then ``run.json`` there (a run
     directory that holds another run is refused unless ``overwrite``). Returns the record."""
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise ValueError(f"a run's seed must be an integer >= 0, got {seed!r}")
+    check_seed(seed)
     if out is None:
         return _train(config, seed, progress)[0]
     out = Path(out)
