@@ -27,6 +27,9 @@ from acrobot_mj.agents.protocol import AgentSpec, DivergenceError
 from acrobot_mj.agents.random_stream import RandomStream, checked_values
 
 TRACES = ("replacing", "accumulating")
+#: The implementations: this module's numpy code (the reference) or numba kernels
+#: (:mod:`.compiled_sarsa_lambda`, tile codes only; the same numbers).
+KERNELS = ("numpy", "numba")
 _MIN, _MAX = -math.inf, math.inf
 
 
@@ -195,7 +198,10 @@ class SarsaLambda:
 
 
 def _build(features: StateGrid | TileCoder, c: Any, seed: Any, n_actions: int) -> SarsaLambda:
-    return SarsaLambda(
+    kind = SarsaLambda
+    if getattr(c, "kernel", "numpy") == "numba":
+        from acrobot_mj.agents.compiled_sarsa_lambda import CompiledSarsaLambda as kind
+    return kind(
         features,
         n_actions,
         c.alpha,
@@ -211,7 +217,7 @@ def _build(features: StateGrid | TileCoder, c: Any, seed: Any, n_actions: int) -
 SPEC = AgentSpec(
     name="sarsa_lambda",
     doc="linear Sarsa(lambda) with eligibility traces (Sutton and Barto)",
-    uses=("alpha", "gamma", "epsilon", "lam", "traces", "trace_cutoff"),
+    uses=("alpha", "gamma", "epsilon", "lam", "traces", "trace_cutoff", "kernel"),
     features=("grid", "tiles"),
     build=_build,
 )

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 from acrobot_mj.agents.registry import AGENTS, FEATURES, agent_spec, feature_spec
-from acrobot_mj.agents.sarsa_lambda import TRACES
+from acrobot_mj.agents.sarsa_lambda import KERNELS, TRACES
 from acrobot_mj.envs.env import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
 
@@ -59,6 +59,11 @@ class TrainConfig:
     traces: str | None = _used("replacing or accumulating", "replacing", "algorithm")
     trace_cutoff: float | None = _used(
         "traces below this are dropped; 0 keeps all (exact)", 1e-3, "algorithm"
+    )
+    kernel: str | None = _used(
+        "numpy (the reference) or numba (compiled, tiles only, the same numbers; the fast extra)",
+        "numpy",
+        "algorithm",
     )
     # The report's grid.
     angle_bins: int | None = _used("grid cells per angle (centres -pi/2..pi/2)", 5, "features")
@@ -323,6 +328,10 @@ def _check_ranges(c: TrainConfig) -> None:
         raise ValueError(f"config alpha must be in (0, 1], got {c.alpha}")
     if c.trace_cutoff is not None and not 0.0 <= c.trace_cutoff < 1.0:
         raise ValueError(f"config trace_cutoff must be in [0, 1), got {c.trace_cutoff}")
+    if c.kernel is not None and c.kernel not in KERNELS:
+        raise ValueError(f"config kernel must be one of {KERNELS}, got {c.kernel!r}")
+    if c.kernel == "numba" and c.features != "tiles":
+        raise ValueError("config kernel 'numba' needs features 'tiles'")
     if c.traces is not None and c.traces not in TRACES:
         raise ValueError(f"config traces must be one of {TRACES}, got {c.traces!r}")
     if c.integrator not in ("euler", "rk4"):

@@ -1,0 +1,140 @@
+"""Numba kernels of Sarsa(lambda) over tile codes: the same arithmetic as the numpy reference
+(:mod:`.sarsa_lambda`, :class:`.features.TileCoder`), operation for operation, compiled.
+
+Bit-for-bit equality with numpy is the design rule, not an accident:
+
+- sums of weights use numpy's own pairwise summation (:func:`pairwise_sum`: eight running sums
+  over blocks of eight, combined as ``((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))``, then
+  the rest in order; below eight values a plain loop), which is what ``ndarray.sum`` does for
+  the 48 active weights;
+- elementwise updates keep numpy's order of operations (``w += (alpha delta) z``,
+  ``z *= (gamma lambda)``), and tile coordinates use the same ``floor`` and floor-modulo;
+- numba compiles without ``fastmath``, so IEEE rounding is kept.
+
+The random draws (exploration, ties) stay in Python with the agent's own stream. numba is an
+optional dependency (``pip install acrobot-mj[fast]``), imported only by this module.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:
+    from numba import njit
+except ImportError as error:  # pragma: no cover  (the fast extra is missing)
+    raise ImportError("the compiled learner needs numba: pip install acrobot-mj[fast]") from error
+
+
+@njit(cache=True)
+def pairwise_sum(values: np.ndarray, n: int) -> float:
+    """The sum of ``values[:n]`` in numpy's pairwise order (n up to 128: one block)."""
+    if n < 8:
+        total = 0.0
+        for i in range(n):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[0], values[1], values[2], values[3]
+    r4, r5, r6, r7 = values[4], values[5], values[6], values[7]
+    i = 8
+    while i + 8 <= n:
+        r0 += values[i]
+        r1 += values[i + 1]
+        r2 += values[i + 2]
+        r3 += values[i + 3]
+        r4 += values[i + 4]
+        r5 += values[i + 5]
+        r6 += values[i + 6]
+        r7 += values[i + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[i]
+        i += 1
+    return total
+
+
+@njit(cache=True)
+def tile_active(obs, low, scale, offset, extent, wrap, stride, base, out) -> None:
+    """:meth:`TileCoder.active` into ``out``: one tile per tiling."""
+    n_tilings, n_vars = offset.shape
+    for k in range(n_tilings):
+        index = base[k]
+        for j in range(n_vars):
+            c = math.floor((obs[j] - low[j]) * scale[j] + offset[k, j])  # an int in numba
+            if wrap[j]:
+                c %= extent[j]
+            elif c < 0:
+                c = 0
+            elif c > extent[j] - 1:
+                c = extent[j] - 1
+            index += c * stride[k, j]
+        out[k] = index
+
+
+@njit(cache=True)
+def q_values(w, active, num_features, n_actions, gathered, out) -> None:
+    """Q(s, a) for every action: the pairwise sum of the active weights of each action."""
+    n = active.size
+    for a in range(n_actions):
+        for i in range(n):
+            gathered[i] = w[a * num_features + active[i]]
+        out[a] = pairwise_sum(gathered, n)
+
+
+@njit(cache=True)
+def mark(w, a, active, num_features, pairs, values, position, count, replacing, gathered):
+    """The TD error's first part ``-Q(s, a)`` (returned), then the traces of (s, a) set to 1
+    (replacing) or raised by 1 (accumulating), new ones appended; returns ``(-Q, count)``."""
+    n = active.size
+    for i in range(n):
+        gathered[i] = w[a * num_features + active[i]]
+    q = pairwise_sum(gathered, n)
+    for i in range(n):
+        pair = a * num_features + active[i]
+        at = position[pair]
+        if at >= 0:
+            values[at] = 1.0 if replacing else values[at] + 1.0
+    for i in range(n):  # new traces after the known ones, in order (numpy's concatenate)
+        pair = a * num_features + active[i]
+        if position[pair] < 0:
+            position[pair] = count
+            pairs[count] = pair
+            values[count] = 1.0
+            count += 1
+    return q, count
+
+
+@njit(cache=True)
+def update(w, pairs, values, count, step) -> None:
+    """``w[traced] += step z`` with ``step = alpha delta``."""
+    for i in range(count):
+        w[pairs[i]] += step * values[i]
+
+
+@njit(cache=True)
+def decay(pairs, values, position, count, factor, cutoff) -> int:
+    """``z *= factor`` (gamma lambda), then the traces below ``cutoff`` dropped, order kept;
+    returns the new count."""
+    for i in range(count):
+        values[i] *= factor
+    if cutoff <= 0.0:
+        return count
+    kept = 0
+    for i in range(count):
+        if values[i] >= cutoff:
+            pairs[kept] = pairs[i]
+            values[kept] = values[i]
+            position[pairs[kept]] = kept
+            kept += 1
+        else:
+            position[pairs[i]] = -1
+    return kept
+
+
+@njit(cache=True)
+def clear(pairs, position, count) -> None:
+    """Drop every trace (the start of an episode)."""
+    for i in range(count):
+        position[pairs[i]] = -1
