@@ -188,6 +188,7 @@ class AcrobotVectorEnv(VectorEnv):
                 self._qpos[i] += offsets[0]
                 self._qvel[i] += offsets[1]
         self._began[ids] = self._steps
+        self._first = int(self._began.min())  # the oldest episode's start
         self._pending[ids] = False
 
     def reset(
@@ -252,13 +253,20 @@ class AcrobotVectorEnv(VectorEnv):
         """Reward, terminated and truncated (and ``info["is_success"]``) as fresh arrays of one
         entry per sub-env, whatever the task returned; sub-envs being reset (``resetting``)
         report their reset state: reward 0, no flags, no success."""
-        # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates.
-        truncated = self._began <= self._steps - self.max_episode_steps
-        success, n = info["is_success"], self.num_envs
-        if resetting is None and _rows(reward, _FLOAT, n) and _rows(terminated, _BOOL, n):
-            if _rows(success, _BOOL, n):  # the usual case: copies are the same numbers
-                info["is_success"] = success.copy()
-                return reward.copy(), terminated.copy(), truncated
+        # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates;
+        # none can be before the oldest episode reaches it.
+        limit = self._steps - self.max_episode_steps
+        truncated = self._began <= limit if limit >= self._first else ~self._every
+        success, rows = info["is_success"], (self.num_envs,)
+        if (
+            resetting is None
+            and reward.__class__ is terminated.__class__ is success.__class__ is np.ndarray
+            and reward.shape == terminated.shape == success.shape == rows
+            and reward.dtype == _FLOAT
+            and terminated.dtype == success.dtype == _BOOL
+        ):  # the usual case: copies are the same numbers
+            info["is_success"] = success.copy()
+            return reward.copy(), terminated.copy(), truncated
         going = self._every if resetting is None else ~resetting
         reward = np.where(going, reward, 0.0)
         info["is_success"] = success & going
@@ -375,11 +383,6 @@ class AcrobotVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         self._template.close()
-
-
-def _rows(value: Any, dtype: np.dtype, n: int) -> bool:
-    """Whether ``value`` is an array of ``n`` entries of ``dtype``."""
-    return value.__class__ is np.ndarray and value.shape == (n,) and value.dtype == dtype
 
 
 def _autoreset_mode(autoreset_mode: Any) -> AutoresetMode:
