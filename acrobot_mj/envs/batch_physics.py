@@ -28,8 +28,6 @@ THREADED_FROM = 256
 #: Batches of at most this many simulations test their velocities and states in Python (a few
 #: comparisons cost less than a numpy call); larger ones in numpy. The numbers are the same.
 FEW = 8
-_HIGH = np.array([MAX_VEL1, MAX_VEL2])
-_LOW = -_HIGH
 _PI, _MIN_PI = math.pi, -math.pi
 #: Weights of ``|q1|, |q2|, |dq1|, |dq2|`` in the observation's quick test: powers of two, so
 #: exact; a weighted maximum below pi means every angle in (-pi, pi) (wrapping changes nothing),
@@ -65,10 +63,11 @@ class BatchPhysics:
 
     def step(self, substeps: int) -> None:
         """``substeps`` physics steps of every simulation, each followed by the velocity limits
-        (``np.clip``'s numbers: the larger of ``v`` and the low limit, then the smaller of that
-        and the high one, NaN kept). A few simulations are tested in Python first and left
-        alone when inside the limits, as the single env does."""
+        (``np.clip``, NaN kept). A few simulations are tested in Python first and left alone
+        when inside the limits, as the single env does; each velocity column is clipped on its
+        own (a 1-D pass is several times faster than one over the strided ``(N, 2)`` view)."""
         qvel, step = self.qvel, self.batch.step
+        dq1, dq2 = self.columns[2:]
         for _ in range(substeps):
             step()
             if self.few:
@@ -77,21 +76,24 @@ class BatchPhysics:
                         break  # outside, or NaN
                 else:
                     continue
-            np.maximum(qvel, _LOW, out=qvel)
-            np.minimum(qvel, _HIGH, out=qvel)
+            np.clip(dq1, -MAX_VEL1, MAX_VEL1, out=dq1)
+            np.clip(dq2, -MAX_VEL2, MAX_VEL2, out=dq2)
 
     def observe(self) -> np.ndarray:
         """Every simulation's observation ``(q1, q2, dq1, dq2)``, angles wrapped into [-pi, pi)
         (as they are when inside); raises on a non-finite state or angles beyond
         ``MAX_ANGLE``, naming the simulations, as the single env does."""
         q, v = self.qpos, self.qvel
-        obs = np.concatenate((q, v), axis=1)
         if self.few:  # the usual case, every angle inside [-pi, pi): nothing to wrap or raise
+            obs = np.concatenate((q, v), axis=1)
             usual = all(
                 _MIN_PI <= q1 < _PI and _MIN_PI <= q2 < _PI and abs(v1) < HUGE and abs(v2) < HUGE
                 for q1, q2, v1, v2 in obs.tolist()  # NaN fails every test
             )
         else:
+            obs = np.empty((len(q), 4))
+            for k, column in enumerate(self.columns):  # 1-D copies: faster than concatenate
+                obs[:, k] = column
             usual = (np.abs(obs) * _QUICK).max() < _PI  # one reduction
         if usual:
             return obs
