@@ -28,6 +28,8 @@ OBS_HIGH = (math.pi, math.pi, MAX_VEL1, MAX_VEL2)
 INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
 TORQUE_OF = dict(enumerate(TORQUES))
 _TORQUE_ARRAY = np.array(TORQUES)
+#: Batches of actions up to this size are range-tested in Python (cheaper than numpy's calls).
+_FEW = 8
 
 
 def observation_space() -> spaces.Box:
@@ -85,7 +87,7 @@ def action_torques(actions: Any, continuous: bool, num_envs: int) -> np.ndarray:
                 f"torques outside [-1, 1] N m at sub-envs {np.flatnonzero(~inside).tolist()}"
             )
         return a
-    if num_envs <= 8 and a.dtype.kind in "iu" and a.shape == (num_envs,):
+    if num_envs <= _FEW and a.dtype.kind in "iu" and a.shape == (num_envs,):
         values = a.tolist()  # a few: Python's min and max cost less than numpy's tests
         if min(values) >= 0 and max(values) <= 2:
             return _TORQUE_ARRAY[a]

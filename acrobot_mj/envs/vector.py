@@ -27,34 +27,13 @@ from acrobot_mj.envs.env import AcrobotEnv
 from acrobot_mj.envs.resets import reset_noise
 from acrobot_mj.envs.spaces import action_torques
 from acrobot_mj.envs.tasks import ARRAY
+from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
 
-#: Sub-env attributes with one value per sub-env (get_attr), and those of them set_attr sets.
-PER_ENV = ("state", "np_random", "np_random_seed")
-SETTABLE = ("np_random",)
 _FLOAT, _BOOL = np.dtype(np.float64), np.dtype(bool)
-#: Sub-env attributes every sub-env of a batch shares (get_attr repeats the one value); fixed
-#: when the env is built, so set_attr refuses them.
-SHARED = (
-    "frame_skip",
-    "integrator",
-    "continuous",
-    "start_noise",
-    "dt",
-    "task",
-    "model",
-    "metadata",
-    "render_mode",
-    "width",
-    "height",
-    "camera",
-    "action_space",
-    "observation_space",
-)
-#: Sub-env methods call() runs (with the same arguments for every sub-env).
-METHODS = ("set_state", "render")
+__all__ = ["METHODS", "PER_ENV", "SETTABLE", "SHARED", "AcrobotVectorEnv"]
 
 
-class AcrobotVectorEnv(VectorEnv):
+class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     """``num_envs`` acrobots with the single env's task, stepped in one ``mujoco.batch.Batch``.
 
     Arguments: ``num_envs``; ``max_episode_steps`` (default: the task's, 1000 for the height
@@ -258,6 +237,8 @@ class AcrobotVectorEnv(VectorEnv):
         limit = self._steps - self.max_episode_steps
         truncated = self._began <= limit if limit >= self._first else ~self._every
         success, rows = info["is_success"], (self.num_envs,)
+        if terminated is False:  # a task that never terminates (the balance task)
+            terminated = ~self._every
         if (
             resetting is None
             and reward.__class__ is terminated.__class__ is success.__class__ is np.ndarray
@@ -290,69 +271,6 @@ class AcrobotVectorEnv(VectorEnv):
             out[key] = value
             out[f"_{key}"] = every
         return out
-
-    # -- sub-env attributes, as SyncVectorEnv's ---------------------------------------------
-
-    @property
-    def np_random(self) -> tuple[np.random.Generator, ...]:
-        """Each sub-env's generator (as ``SyncVectorEnv.np_random``)."""
-        return tuple(self._rngs)
-
-    @property
-    def np_random_seed(self) -> tuple[int, ...]:
-        """Each sub-env's seed, -1 where its generator was set directly."""
-        return tuple(self._rng_seeds)
-
-    def get_attr(self, name: str) -> tuple[Any, ...]:
-        """One value of attribute ``name`` per sub-env (see the class docstring)."""
-        if name == "state":
-            return tuple(np.concatenate([self._qpos, self._qvel], axis=1))  # copies
-        if name in PER_ENV:
-            return getattr(self, name)
-        if name in SHARED:
-            return (getattr(self._template, name),) * self.num_envs
-        raise AttributeError(
-            f"AcrobotVectorEnv's sub-envs have no attribute {name!r}; per sub-env: "
-            f"{list(PER_ENV)}, shared by all: {list(SHARED)}, methods (call): {list(METHODS)}"
-        )
-
-    def set_attr(self, name: str, values: Any) -> None:
-        """Set ``name`` on every sub-env: a list or tuple of one value per sub-env, or one value
-        for all (as ``SyncVectorEnv.set_attr``). Only :data:`SETTABLE` names can be set."""
-        if name in SHARED:
-            raise AttributeError(
-                f"{name!r} is shared by all {self.num_envs} sub-envs of the batch and fixed when "
-                f"it is built: it cannot be set per sub-env; make a new env with it instead"
-            )
-        if name not in SETTABLE:
-            why = "is read-only" if name in PER_ENV else "is no attribute of the sub-envs"
-            hint = "; call('set_state', q, dq) sets the state" if name == "state" else ""
-            raise AttributeError(f"{name!r} {why}; settable: {list(SETTABLE)}{hint}")
-        if not isinstance(values, (list, tuple)):
-            values = [values] * self.num_envs
-        if len(values) != self.num_envs:
-            raise ValueError(
-                "Values must be a list or tuple with length equal to the number of environments. "
-                f"Got `{len(values)}` values for {self.num_envs} environments."
-            )
-        bad = [v for v in values if not isinstance(v, np.random.Generator)]
-        if bad:
-            raise TypeError(f"np_random must be numpy Generators, got {bad[0]!r}")
-        self._rngs, self._rng_seeds = list(values), [-1] * self.num_envs
-
-    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
-        """Run method ``name`` of every sub-env with the same arguments (``set_state``,
-        ``render``), or return attribute ``name`` (as ``SyncVectorEnv.call``)."""
-        if name == "set_state":
-            self._template.set_state(*args, **kwargs)  # the single env's checks
-            self._qpos[...] = self._template.data.qpos
-            self._qvel[...] = self._template.data.qvel
-            return (None,) * self.num_envs
-        if name == "render":
-            if self.render_mode is None:
-                return (self.render(),) * self.num_envs  # warns, as each single env would
-            return tuple(self._frame(i) for i in range(self.num_envs))
-        return self.get_attr(name)
 
     # -- rendering -------------------------------------------------------------------------
 
