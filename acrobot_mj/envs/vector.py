@@ -123,7 +123,8 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         # Steps of the env so far, and the step each sub-env's episode began at (cheaper than
         # counting every sub-env's steps at every step): see _elapsed.
         self._steps, self._began = 0, np.zeros(self.num_envs, dtype=np.int64)
-        self._every = np.ones(self.num_envs, dtype=bool)
+        self._every, self._none = np.ones(self.num_envs, dtype=bool), np.zeros(self.num_envs, bool)
+        self._mask_names: dict[str, str] = {}  # info key -> its mask's key
         self._next_step = mode == AutoresetMode.NEXT_STEP
         self._pending = np.zeros(self.num_envs, dtype=bool)  # reset at the next step
         self._rngs, self._rng_seeds = map(
@@ -235,10 +236,10 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates;
         # none can be before the oldest episode reaches it.
         limit = self._steps - self.max_episode_steps
-        truncated = self._began <= limit if limit >= self._first else ~self._every
+        truncated = self._began <= limit if limit >= self._first else self._none.copy()
         success, rows = info["is_success"], (self.num_envs,)
         if terminated is False:  # a task that never terminates (the balance task)
-            terminated = ~self._every
+            terminated = self._none
         if (
             resetting is None
             and reward.__class__ is terminated.__class__ is success.__class__ is np.ndarray
@@ -265,11 +266,14 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
 
     def _masked(self, info: dict[str, Any]) -> dict[str, Any]:
         """``info`` with Gymnasium's ``_name`` mask beside each entry (every sub-env has it)."""
-        every = self._every.copy()
+        every, names = self._every.copy(), self._mask_names
         out: dict[str, Any] = {}
         for key, value in info.items():
             out[key] = value
-            out[f"_{key}"] = every
+            name = names.get(key)
+            if name is None:
+                name = names[key] = f"_{key}"
+            out[name] = every
         return out
 
     # -- rendering -------------------------------------------------------------------------
