@@ -203,9 +203,11 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
     scaling = {}
     for size in [1, 64, 1024] if quick else [1, 4, 16, 64, 256, 1024, 4096]:
         work = max(20, steps // size)
+        ours, ceiling_at = vector_env(size, work), batch_ceiling(size, work)
+        pairs = [(ours(k), ceiling_at(k)) for k in range(rounds)]  # A B A B, then medians
         scaling[size] = {
-            "vector_env": vector_env(size, work)(0),
-            "batch_ceiling": batch_ceiling(size, work)(0),
+            "vector_env": statistics.median(p[0] for p in pairs),
+            "batch_ceiling": statistics.median(p[1] for p in pairs),
         }
     return {
         "machine": {
