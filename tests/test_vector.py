@@ -12,7 +12,7 @@ from gymnasium.vector import AutoresetMode
 from mujoco.batch import Batch
 
 import acrobot_mj
-from acrobot_mj.envs.batch_physics import FEW, THREADED_FROM
+from acrobot_mj.envs.batch_physics import FEW, THREADED_FROM, BatchPhysics, state_rows
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 
@@ -203,3 +203,14 @@ def test_a_bad_state_is_refused_naming_the_sub_env(n, field, value, sub_env) -> 
     vec.batch.bind(field)[sub_env, 0] = value
     with pytest.raises(RuntimeError, match=rf"sub-envs \[{sub_env}\] reached a non-finite"):
         vec.step(np.ones(n, dtype=np.int64))
+
+
+def test_the_observation_rows_view_the_state_only_where_qvel_follows_qpos() -> None:
+    physics = BatchPhysics(AcrobotVectorEnv().model, 5)
+    physics.qpos[...] = np.arange(10.0).reshape(5, 2)
+    physics.qvel[...] = -np.arange(10.0).reshape(5, 2)
+    rows = state_rows(physics.qpos, physics.qvel)
+    np.testing.assert_array_equal(rows, np.concatenate((physics.qpos, physics.qvel), axis=1))
+    assert not rows.flags.writeable
+    apart = np.zeros((5, 2)), np.zeros((5, 2))  # two arrays: no view spans both
+    assert state_rows(*apart) is None

@@ -55,6 +55,7 @@ class BatchPhysics:
         self.few = num_envs <= FEW
         #: Live views of the columns ``q1, q2, dq1, dq2``, as the task's outcome takes them.
         self.columns = (self.qpos[:, 0], self.qpos[:, 1], self.qvel[:, 0], self.qvel[:, 1])
+        self._rows = state_rows(self.qpos, self.qvel)
 
     @property
     def nthread(self) -> int:
@@ -84,17 +85,17 @@ class BatchPhysics:
         (as they are when inside); raises on a non-finite state or angles beyond
         ``MAX_ANGLE``, naming the simulations, as the single env does."""
         q, v = self.qpos, self.qvel
+        # One copy of the (N, 4) rows where qvel follows qpos in each state row (the batch's
+        # layout), else two.
+        obs = np.concatenate((q, v), axis=1) if self._rows is None else self._rows.copy()
         if self.few:  # the usual case, every angle inside [-pi, pi): nothing to wrap or raise
-            obs, usual = np.concatenate((q, v), axis=1), True
+            usual = True
             for q1, q2, v1, v2 in obs.tolist():  # a loop: cheaper than all() over a generator
                 inside = _MIN_PI <= q1 < _PI and _MIN_PI <= q2 < _PI
                 if not (inside and abs(v1) < HUGE and abs(v2) < HUGE):  # NaN fails every test
                     usual = False
                     break
         else:
-            obs = np.empty((len(q), 4))
-            for k, column in enumerate(self.columns):  # 1-D copies: faster than concatenate
-                obs[:, k] = column
             usual = (np.abs(obs) * _QUICK).max() < _PI  # one reduction
         if usual:
             return obs
@@ -107,3 +108,13 @@ class BatchPhysics:
             )
         obs[:, :2] = wrap_angle(q)
         return obs
+
+
+def state_rows(qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray | None:
+    """A read-only ``(N, 4)`` view of ``q1, q2, dq1, dq2`` over the batch's state rows, if each
+    row holds qvel right after qpos (as MuJoCo's state does), else None."""
+    address = qpos.__array_interface__["data"][0]
+    after = qvel.__array_interface__["data"][0] - address == qpos.shape[1] * qpos.itemsize
+    if not (after and qvel.strides == qpos.strides and qpos.shape == qvel.shape):
+        return None
+    return np.lib.stride_tricks.as_strided(qpos, (len(qpos), 4), qpos.strides, writeable=False)
