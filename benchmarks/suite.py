@@ -197,7 +197,7 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         "vector_env_vs_batch_ceiling": rates[f"vector env, N={n}"] / ceiling,
         "lockstep_sarsa_vs_gymnasium_sarsa": rates[f"lockstep SARSA, K={n}"] / sarsa_base,
     }
-    versus_sync = vector_vs_sync(SYNC_SIZES, 4_000 if quick else 20_000, 3 if quick else 7)
+    versus_sync = vector_vs_sync(SYNC_SIZES, 4_000 if quick else 10_000, 5 if quick else 15)
     for size, row in versus_sync.items():
         ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
     scaling = {}
