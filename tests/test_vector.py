@@ -14,6 +14,7 @@ from mujoco.batch import Batch
 import acrobot_mj
 from acrobot_mj.envs.batch_physics import FEW, THREADED_FROM, BatchPhysics, state_rows
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
+from acrobot_mj.envs.tasks import ARRAY, TASKS, get_task
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 
 
@@ -214,3 +215,17 @@ def test_the_observation_rows_view_the_state_only_where_qvel_follows_qpos() -> N
     assert not rows.flags.writeable
     apart = np.zeros((5, 2)), np.zeros((5, 2))  # two arrays: no view spans both
     assert state_rows(*apart) is None
+
+
+@pytest.mark.parametrize("name", sorted(TASKS))
+def test_the_array_namespace_gives_numpys_numbers(name) -> None:
+    # ARRAY holds a task's numbers as one-element arrays (faster to broadcast than floats):
+    # every result must still be exactly numpy's over plain floats.
+    task = get_task(name)((1.0, 1.0))
+    states = np.random.default_rng(3).uniform(-7.0, 7.0, (4, 500))  # angles beyond +-pi too
+    fast, plain = task.outcome(ARRAY)(*states), task.outcome(np)(*states)
+    for x, y in zip(fast[:2], plain[:2], strict=True):
+        np.testing.assert_array_equal(np.broadcast_to(x, (500,)), np.broadcast_to(y, (500,)))
+    assert fast[2].keys() == plain[2].keys()
+    for key in fast[2]:
+        np.testing.assert_array_equal(fast[2][key], plain[2][key])
