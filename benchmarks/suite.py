@@ -5,7 +5,9 @@ load on a shared machine hits all alike), keeps the median of each, and reports 
 Gymnasium baselines and to the ``mujoco.batch`` ceiling, a scaling table over the number of
 sub-envs and the peak memory of 1024 lockstep learners. Targets: our env >= 8x
 Acrobot-v1, report SARSA on it >= 5x SARSA on Acrobot-v1, the vector env >= 0.8 of the batch
-ceiling at N = 1024, lockstep SARSA >= 25x SARSA on Acrobot-v1.
+ceiling at N = 1024, lockstep SARSA >= 25x SARSA on Acrobot-v1, and the vector env at least as
+fast as Gymnasium's ``SyncVectorEnv`` over single envs at N = 1, 4, 16 and 64 (measured A B A B
+in short alternating runs, medians).
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.presets import PRESETS
 
 Rate = Callable[[int], float]  # round -> steps per second
+#: Sizes at which the vector env is measured against Gymnasium's SyncVectorEnv.
+SYNC_SIZES = (1, 4, 16, 64)
 
 
 def env_steps(env: gym.Env, steps: int) -> Rate:
@@ -87,6 +91,40 @@ def vector_env(n: int, steps: int) -> Rate:
         return n * steps / (time.perf_counter() - start)
 
     return measure
+
+
+def vector_steps(env: gym.vector.VectorEnv, steps: int) -> Rate:
+    """Steps of all sub-envs per second under random actions (autoresets included)."""
+    actions = np.random.default_rng(0).integers(0, 3, (steps, env.num_envs))
+
+    def measure(k: int) -> float:
+        env.reset(seed=k)
+        start = time.perf_counter()
+        for a in actions:
+            env.step(a)
+        return env.num_envs * steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def vector_vs_sync(sizes: tuple[int, ...], env_steps: int, repeats: int) -> dict[int, dict]:
+    """Per N: the vector env's and ``SyncVectorEnv``'s rates over the same single envs
+    (``gymnasium.make_vec``, default and ``"sync"``), measured alternately A B A B ``repeats``
+    times in short runs of about ``env_steps`` sub-env steps (load hits both alike), medians."""
+    table = {}
+    for n in sizes:
+        steps = max(50, env_steps // n)
+        ours = vector_steps(gym.make_vec(acrobot_mj.ENV_ID, num_envs=n), steps)
+        sync = vector_steps(
+            gym.make_vec(acrobot_mj.ENV_ID, num_envs=n, vectorization_mode="sync"), steps
+        )
+        a, b = [], []
+        for k in range(repeats):
+            a.append(ours(k))
+            b.append(sync(k))
+        rate, base = statistics.median(a), statistics.median(b)
+        table[n] = {"vector_env": rate, "sync_vector_env": base, "ratio": rate / base}
+    return table
 
 
 def sarsa(env: gym.Env, episodes: int) -> Rate:
@@ -159,12 +197,17 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         "vector_env_vs_batch_ceiling": rates[f"vector env, N={n}"] / ceiling,
         "lockstep_sarsa_vs_gymnasium_sarsa": rates[f"lockstep SARSA, K={n}"] / sarsa_base,
     }
+    versus_sync = vector_vs_sync(SYNC_SIZES, 4_000 if quick else 10_000, 5 if quick else 15)
+    for size, row in versus_sync.items():
+        ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
     scaling = {}
     for size in [1, 64, 1024] if quick else [1, 4, 16, 64, 256, 1024, 4096]:
         work = max(20, steps // size)
+        ours, ceiling_at = vector_env(size, work), batch_ceiling(size, work)
+        pairs = [(ours(k), ceiling_at(k)) for k in range(rounds)]  # A B A B, then medians
         scaling[size] = {
-            "vector_env": vector_env(size, work)(0),
-            "batch_ceiling": batch_ceiling(size, work)(0),
+            "vector_env": statistics.median(p[0] for p in pairs),
+            "batch_ceiling": statistics.median(p[1] for p in pairs),
         }
     return {
         "machine": {
@@ -183,7 +226,9 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
             "sarsa_vs_gymnasium_sarsa": 5.0,
             "vector_env_vs_batch_ceiling": 0.8,
             "lockstep_sarsa_vs_gymnasium_sarsa": 25.0,
+            **{f"vector_env_vs_sync_vector_env_N{size}": 1.0 for size in SYNC_SIZES},
         },
+        "vector_env_vs_sync_steps_per_second": versus_sync,
         "scaling_steps_per_second": scaling,
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
     }
@@ -210,6 +255,13 @@ def report(result: dict[str, Any]) -> str:
         lines.append(
             f"{size:>6} {row['vector_env']:20.0f} {row['batch_ceiling']:15.0f} "
             f"{row['vector_env'] / row['batch_ceiling']:9.2f}"
+        )
+    lines.append("")
+    lines.append(f"{'N':>6} {'vector env steps/s':>20} {'SyncVectorEnv':>15} {'ratio':>9}")
+    for size, row in result["vector_env_vs_sync_steps_per_second"].items():
+        lines.append(
+            f"{size:>6} {row['vector_env']:20.0f} {row['sync_vector_env']:15.0f} "
+            f"{row['ratio']:9.2f}"
         )
     lines.append(
         f"\npeak memory of 1024 lockstep learners: "

@@ -18,8 +18,13 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
         "sarsa_vs_gymnasium_sarsa",
         "vector_env_vs_batch_ceiling",
         "lockstep_sarsa_vs_gymnasium_sarsa",
+        *(f"vector_env_vs_sync_vector_env_N{n}" for n in (1, 4, 16, 64)),
     ):
         assert result["ratios"][key] > 0 and key in text
     assert len(result["rates_steps_per_second"]) == 8
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}
+    versus_sync = result["vector_env_vs_sync_steps_per_second"]
+    assert set(versus_sync) == {"1", "4", "16", "64"}
+    for row in versus_sync.values():  # the ratio is of the two rates measured side by side
+        assert row["ratio"] == row["vector_env"] / row["sync_vector_env"]
     assert 1 < result["lockstep_peak_memory_mb_1024_learners"] < 1000

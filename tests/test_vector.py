@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import pickle
+
 import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
+from mujoco.batch import Batch
 
 import acrobot_mj
+from acrobot_mj.envs.batch_physics import FEW, THREADED_FROM, BatchPhysics, state_rows
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
+from acrobot_mj.envs.tasks import ARRAY, TASKS, get_task
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 
 
@@ -114,8 +120,112 @@ def test_bad_continuous_actions_are_refused(actions, match) -> None:
         ({"render_mode": "human"}, ValueError, "render_mode"),
         ({"num_envs": 3, "render_envs": 4}, ValueError, "render_envs"),
         ({"render_envs": 0}, ValueError, "render_envs"),
+        ({"nthread": -1}, ValueError, "nthread"),
+        ({"nthread": "2"}, TypeError, "nthread"),
     ],
 )
 def test_bad_options_are_refused(kwargs, error, match) -> None:
     with pytest.raises(error, match=match):
         AcrobotVectorEnv(**kwargs)
+
+
+def _run(vec: AcrobotVectorEnv, actions: np.ndarray, seed: int) -> list[list[np.ndarray]]:
+    """Per step: the step's results, info's arrays, the unwrapped states and the batch's whole
+    MuJoCo state rows. Every 100 steps all sub-envs are put at the velocity limits with angles
+    near pi, so that the steps after them clip velocities and wrap angles."""
+    vec.reset(seed=seed)
+    records = []
+    for t, action in enumerate(actions):
+        if t % 100 == 50:
+            vec.call("set_state", [3.1, -3.1], [MAX_VEL1, -MAX_VEL2])
+        obs, reward, terminated, truncated, info = vec.step(action)
+        infos = [info[key] for key in sorted(info)]
+        states = np.array(vec.get_attr("state"))
+        records.append([obs, reward, terminated, truncated, *infos, states, vec.batch.state.copy()])
+    return records
+
+
+def _assert_identical(a: list[list[np.ndarray]], b: list[list[np.ndarray]]) -> None:
+    assert len(a) == len(b)
+    for step_a, step_b in zip(a, b, strict=True):
+        for x, y in zip(step_a, step_b, strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+def _actions(steps: int, n: int) -> np.ndarray:
+    return np.random.default_rng(0).integers(0, 3, (steps, n))
+
+
+KWARGS = {"max_episode_steps": 60, "start_noise": 0.1, "frame_skip": 2}
+
+
+def test_threaded_and_single_thread_steps_are_bit_identical() -> None:
+    # Threads only split the simulations between them: the same C code computes each one.
+    n, actions = 16, _actions(1000, 16)
+    threaded = AcrobotVectorEnv(num_envs=n, nthread=2, **KWARGS)
+    assert threaded.nthread == 2
+    one = _run(AcrobotVectorEnv(num_envs=n, nthread=1, **KWARGS), actions, seed=4)
+    _assert_identical(one, _run(threaded, actions, seed=4))
+    # The run went through autoresets, velocity clipping and angle wrapping.
+    obs, truncated = np.array([r[0] for r in one]), np.array([r[3] for r in one])
+    states = np.array([r[-2] for r in one])
+    assert truncated.sum() >= 2 * n  # each truncation is followed by an autoreset
+    assert (np.abs(obs[..., 2]) == MAX_VEL1).any() and (np.abs(obs[..., 3]) == MAX_VEL2).any()
+    assert (np.abs(states[..., :2]) > np.pi).any()
+    assert ((obs[..., :2] >= -np.pi) & (obs[..., :2] < np.pi)).all()
+
+
+def test_a_few_sub_envs_and_many_give_the_same_numbers() -> None:
+    # Up to FEW sub-envs are tested in Python, more in numpy: sub-env i steps alike in both.
+    few, many = FEW, FEW + 8
+    actions = _actions(400, many)
+    small = _run(AcrobotVectorEnv(num_envs=few, **KWARGS), actions[:, :few], seed=2)
+    large = _run(AcrobotVectorEnv(num_envs=many, **KWARGS), actions, seed=2)
+    _assert_identical(small, [[x[:few] for x in step] for step in large])
+
+
+def test_threads_follow_the_batch_size_unless_given() -> None:
+    all_cpus = Batch(AcrobotVectorEnv().model, THREADED_FROM, nthread=0).nthread
+    assert AcrobotVectorEnv(num_envs=THREADED_FROM - 1).nthread == 1
+    assert AcrobotVectorEnv(num_envs=THREADED_FROM).nthread == all_cpus
+    assert AcrobotVectorEnv(num_envs=THREADED_FROM, nthread=1).nthread == 1
+    vec = AcrobotVectorEnv(num_envs=4, nthread=2)
+    assert vec.nthread == 2
+    assert pickle.loads(pickle.dumps(vec)).nthread == 2  # the copy keeps the user's choice
+
+
+@pytest.mark.parametrize("n", [3, FEW + 5])  # tested in Python, and in numpy
+@pytest.mark.parametrize(
+    ("field", "value", "sub_env"), [("qvel", np.nan, 1), ("qpos", 2e6, 2), ("qpos", np.inf, 0)]
+)
+def test_a_bad_state_is_refused_naming_the_sub_env(n, field, value, sub_env) -> None:
+    vec = AcrobotVectorEnv(num_envs=n)
+    vec.reset(seed=0)
+    vec.batch.bind(field)[sub_env, 0] = value
+    with pytest.raises(RuntimeError, match=rf"sub-envs \[{sub_env}\] reached a non-finite"):
+        vec.step(np.ones(n, dtype=np.int64))
+
+
+def test_the_observation_rows_view_the_state_only_where_qvel_follows_qpos() -> None:
+    physics = BatchPhysics(AcrobotVectorEnv().model, 5)
+    physics.qpos[...] = np.arange(10.0).reshape(5, 2)
+    physics.qvel[...] = -np.arange(10.0).reshape(5, 2)
+    rows = state_rows(physics.qpos, physics.qvel)
+    np.testing.assert_array_equal(rows, np.concatenate((physics.qpos, physics.qvel), axis=1))
+    assert not rows.flags.writeable
+    apart = np.zeros((5, 2)), np.zeros((5, 2))  # two arrays: no view spans both
+    assert state_rows(*apart) is None
+
+
+@pytest.mark.parametrize("name", sorted(TASKS))
+def test_the_array_namespace_gives_numpys_numbers(name) -> None:
+    # ARRAY holds a task's numbers as one-element arrays (faster to broadcast than floats):
+    # every result must still be exactly numpy's over plain floats.
+    task = get_task(name)((1.0, 1.0))
+    states = np.random.default_rng(3).uniform(-7.0, 7.0, (4, 500))  # angles beyond +-pi too
+    fast, plain = task.outcome(ARRAY)(*states), task.outcome(np)(*states)
+    for x, y in zip(fast[:2], plain[:2], strict=True):
+        np.testing.assert_array_equal(np.broadcast_to(x, (500,)), np.broadcast_to(y, (500,)))
+    assert fast[2].keys() == plain[2].keys()
+    for key in fast[2]:
+        np.testing.assert_array_equal(fast[2][key], plain[2][key])

@@ -5,7 +5,8 @@ exactly :class:`~acrobot_mj.envs.env.AcrobotEnv`'s semantics (the task's reward,
 and info through the same :meth:`~acrobot_mj.envs.tasks.Task.outcome`, vectorised; velocity
 clipping after every physics step, angle wrapping, ``frame_skip``, integrator, start noise,
 truncation), with the physics of all of them advanced by one ``Batch.step`` call per physics
-step across threads. ``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)`` returns it.
+step (:class:`~acrobot_mj.envs.batch_physics.BatchPhysics`: one thread for small batches, all
+CPUs for large ones). ``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)`` returns it.
 """
 
 from __future__ import annotations
@@ -19,48 +20,28 @@ import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
-from mujoco.batch import Batch
 
 from acrobot_mj.checks import check_int
-from acrobot_mj.envs.env import HUGE, MAX_ANGLE, AcrobotEnv
+from acrobot_mj.envs.batch_physics import BatchPhysics
+from acrobot_mj.envs.env import AcrobotEnv
 from acrobot_mj.envs.resets import reset_noise
-from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, action_torques
+from acrobot_mj.envs.spaces import action_torques
 from acrobot_mj.envs.tasks import ARRAY
-from acrobot_mj.physics.angles import wrap_angle
+from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
 
-_LIMITS = np.array([MAX_VEL1, MAX_VEL2])
-#: Sub-env attributes with one value per sub-env (get_attr), and those of them set_attr sets.
-PER_ENV = ("state", "np_random", "np_random_seed")
-SETTABLE = ("np_random",)
-#: Sub-env attributes every sub-env of a batch shares (get_attr repeats the one value); fixed
-#: when the env is built, so set_attr refuses them.
-SHARED = (
-    "frame_skip",
-    "integrator",
-    "continuous",
-    "start_noise",
-    "dt",
-    "task",
-    "model",
-    "metadata",
-    "render_mode",
-    "width",
-    "height",
-    "camera",
-    "action_space",
-    "observation_space",
-)
-#: Sub-env methods call() runs (with the same arguments for every sub-env).
-METHODS = ("set_state", "render")
+_FLOAT, _BOOL = np.dtype(np.float64), np.dtype(bool)
+__all__ = ["METHODS", "PER_ENV", "SETTABLE", "SHARED", "AcrobotVectorEnv"]
 
 
-class AcrobotVectorEnv(VectorEnv):
+class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     """``num_envs`` acrobots with the single env's task, stepped in one ``mujoco.batch.Batch``.
 
     Arguments: ``num_envs``; ``max_episode_steps`` (default: the task's, 1000 for the height
     goal: the truncation the single env gets from ``gymnasium.make``); ``autoreset_mode``
-    (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads of the batch,
-    0 for all CPUs); ``render_envs`` (below); and the single env's ``frame_skip``,
+    (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads of the batch:
+    by default one below :data:`~acrobot_mj.envs.batch_physics.THREADED_FROM` sub-envs and all
+    CPUs from there; 0 for all CPUs, or a number, always honoured; the numbers are the same
+    whichever); ``render_envs`` (below); and the single env's ``frame_skip``,
     ``integrator``, ``task``, ``continuous``, ``model_path``, ``render_mode``, ``width``,
     ``height``, ``camera`` and task options (validated by the single env's rules).
 
@@ -103,7 +84,7 @@ class AcrobotVectorEnv(VectorEnv):
         num_envs: int = 1,
         max_episode_steps: int | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
-        nthread: int = 0,
+        nthread: int | None = None,
         render_mode: str | None = None,
         render_envs: int | None = 1,
         **env_kwargs: Any,
@@ -129,7 +110,7 @@ class AcrobotVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self._frame_skip = self._template.frame_skip
         self._continuous = self._template.continuous
-        self._nthread = check_int("nthread", nthread, 0)
+        self._nthread = None if nthread is None else check_int("nthread", nthread, 0)
         self._build_batch()
         start = self.model.key(self.task.start_keyframe)
         self._start_qpos, self._start_qvel = start.qpos.copy(), start.qvel.copy()
@@ -139,7 +120,12 @@ class AcrobotVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
-        self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        # Steps of the env so far, and the step each sub-env's episode began at (cheaper than
+        # counting every sub-env's steps at every step): see _elapsed.
+        self._steps, self._began = 0, np.zeros(self.num_envs, dtype=np.int64)
+        self._every, self._none = np.ones(self.num_envs, dtype=bool), np.zeros(self.num_envs, bool)
+        self._mask_names: dict[str, str] = {}  # info key -> its mask's key
+        self._next_step = mode == AutoresetMode.NEXT_STEP
         self._pending = np.zeros(self.num_envs, dtype=bool)  # reset at the next step
         self._rngs, self._rng_seeds = map(
             list, zip(*(seeding.np_random() for _ in range(self.num_envs)), strict=True)
@@ -148,14 +134,14 @@ class AcrobotVectorEnv(VectorEnv):
 
     def _build_batch(self) -> None:
         """The batch of ``num_envs`` simulations and the views into it (redone by unpickling)."""
-        self.batch = Batch(self.model, self.num_envs, nthread=self._nthread)
-        self._qpos, self._qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
-        self._ctrl = self.batch.bind("ctrl")
+        self._physics = physics = BatchPhysics(self.model, self.num_envs, self._nthread)
+        self.batch, self._qpos, self._qvel = physics.batch, physics.qpos, physics.qvel
+        self._ctrl = physics.ctrl
         self._outcome = self.task.outcome(ARRAY)
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("batch", "_qpos", "_qvel", "_ctrl", "_outcome"):
+        for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl", "_outcome"):
             state.pop(key)
         # Every simulation's whole MuJoCo state row (time, qpos, qvel, ctrl, warm start, ...).
         state["batch_state"] = self.batch.state.copy()
@@ -181,7 +167,8 @@ class AcrobotVectorEnv(VectorEnv):
             if offsets is not None:
                 self._qpos[i] += offsets[0]
                 self._qvel[i] += offsets[1]
-        self._elapsed[ids] = 0
+        self._began[ids] = self._steps
+        self._first = int(self._began.min())  # the oldest episode's start
         self._pending[ids] = False
 
     def reset(
@@ -202,7 +189,8 @@ class AcrobotVectorEnv(VectorEnv):
                 if s is not None:
                     self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
-        obs, _, _, info = self._observe()
+        obs = self._physics.observe()  # raises on a bad state
+        _, _, info = self._outcome(*self._physics.columns)
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
         return obs, self._masked(info)
 
@@ -223,116 +211,70 @@ class AcrobotVectorEnv(VectorEnv):
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        torques = action_torques(actions, self._continuous, self.num_envs)
-        resetting = self._pending.copy()
-        self._ctrl[:, 0] = torques
-        for _ in range(self._frame_skip):
-            self.batch.step()
-            # Velocity limits of the task, after every physics step.
-            np.clip(self._qvel, -_LIMITS, _LIMITS, out=self._qvel)
-        self._elapsed += 1
-        if resetting.any():
+        # The hot path (profiled at N = 1 to 64): one call per part, numpy's cheapest calls.
+        self._ctrl[:, 0] = action_torques(actions, self._continuous, self.num_envs)
+        physics = self._physics
+        physics.step(self._frame_skip)  # with the task's velocity limits after each
+        self._steps += 1
+        # count_nonzero: a fraction of any()'s cost on small batches
+        resetting = self._pending.copy() if np.count_nonzero(self._pending) else None
+        if resetting is not None:
             self._reset_envs(resetting, self.task.start_noise)
-        obs, reward, terminated, info = self._observe()
-        # Sub-envs being reset report their reset state: reward 0, no flags, no success
-        # (fresh arrays of one entry per sub-env, whatever the task returned).
-        going = ~resetting
-        reward = np.where(resetting, 0.0, reward)
-        terminated = terminated & going
-        # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates.
-        truncated = (self._elapsed >= self.max_episode_steps) & going
-        info["is_success"] = info["is_success"] & going
-        if self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP:
+        obs = physics.observe()
+        reward, terminated, info = self._outcome(*physics.columns)
+        reward, terminated, truncated = self._flags(reward, terminated, info, resetting)
+        if self._next_step:
             self._pending = terminated | truncated
         return obs, reward, terminated, truncated, self._masked(info)
 
-    def _observe(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Observations and the task's outcome of every sub-env; raises on a bad state."""
-        q, v = self._qpos, self._qvel
-        # As the single env: NaN fails the test too; the row test names the bad sub-envs.
-        if not (np.abs(q).max() < MAX_ANGLE and np.abs(v).max() < HUGE):
-            bad = ~((np.abs(q) < MAX_ANGLE).all(1) & (np.abs(v) < HUGE).all(1))
-            raise RuntimeError(
-                f"sub-envs {np.flatnonzero(bad).tolist()} reached a non-finite state or angles "
-                f"beyond +-{MAX_ANGLE:g} rad; reset them before stepping again"
-            )
-        obs = np.empty((self.num_envs, 4))
-        obs[:, :2] = wrap_angle(q)  # as the single env: angles in [-pi, pi) as they are
-        obs[:, 2:] = v
-        reward, terminated, info = self._outcome(q[:, 0], q[:, 1], v[:, 0], v[:, 1])
-        return obs, reward, terminated, info
+    def _flags(
+        self, reward: Any, terminated: Any, info: dict[str, Any], resetting: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Reward, terminated and truncated (and ``info["is_success"]``) as fresh arrays of one
+        entry per sub-env, whatever the task returned; sub-envs being reset (``resetting``)
+        report their reset state: reward 0, no flags, no success."""
+        # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates;
+        # none can be before the oldest episode reaches it.
+        limit = self._steps - self.max_episode_steps
+        truncated = self._began <= limit if limit >= self._first else self._none.copy()
+        success, rows = info["is_success"], (self.num_envs,)
+        if terminated is False:  # a task that never terminates (the balance task)
+            terminated = self._none
+        if (
+            resetting is None
+            and reward.__class__ is terminated.__class__ is success.__class__ is np.ndarray
+            and reward.shape == terminated.shape == success.shape == rows
+            and reward.dtype == _FLOAT
+            and terminated.dtype == success.dtype == _BOOL
+        ):  # the usual case: copies are the same numbers
+            info["is_success"] = success.copy()
+            return reward.copy(), terminated.copy(), truncated
+        going = self._every if resetting is None else ~resetting
+        reward = np.where(going, reward, 0.0)
+        info["is_success"] = success & going
+        return reward, terminated & going, truncated & going
+
+    @property
+    def nthread(self) -> int:
+        """Threads the batch steps on (at most one per sub-env)."""
+        return self.batch.nthread
+
+    @property
+    def _elapsed(self) -> np.ndarray:
+        """Steps of each sub-env's episode so far."""
+        return self._steps - self._began
 
     def _masked(self, info: dict[str, Any]) -> dict[str, Any]:
         """``info`` with Gymnasium's ``_name`` mask beside each entry (every sub-env has it)."""
-        every = np.ones(self.num_envs, dtype=bool)
+        every, names = self._every.copy(), self._mask_names
         out: dict[str, Any] = {}
         for key, value in info.items():
             out[key] = value
-            out[f"_{key}"] = every
+            name = names.get(key)
+            if name is None:
+                name = names[key] = f"_{key}"
+            out[name] = every
         return out
-
-    # -- sub-env attributes, as SyncVectorEnv's ---------------------------------------------
-
-    @property
-    def np_random(self) -> tuple[np.random.Generator, ...]:
-        """Each sub-env's generator (as ``SyncVectorEnv.np_random``)."""
-        return tuple(self._rngs)
-
-    @property
-    def np_random_seed(self) -> tuple[int, ...]:
-        """Each sub-env's seed, -1 where its generator was set directly."""
-        return tuple(self._rng_seeds)
-
-    def get_attr(self, name: str) -> tuple[Any, ...]:
-        """One value of attribute ``name`` per sub-env (see the class docstring)."""
-        if name == "state":
-            return tuple(np.concatenate([self._qpos, self._qvel], axis=1))  # copies
-        if name in PER_ENV:
-            return getattr(self, name)
-        if name in SHARED:
-            return (getattr(self._template, name),) * self.num_envs
-        raise AttributeError(
-            f"AcrobotVectorEnv's sub-envs have no attribute {name!r}; per sub-env: "
-            f"{list(PER_ENV)}, shared by all: {list(SHARED)}, methods (call): {list(METHODS)}"
-        )
-
-    def set_attr(self, name: str, values: Any) -> None:
-        """Set ``name`` on every sub-env: a list or tuple of one value per sub-env, or one value
-        for all (as ``SyncVectorEnv.set_attr``). Only :data:`SETTABLE` names can be set."""
-        if name in SHARED:
-            raise AttributeError(
-                f"{name!r} is shared by all {self.num_envs} sub-envs of the batch and fixed when "
-                f"it is built: it cannot be set per sub-env; make a new env with it instead"
-            )
-        if name not in SETTABLE:
-            why = "is read-only" if name in PER_ENV else "is no attribute of the sub-envs"
-            hint = "; call('set_state', q, dq) sets the state" if name == "state" else ""
-            raise AttributeError(f"{name!r} {why}; settable: {list(SETTABLE)}{hint}")
-        if not isinstance(values, (list, tuple)):
-            values = [values] * self.num_envs
-        if len(values) != self.num_envs:
-            raise ValueError(
-                "Values must be a list or tuple with length equal to the number of environments. "
-                f"Got `{len(values)}` values for {self.num_envs} environments."
-            )
-        bad = [v for v in values if not isinstance(v, np.random.Generator)]
-        if bad:
-            raise TypeError(f"np_random must be numpy Generators, got {bad[0]!r}")
-        self._rngs, self._rng_seeds = list(values), [-1] * self.num_envs
-
-    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
-        """Run method ``name`` of every sub-env with the same arguments (``set_state``,
-        ``render``), or return attribute ``name`` (as ``SyncVectorEnv.call``)."""
-        if name == "set_state":
-            self._template.set_state(*args, **kwargs)  # the single env's checks
-            self._qpos[...] = self._template.data.qpos
-            self._qvel[...] = self._template.data.qvel
-            return (None,) * self.num_envs
-        if name == "render":
-            if self.render_mode is None:
-                return (self.render(),) * self.num_envs  # warns, as each single env would
-            return tuple(self._frame(i) for i in range(self.num_envs))
-        return self.get_attr(name)
 
     # -- rendering -------------------------------------------------------------------------
 

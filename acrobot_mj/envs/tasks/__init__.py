@@ -12,7 +12,7 @@ from __future__ import annotations
 import gymnasium
 
 from acrobot_mj.envs.tasks.balance import Balance
-from acrobot_mj.envs.tasks.base import ARRAY, SCALAR, Outcome, Score, Task
+from acrobot_mj.envs.tasks.base import ARRAY, SCALAR, Outcome, Score, Task, constant_of
 from acrobot_mj.envs.tasks.height_goal import HeightGoal
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "Outcome",
     "Score",
     "Task",
+    "constant_of",
     "get_task",
     "register_task",
 ]

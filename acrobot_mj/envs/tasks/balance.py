@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.envs.tasks.base import Outcome, Score, Task
+from acrobot_mj.envs.tasks.base import Outcome, Score, Task, constant_of
 from acrobot_mj.physics.angles import wrap_angle
 
 
@@ -89,11 +89,13 @@ class Balance(Task):
 
     def outcome(self, xp: Any) -> Outcome:
         sin, cos, absolute, maximum = xp.sin, xp.cos, xp.abs, xp.maximum
-        tolerance, up = self.tolerance, math.pi / 2
+        constant = constant_of(xp)
+        tolerance, up = constant(self.tolerance), constant(math.pi / 2)
+        one, four = constant(1.0), constant(4.0)
 
         def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
             # Closeness to upright, then the larger angle error from it (wrapped).
-            reward = (1.0 + sin(q1)) * (1.0 + cos(q2)) / 4.0
+            reward = (one + sin(q1)) * (one + cos(q2)) / four
             error = maximum(absolute(wrap_angle(q1 - up)), absolute(wrap_angle(q2)))
             balanced = error < tolerance
             info = {"upright_error": error, "is_balanced": balanced, "is_success": balanced}

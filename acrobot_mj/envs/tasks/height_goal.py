@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.envs.tasks.base import Outcome, Score, Task
+from acrobot_mj.envs.tasks.base import Outcome, Score, Task, constant_of
 
 
 class HeightGoal(Task):
@@ -87,8 +87,9 @@ class HeightGoal(Task):
             )
 
     def outcome(self, xp: Any) -> Outcome:
-        l1, l2, height = self.l1, self.l2, self.goal_height
-        goal_reward, step_reward = self.goal_reward, self.step_reward
+        constant = constant_of(xp)
+        l1, l2, height = constant(self.l1), constant(self.l2), constant(self.goal_height)
+        goal_reward, step_reward = constant(self.goal_reward), constant(self.step_reward)
         sin, where = xp.sin, xp.where
 
         def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
