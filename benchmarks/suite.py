@@ -12,9 +12,13 @@ in short alternating runs, medians).
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import platform
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable
@@ -138,6 +142,47 @@ def sarsa(env: gym.Env, episodes: int) -> Rate:
     return measure
 
 
+def learner(config: Any, episodes: int) -> Rate:
+    """Training decisions per second of ``config``'s learner on its env (the whole loop: the
+    env, the features, the updates and the bookkeeping of an episode)."""
+    env = make_env(config)
+
+    def measure(k: int) -> float:
+        agent = make_agent(config, seed=k)
+        steps, start = 0, time.perf_counter()
+        for episode in range(episodes):
+            steps += learn_episode(env, agent, seed=episode).length
+        return steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def has_numba() -> bool:
+    return importlib.util.find_spec("numba") is not None
+
+
+def compile_seconds() -> dict[str, float]:
+    """Seconds for a fresh process to build the compiled book learner and run one episode:
+    with an empty numba cache (compiling) and again with the cache it wrote (loading)."""
+    code = (
+        "import time; t = time.perf_counter()\n"
+        "from acrobot_mj.agents.registry import make_agent\n"
+        "from acrobot_mj.train.episodes import learn_episode, make_env\n"
+        "from acrobot_mj.train.presets import PRESETS\n"
+        "c = PRESETS['book'].replace(kernel='numba')\n"
+        "learn_episode(make_env(c), make_agent(c, seed=0), seed=0)\n"
+        "print(time.perf_counter() - t)"
+    )
+    times = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        for label in ("cold", "cached"):
+            out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                 text=True, check=True)  # fmt: skip
+            times[label] = float(out.stdout.strip().splitlines()[-1])
+    return times
+
+
 def lockstep_sarsa(learners: int, episodes: int) -> Rate:
     """Training only (``wall_seconds`` of the records leaves out the final greedy runs)."""
     config = PRESETS["report"].replace(episodes=episodes)
@@ -182,7 +227,12 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         ),
         "SARSA on acrobot_mj": sarsa(make_env(PRESETS["report"]), episodes),
         f"lockstep SARSA, K={n}": lockstep_sarsa(n, 1 if quick else 2),
+        "book learner, numpy (decisions)": learner(PRESETS["book"], 5 if quick else 40),
     }
+    if has_numba():
+        book = PRESETS["book"].replace(kernel="numba")
+        learner(book, 1)(0)  # compiled (or loaded from the cache) before any round
+        rates_of["book learner, numba (decisions)"] = learner(book, 5 if quick else 40)
     samples: dict[str, list[float]] = {name: [] for name in rates_of}
     for k in range(rounds):
         for name, measure in rates_of.items():
@@ -197,6 +247,12 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         "vector_env_vs_batch_ceiling": rates[f"vector env, N={n}"] / ceiling,
         "lockstep_sarsa_vs_gymnasium_sarsa": rates[f"lockstep SARSA, K={n}"] / sarsa_base,
     }
+    book = rates["book learner, numpy (decisions)"]
+    ratios["book_numpy_vs_gymnasium_env_step"] = book / env_base
+    if has_numba():
+        ratios["book_numba_vs_gymnasium_env_step"] = (
+            rates["book learner, numba (decisions)"] / env_base
+        )
     versus_sync = vector_vs_sync(SYNC_SIZES, 4_000 if quick else 10_000, 5 if quick else 15)
     for size, row in versus_sync.items():
         ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
@@ -227,7 +283,12 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
             "vector_env_vs_batch_ceiling": 0.8,
             "lockstep_sarsa_vs_gymnasium_sarsa": 25.0,
             **{f"vector_env_vs_sync_vector_env_N{size}": 1.0 for size in SYNC_SIZES},
+            "book_numpy_vs_gymnasium_env_step": 1.5,
+            "book_numba_vs_gymnasium_env_step": 1.5,
         },
+        "compiled_learner": compile_seconds()
+        if has_numba()
+        else "numba not installed: the compiled rows are skipped (pip install acrobot-mj[fast])",
         "vector_env_vs_sync_steps_per_second": versus_sync,
         "scaling_steps_per_second": scaling,
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
@@ -242,8 +303,15 @@ def report(result: dict[str, Any]) -> str:
     ceiling = next(v for k, v in rates.items() if k.startswith("mujoco.batch"))
     lines = [f"{'measurement':<36} {'steps/s':>11} {'/ Acrobot-v1':>13} {'/ ceiling':>10}"]
     for name, rate in rates.items():
-        base = sarsa_base if "SARSA" in name else env_base
+        base = sarsa_base if "SARSA" in name else env_base  # learners: per env step
         lines.append(f"{name:<36} {rate:11.0f} {rate / base:13.2f} {rate / ceiling:10.2f}")
+    lines.append("")
+    compiled = result["compiled_learner"]
+    if isinstance(compiled, str):
+        lines.append(compiled)
+    else:
+        lines.append(f"compiled learner: build and first episode {compiled['cold']:.1f} s in a "
+                     f"fresh process, {compiled['cached']:.1f} s from numba's cache")  # fmt: skip
     lines.append("")
     for key, value in result["ratios"].items():
         target = result["targets"][key]

@@ -19,9 +19,13 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
         "vector_env_vs_batch_ceiling",
         "lockstep_sarsa_vs_gymnasium_sarsa",
         *(f"vector_env_vs_sync_vector_env_N{n}" for n in (1, 4, 16, 64)),
+        "book_numpy_vs_gymnasium_env_step",
+        "book_numba_vs_gymnasium_env_step",  # numba is in the test extra
     ):
         assert result["ratios"][key] > 0 and key in text
-    assert len(result["rates_steps_per_second"]) == 8
+    assert len(result["rates_steps_per_second"]) == 10
+    compiled = result["compiled_learner"]  # a fresh process compiles, then loads the cache
+    assert compiled["cold"] > compiled["cached"] > 0 and "numba's cache" in text
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}
     versus_sync = result["vector_env_vs_sync_steps_per_second"]
     assert set(versus_sync) == {"1", "4", "16", "64"}

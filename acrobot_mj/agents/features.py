@@ -176,6 +176,12 @@ class TileCoder:
         self.num_features = base
         self.num_active = len(bases)
 
+    def tables(self) -> tuple[np.ndarray, ...]:
+        """What :meth:`active` computes from, for compiled kernels: ``(low, scale, offset,
+        extent, wrap, stride, base)`` (see :func:`acrobot_mj.agents.kernels.tile_active`)."""
+        return (self.low, self._scale, self._offset, self._extent, self._wrap_mask,
+                self._stride, self._base)  # fmt: skip
+
     def active(self, obs: Sequence[float]) -> np.ndarray:
         """Indices of the active tile of every tiling, shape ``(num_active,)``, int64."""
         scaled = (np.asarray(obs, dtype=float) - self.low) * self._scale

@@ -27,6 +27,11 @@ except ImportError as error:  # pragma: no cover  (the fast extra is missing)
     raise ImportError("the compiled learner needs numba: pip install acrobot-mj[fast]") from error
 
 
+#: numpy's pairwise block: up to this many values it sums in one unrolled pass (beyond it,
+#: recursively, which :func:`pairwise_sum` does not do).
+PAIRWISE_BLOCK = 128
+
+
 @njit(cache=True)
 def pairwise_sum(values: np.ndarray, n: int) -> float:
     """The sum of ``values[:n]`` in numpy's pairwise order (n up to 128: one block)."""

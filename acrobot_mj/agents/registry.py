@@ -61,8 +61,12 @@ def make_features(config: Any) -> Features:
 
 
 def make_agent(config: Any, seed: Any, n_actions: int = 3) -> Agent:
-    """The learner of ``config`` (``config.algorithm``), its random stream seeded with ``seed``."""
-    return agent_spec(config.algorithm).build(make_features(config), config, seed, n_actions)
+    """The learner of ``config`` (``config.algorithm``), its random stream seeded with ``seed``;
+    with ``config.kernel == "numba"`` the compiled form (numba imported only then)."""
+    build = agent_spec(config.algorithm).build
+    if getattr(config, "kernel", None) == "numba":
+        from acrobot_mj.agents.sarsa_lambda_jit import build
+    return build(make_features(config), config, seed, n_actions)
 
 
 for _spec in FEATURE_SPECS:

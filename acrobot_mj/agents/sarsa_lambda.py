@@ -28,7 +28,7 @@ from acrobot_mj.agents.random_stream import RandomStream, checked_values
 
 TRACES = ("replacing", "accumulating")
 #: The implementations: this module's numpy code (the reference) or numba kernels
-#: (:mod:`.compiled_sarsa_lambda`, tile codes only; the same numbers).
+#: (:mod:`.sarsa_lambda_jit`, tile codes only; the same numbers).
 KERNELS = ("numpy", "numba")
 _MIN, _MAX = -math.inf, math.inf
 
@@ -197,11 +197,11 @@ class SarsaLambda:
         self._clear_traces()
 
 
-def _build(features: StateGrid | TileCoder, c: Any, seed: Any, n_actions: int) -> SarsaLambda:
-    kind = SarsaLambda
-    if getattr(c, "kernel", "numpy") == "numba":
-        from acrobot_mj.agents.compiled_sarsa_lambda import CompiledSarsaLambda as kind
-    return kind(
+def build(
+    features: StateGrid | TileCoder, c: Any, seed: Any, n_actions: int, kind: type | None = None
+) -> SarsaLambda:
+    """The learner of config ``c`` (``kind``: this class, or a compiled subclass)."""
+    return (kind or SarsaLambda)(
         features,
         n_actions,
         c.alpha,
@@ -219,5 +219,5 @@ SPEC = AgentSpec(
     doc="linear Sarsa(lambda) with eligibility traces (Sutton and Barto)",
     uses=("alpha", "gamma", "epsilon", "lam", "traces", "trace_cutoff", "kernel"),
     features=("grid", "tiles"),
-    build=_build,
+    build=build,
 )

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents import kernels
+from acrobot_mj.agents import kernels, sarsa_lambda
 from acrobot_mj.agents.features import TileCoder
 from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.sarsa_lambda import SarsaLambda
@@ -26,17 +26,21 @@ class CompiledSarsaLambda(SarsaLambda):
         if not isinstance(features, TileCoder):
             raise ValueError("the compiled Sarsa(lambda) needs tile-coding features")
         super().__init__(features, *args, **kwargs)
+        if features.num_active > kernels.PAIRWISE_BLOCK:
+            raise ValueError(
+                f"the compiled Sarsa(lambda) sums at most {kernels.PAIRWISE_BLOCK} active "
+                f"features (numpy's order), got {features.num_active}"
+            )
         if self.clear_others:
             raise ValueError("the compiled Sarsa(lambda) does not clear other actions' traces")
-        f = features
-        self._tiles = (f.low, f._scale, f._offset, f._extent, f._wrap_mask, f._stride, f._base)
+        self._tiles = features.tables()
         size = self._w.size
         self._pairs = np.zeros(size, dtype=np.int64)
         self._values = np.zeros(size)
         self._count = 0
-        self._active = np.zeros(f.num_active, dtype=np.int64)
-        self._next = np.zeros(f.num_active, dtype=np.int64)
-        self._gathered = np.zeros(f.num_active)
+        self._active = np.zeros(features.num_active, dtype=np.int64)
+        self._next = np.zeros(features.num_active, dtype=np.int64)
+        self._gathered = np.zeros(features.num_active)
         self._q_out = np.zeros(self.n_actions)
         self._factor = self.gamma * self.lam
 
@@ -87,8 +91,10 @@ class CompiledSarsaLambda(SarsaLambda):
         kernels.update(self._w, self._pairs, self._values, self._count, self.alpha * delta)
 
     def _clear_traces(self) -> None:
-        if hasattr(self, "_pairs"):
-            kernels.clear(self._pairs, self._position, self._count)
-            self._count = 0
-        else:  # the base class's constructor, before the compiled arrays exist
-            super()._clear_traces()
+        kernels.clear(self._pairs, self._position, self._count)
+        self._count = 0
+
+
+def build(features: TileCoder, config: Any, seed: Any, n_actions: int) -> CompiledSarsaLambda:
+    """The compiled learner of ``config`` (``kernel = "numba"``)."""
+    return sarsa_lambda.build(features, config, seed, n_actions, CompiledSarsaLambda)
