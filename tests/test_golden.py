@@ -72,6 +72,8 @@ def test_run_directories_written_before_still_load_and_evaluate(name, tmp_path) 
     applied = {k: v for k, v in config.to_dict().items() if v is not None and k != "task"}
     for new in ("max_decisions", "identify_decisions"):  # new in 0.3.0, read as 0 (off)
         assert applied.pop(new) == 0
+    if config.algorithm == "sarsa_lambda":  # new in 0.3.0: the numpy learner, as then
+        assert applied.pop("kernel") == "numpy"
     assert applied == {k: old_eval["config"][k] for k in applied}
     assert None in config.to_dict().values() and seed == 0
     assert {"eval_episodes", "eval_noise"} <= old_eval["config"].keys()

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.common import Commands, positive_int
+from acrobot_mj.cli.common import Commands, add_progress, positive_int, show_progress
 
 
 def add_balance(commands: Commands) -> None:
@@ -33,6 +33,7 @@ def add_balance(commands: Commands) -> None:
     p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True)
     p.add_argument("--width", type=positive_int, default=480)
     p.add_argument("--height", type=positive_int, default=480)
+    add_progress(p)
     p.set_defaults(func=balance_command)
 
 
@@ -42,7 +43,7 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
     out = Path(args.out)
     record = run_balance(
         out, args.discrete, args.reserve, args.hold, args.optimise, args.video,
-        (args.width, args.height),
+        (args.width, args.height), show_progress(args),
     )  # fmt: skip
     trajectory = record["trajectory"]
     kind = "{-1, 0, +1}" if args.discrete else "continuous"

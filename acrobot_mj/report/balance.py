@@ -142,7 +142,9 @@ def outcome(states: np.ndarray, swing_up: int, task: Balance, dt: float) -> dict
     }
 
 
-def load_trajectory(reserve: float, cache: Any = None, optimise: bool = False) -> tuple:
+def load_trajectory(
+    reserve: float, cache: Any = None, optimise: bool = False, progress: bool = False
+) -> tuple:
     """The swing-up for nominal torques ``|u| <= reserve`` N m, and where it came from: the
     package's (1.0 and 0.8), a cached one in ``cache`` (re-checked), or a new optimisation
     (which needs CasADi, and minutes)."""
@@ -159,7 +161,7 @@ def load_trajectory(reserve: float, cache: Any = None, optimise: bool = False) -
             return trajectory, f"cached ({cache})"
     from acrobot_mj.control.trajopt import min_time
 
-    trajectory = min_time(float(reserve))
+    trajectory = min_time(float(reserve), progress=progress)
     if cache is not None:
         trajectory.save(cache)
     return trajectory, "optimised now"
@@ -173,6 +175,7 @@ def run_balance(
     optimise: bool = False,
     video: bool = True,
     size: tuple[int, int] = (480, 480),
+    progress: bool = False,
 ) -> dict[str, Any]:
     """``acrobot-mj balance``: the swing-up for ``reserve``, the closed loop in MuJoCo for
     ``hold`` seconds after it, ``out/balance.json`` (with the per-step torques and states) and,
@@ -180,7 +183,7 @@ def run_balance(
     if not (isinstance(hold, (int, float)) and 0.0 < hold <= 3600.0):
         raise ValueError(f"the hold time must be in (0, 3600] s, got {hold!r}")
     out = Path(out)
-    trajectory, source = load_trajectory(reserve, out / "trajectory.json", optimise)
+    trajectory, source = load_trajectory(reserve, out / "trajectory.json", optimise, progress)
     record_video = None
     if video:
         env = balance_env(trajectory, discrete, hold, render_mode="rgb_array", width=size[0],
