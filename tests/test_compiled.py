@@ -82,3 +82,19 @@ def test_the_compiled_kernel_needs_tiles() -> None:
         BOOK.replace(features="grid", kernel="numba")
     with pytest.raises(ValueError, match="kernel must be one of"):
         BOOK.replace(kernel="cuda")
+
+
+def test_both_paths_of_a_decision_are_taken_and_agree(tmp_path, monkeypatch) -> None:
+    # The one-call path (no draw) and the Python-finished path (a tie: all weights start at 0)
+    # both occur in a book run, and the run above is the numpy one's bit for bit.
+    outcomes = []
+    fused = kernels.greedy_step
+
+    def counted(*args):
+        result = fused(*args)
+        outcomes.append(result[0] >= 0)
+        return result
+
+    monkeypatch.setattr(kernels, "greedy_step", counted)
+    train(BOOK.replace(kernel="numba", episodes=20), 0)
+    assert any(outcomes) and not all(outcomes)

@@ -143,3 +143,43 @@ def clear(pairs, position, count) -> None:
     """Drop every trace (the start of an episode)."""
     for i in range(count):
         position[pairs[i]] = -1
+
+
+@njit(cache=True)
+def greedy_step(w, a, active, nxt, obs, tiles, sizes, traces, count, reward, rates, gathered, q):
+    """A whole non-terminal decision when the policy needs no random draw (``epsilon = 0`` and
+    one best action): mark (s, a), the TD error, the next state's tiles and values, a' = argmax,
+    the update and the decay, in that order (the numpy learner's). Returns ``(a', count)``;
+    ``a' = -1`` when the policy must draw (a tie, or a value that is not a number): then only
+    the marking, the tiles and the values are done, and ``q`` and the returned ``-Q(s, a)``
+    (``count`` holds it, see below) let Python finish. ``sizes = (num_features, n_actions,
+    replacing, truncated)``, ``rates = (alpha, gamma, decay factor, cutoff)``,
+    ``traces = (pairs, values, position)``; the TD error's first part comes back in
+    ``gathered[0]``."""
+    num_features, n_actions, replacing, truncated = sizes
+    pairs, values, position = traces
+    q_sa, count = mark(w, a, active, num_features, pairs, values, position, count, replacing,
+                       gathered)  # fmt: skip
+    delta = reward - q_sa
+    low, scale, offset, extent, wrap, stride, base = tiles
+    tile_active(obs, low, scale, offset, extent, wrap, stride, base, nxt)
+    q_values(w, nxt, num_features, n_actions, gathered, q)
+    gathered[0] = delta
+    best, ties = q[0], 1
+    for i in range(1, n_actions):
+        if q[i] > best:
+            best, ties = q[i], 1
+        elif q[i] == best:
+            ties += 1
+    if ties != 1 or best != best:
+        return -1, count
+    a2 = 0
+    while q[a2] != best:
+        a2 += 1
+    delta = delta + rates[1] * q[a2]
+    if not -math.inf < delta < math.inf:
+        return -1, count  # Python raises the divergence, with the same value
+    update(w, pairs, values, count, rates[0] * delta)
+    if not truncated:
+        count = decay(pairs, values, position, count, rates[2], rates[3])
+    return a2, count

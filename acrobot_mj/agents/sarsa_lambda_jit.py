@@ -3,8 +3,10 @@
 :class:`CompiledSarsaLambda` is :class:`~.sarsa_lambda.SarsaLambda` with the tile coding, the
 action values, the trace marking, the weight update and the trace decay in numba kernels, and
 the same random stream, weights and checkpoints: the same seed gives the same actions, episode
-lengths and weights, bit for bit (``tests/test_compiled.py`` checks full runs). Two numba calls
-and the Python-side policy per decision, instead of about fifteen numpy calls on tiny arrays.
+lengths and weights, bit for bit (``tests/test_compiled.py`` checks full runs). One numba
+call per decision when the policy needs no random draw (:func:`.kernels.greedy_step`), instead
+of about fifteen numpy calls on tiny arrays; otherwise the policy draws in Python between two
+kernel calls.
 """
 
 from __future__ import annotations
@@ -43,6 +45,8 @@ class CompiledSarsaLambda(SarsaLambda):
         self._gathered = np.zeros(features.num_active)
         self._q_out = np.zeros(self.n_actions)
         self._factor = self.gamma * self.lam
+        self._traces = (self._pairs, self._values, self._position)
+        self._rates = (self.alpha, self.gamma, self._factor, self.trace_cutoff)
 
     @property
     def traces(self) -> np.ndarray:
@@ -64,23 +68,42 @@ class CompiledSarsaLambda(SarsaLambda):
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
         if self._a < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
+        if not terminated and self.epsilon == 0.0:  # one compiled call, unless the policy draws
+            a2, self._count = kernels.greedy_step(
+                self._w, self._a, self._active, self._next, np.asarray(obs, dtype=float),
+                self._tiles, (self.num_features, self.n_actions, self.replacing, bool(truncated)),
+                self._traces, self._count, float(reward), self._rates, self._gathered,
+                self._q_out,
+            )  # fmt: skip
+            if a2 >= 0:
+                return self._advance(a2, truncated)
+            # A tie (or a value that is not a number): Python finishes the decision.
+            return self._finish(float(self._gathered[0]), self._q_out.tolist(), truncated)
         q, self._count = kernels.mark(
             self._w, self._a, self._active, self.num_features, self._pairs, self._values,
             self._position, self._count, self.replacing, self._gathered,
         )  # fmt: skip
-        delta = reward - q
         if terminated:
-            self._apply(delta)
+            self._apply(reward - q)
             self._a = -1
             return None
-        q_next = self._active_q(obs, self._next)
+        return self._finish(reward - q, self._active_q(obs, self._next), truncated)
+
+    def _finish(self, delta: float, q_next: list[float], truncated: bool) -> int | None:
+        """The rest of a decision after the marking: a' from the policy, the update with the
+        bootstrapped TD error, the decay."""
         a2 = self._policy(q_next)
         self._apply(delta + self.gamma * q_next[a2])
+        if not truncated:
+            self._count = kernels.decay(self._pairs, self._values, self._position, self._count,
+                                        self._factor, self.trace_cutoff)  # fmt: skip
+        return self._advance(a2, truncated)
+
+    def _advance(self, a2: int, truncated: bool) -> int | None:
+        """Move to (s', a'), or end the episode at truncation."""
         if truncated:
             self._a = -1
             return None
-        self._count = kernels.decay(self._pairs, self._values, self._position, self._count,
-                                    self._factor, self.trace_cutoff)  # fmt: skip
         self._active, self._next = self._next, self._active
         self._a = a2
         return a2
