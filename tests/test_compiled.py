@@ -86,7 +86,7 @@ def test_the_compiled_kernel_needs_tiles() -> None:
 
 def test_both_paths_of_a_decision_are_taken_and_agree(tmp_path, monkeypatch) -> None:
     # The one-call path (no draw) and the Python-finished path (a tie: all weights start at 0)
-    # both occur in a book run, and the run above is the numpy one's bit for bit.
+    # both occur in a book run (the tests above check that the numbers are numpy's).
     outcomes = []
     fused = kernels.greedy_step
 
