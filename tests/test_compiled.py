@@ -11,6 +11,7 @@ pytest.importorskip("numba", reason="the compiled learner needs numba (the fast 
 from acrobot_mj.agents import kernels
 from acrobot_mj.agents.registry import make_agent
 from acrobot_mj.agents.sarsa_lambda_jit import CompiledSarsaLambda
+from acrobot_mj.train.episodes import learn_episode, make_env
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.rundir import load_agent
 from acrobot_mj.train.trainer import train
@@ -71,9 +72,14 @@ def test_a_model_based_population_is_the_same_through_both(tmp_path) -> None:
 
 
 def test_accumulating_traces_and_no_cutoff_are_the_same_through_both(tmp_path) -> None:
+    # Without a cutoff every trace lives to the episode's end: the trace arrays must grow past
+    # their first room (64 x 48 traces) to hold them.
     config = BOOK.replace(traces="accumulating", trace_cutoff=0.0, epsilon=0.1, episodes=20)
     (ref, ref_agent), (fast, fast_agent) = run_both(config, 1, tmp_path)
     assert fast["episode_lengths"] == ref["episode_lengths"]
+    agent = make_agent(config.replace(kernel="numba"), seed=1)
+    learn_episode(make_env(config), agent, seed=0)  # the first episode: long, weights all 0
+    assert agent._pairs.size > 64 * 48  # it grew
     assert np.array_equal(fast_agent.w, ref_agent.w)
 
 

@@ -36,9 +36,11 @@ class CompiledSarsaLambda(SarsaLambda):
         if self.clear_others:
             raise ValueError("the compiled Sarsa(lambda) does not clear other actions' traces")
         self._tiles = features.tables()
-        size = self._w.size
-        self._pairs = np.zeros(size, dtype=np.int64)
-        self._values = np.zeros(size)
+        # Room for the live traces, grown as needed (with lambda 0.9 and the cutoff 1e-3 a trace
+        # lives 66 steps: about 3,200 of 48 tilings), not one per weight.
+        room = min(self._w.size, 64 * features.num_active)
+        self._pairs = np.zeros(room, dtype=np.int64)
+        self._values = np.zeros(room)
         self._count = 0
         self._active = np.zeros(features.num_active, dtype=np.int64)
         self._next = np.zeros(features.num_active, dtype=np.int64)
@@ -68,6 +70,8 @@ class CompiledSarsaLambda(SarsaLambda):
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
         if self._a < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
+        if self._count + self._next.size > self._pairs.size:
+            self._grow()
         if not terminated and self.epsilon == 0.0:  # one compiled call, unless the policy draws
             a2, self._count = kernels.greedy_step(
                 self._w, self._a, self._active, self._next, np.asarray(obs, dtype=float),
@@ -112,6 +116,17 @@ class CompiledSarsaLambda(SarsaLambda):
         if not -np.inf < delta < np.inf:  # NaN and infinities fail too
             raise DivergenceError(f"the TD error is {delta} (alpha {self.alpha:g})")
         kernels.update(self._w, self._pairs, self._values, self._count, self.alpha * delta)
+
+    def _grow(self) -> None:
+        """Twice the room for traces (at most one per weight), the live ones kept."""
+        room = min(self._w.size, max(2 * self._pairs.size, self._count + self._next.size))
+        pairs, values = np.zeros(room, dtype=np.int64), np.zeros(room)
+        pairs[: self._count], values[: self._count] = (
+            self._pairs[: self._count],
+            self._values[: self._count],
+        )
+        self._pairs, self._values = pairs, values
+        self._traces = (self._pairs, self._values, self._position)
 
     def _clear_traces(self) -> None:
         kernels.clear(self._pairs, self._position, self._count)
