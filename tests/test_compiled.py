@@ -104,3 +104,31 @@ def test_both_paths_of_a_decision_are_taken_and_agree(tmp_path, monkeypatch) -> 
     monkeypatch.setattr(kernels, "greedy_step", counted)
     train(BOOK.replace(kernel="numba", episodes=20), 0)
     assert any(outcomes) and not all(outcomes)
+
+
+def test_the_compiled_model_step_is_the_python_one() -> None:
+    from acrobot_mj.control.identification import BOOK_STEP, lumped
+    from acrobot_mj.envs.model_env import ModelEnv
+    from acrobot_mj.envs.tasks import get_task
+    from acrobot_mj.physics.params import AcrobotParams
+
+    theta = lumped(AcrobotParams())
+    task = make_env(BOOK).unwrapped.task
+    envs = [ModelEnv(theta, task, BOOK_STEP, 1000, compiled) for compiled in (False, True)]
+    rng = np.random.default_rng(2)
+    fast = {"state": np.array([0.3, -0.2, 12.56, 28.27])}  # just below both velocity limits
+    for env in envs:
+        env.reset(options=fast)
+    clipped = 0
+    for t in range(3000):  # through goals and resets
+        action = int(rng.integers(3))
+        results = [env.step(action) for env in envs]
+        # Bit for bit: the same floats through the same operations (libm's cos and sin).
+        assert envs[0].state.tolist() == envs[1].state.tolist(), t
+        assert results[0][1:4] == results[1][1:4]
+        v1, v2 = np.abs(envs[0].state[2:])
+        clipped += v1 == BOOK_STEP.max_vel1 or v2 == BOOK_STEP.max_vel2
+        if results[0][2] or results[0][3] or t % 200 == 0:
+            for env in envs:
+                env.reset(options=fast)
+    assert clipped > 0 and get_task(BOOK.task).name == task.name  # the clipping was exercised

@@ -36,6 +36,7 @@ class ModelEnv(gym.Env[np.ndarray, Any]):
         task: Task,
         structure: StepStructure = BOOK_STEP,
         max_episode_steps: int = 1000,
+        compiled: bool = False,
     ) -> None:
         theta = np.asarray(theta, dtype=np.float64)
         if theta.shape != (5,) or not np.all(np.isfinite(theta)):
@@ -45,6 +46,13 @@ class ModelEnv(gym.Env[np.ndarray, Any]):
         self.observation_space, self.action_space = observation_space(), action_space(False)
         self._outcome = task.outcome(SCALAR)
         self._x, self._t = tuple(HANGING.tolist()), 0
+        self._advance = advance
+        if compiled:  # the same step, compiled (acrobot_mj.envs.model_step_jit)
+            from acrobot_mj.envs import model_step_jit
+
+            s = structure
+            args = (self.theta, s.dt, s.max_vel1, s.max_vel2, s.frame_skip)
+            self._advance = lambda x, tau, *_: model_step_jit.advance(x, tau, *args)
 
     @property
     def state(self) -> np.ndarray:
@@ -67,7 +75,7 @@ class ModelEnv(gym.Env[np.ndarray, Any]):
         return self._observe(), {**info, "is_success": False}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        self._x = advance(self._x, action_torque(action, False), self.theta, self.structure)
+        self._x = self._advance(self._x, action_torque(action, False), self.theta, self.structure)
         self._t += 1
         reward, terminated, info = self._outcome(*self._x)
         truncated = not terminated and self._t >= self.max_episode_steps

@@ -149,7 +149,8 @@ def train_in_model(
     structure = step_structure(real)
     theta, rms = identify(data, structure)
     check_fit(rms)
-    model = ModelEnv(theta, real.unwrapped.task, structure, config.max_episode_steps)
+    compiled = getattr(config, "kernel", None) == "numba"  # the model's step compiled too
+    model = ModelEnv(theta, real.unwrapped.task, structure, config.max_episode_steps, compiled)
     judge = ModelJudge(model, config, seed)
     record, agent = train_learners(
         config, seed, out, shape_rewards(model, config), resume, progress, on_episode, judge
