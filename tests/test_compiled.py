@@ -109,7 +109,6 @@ def test_both_paths_of_a_decision_are_taken_and_agree(tmp_path, monkeypatch) -> 
 def test_the_compiled_model_step_is_the_python_one() -> None:
     from acrobot_mj.control.identification import BOOK_STEP, lumped
     from acrobot_mj.envs.model_env import ModelEnv
-    from acrobot_mj.envs.tasks import get_task
     from acrobot_mj.physics.params import AcrobotParams
 
     theta = lumped(AcrobotParams())
@@ -131,4 +130,4 @@ def test_the_compiled_model_step_is_the_python_one() -> None:
         if results[0][2] or results[0][3] or t % 200 == 0:
             for env in envs:
                 env.reset(options=fast)
-    assert clipped > 0 and get_task(BOOK.task).name == task.name  # the clipping was exercised
+    assert clipped > 0  # the clipping was exercised

@@ -51,23 +51,33 @@ def lumped(p: AcrobotParams) -> tuple[float, float, float, float, float]:
             p.m2 * p.lc2 * p.g)  # fmt: skip
 
 
-def advance(x: Sequence[float], tau: float, theta: Sequence[float], s: StepStructure) -> tuple:
-    """One decision: ``s.frame_skip`` semi-implicit Euler steps of the lumped model, velocities
-    clipped after each (the env's step), on Python floats."""
-    a, b, c, d, e = theta
-    q1, q2, v1, v2 = x
-    dt, lim1, lim2 = s.dt, s.max_vel1, s.max_vel2
-    for _ in range(s.frame_skip):
+def lumped_step(q1, q2, v1, v2, tau, a, b, c, d, e, dt, lim1, lim2, frame_skip) -> tuple:
+    """One decision of the lumped model ``(a, b, c, d, e)`` from ``(q1, q2, v1, v2)`` with
+    torque ``tau`` [N m]: ``frame_skip`` semi-implicit Euler steps of ``dt`` [s], velocities
+    clipped to ``lim1``, ``lim2`` [rad/s] after each. Plain floats and arithmetic only, so
+    numba compiles this very function (:mod:`acrobot_mj.envs.model_step_jit`); the clipping is
+    ``min(lim, max(-lim, v))`` written out with Python's rules."""
+    for _ in range(frame_skip):
         c2, s2 = math.cos(q2), math.sin(q2)
         d11, d12 = a + 2 * b * c2, c + b * c2
         phi2 = e * math.cos(q1 + q2)
         f1 = b * s2 * (v2 * v2 + 2 * v1 * v2) - d * math.cos(q1) - phi2
         f2 = tau - b * s2 * v1 * v1 - phi2
         det = d11 * c - d12 * d12
-        v1 = min(lim1, max(-lim1, v1 + dt * (c * f1 - d12 * f2) / det))
-        v2 = min(lim2, max(-lim2, v2 + dt * (d11 * f2 - d12 * f1) / det))
+        v1 = v1 + dt * (c * f1 - d12 * f2) / det
+        v1 = v1 if v1 > -lim1 else -lim1
+        v1 = v1 if v1 < lim1 else lim1
+        v2 = v2 + dt * (d11 * f2 - d12 * f1) / det
+        v2 = v2 if v2 > -lim2 else -lim2
+        v2 = v2 if v2 < lim2 else lim2
         q1, q2 = q1 + dt * v1, q2 + dt * v2
     return q1, q2, v1, v2
+
+
+def advance(x: Sequence[float], tau: float, theta: Sequence[float], s: StepStructure) -> tuple:
+    """One decision: ``s.frame_skip`` semi-implicit Euler steps of the lumped model, velocities
+    clipped after each (the env's step), on Python floats (:func:`lumped_step`)."""
+    return lumped_step(*x, tau, *theta, s.dt, s.max_vel1, s.max_vel2, s.frame_skip)
 
 
 def residuals(theta: Sequence[float], data: Sequence[Transition], s: StepStructure) -> np.ndarray:

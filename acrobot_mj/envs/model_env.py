@@ -1,5 +1,5 @@
 """An env over an identified model: the same task, spaces and resets as :class:`AcrobotEnv`, with
-the dynamics of :func:`acrobot_mj.control.identification.advance` instead of MuJoCo.
+the dynamics of :func:`acrobot_mj.control.identification.lumped_step` instead of MuJoCo.
 
 What a model-based learner plans in (Dyna-style: simulated experience, no env decisions). The
 task object is the real env's (its rewards, goal and start noise: what is asked, not how the
@@ -14,7 +14,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.identification import BOOK_STEP, StepStructure, advance
+from acrobot_mj.control.identification import BOOK_STEP, StepStructure, lumped_step
 from acrobot_mj.control.model import HANGING
 from acrobot_mj.envs.resets import RESET_OPTIONS, reset_noise, reset_state
 from acrobot_mj.envs.spaces import action_space, action_torque, observation_space
@@ -46,13 +46,13 @@ class ModelEnv(gym.Env[np.ndarray, Any]):
         self.observation_space, self.action_space = observation_space(), action_space(False)
         self._outcome = task.outcome(SCALAR)
         self._x, self._t = tuple(HANGING.tolist()), 0
-        self._advance = advance
-        if compiled:  # the same step, compiled (acrobot_mj.envs.model_step_jit)
-            from acrobot_mj.envs import model_step_jit
+        self._step = lumped_step
+        if compiled:  # the same function, compiled (acrobot_mj.envs.model_step_jit)
+            from acrobot_mj.envs.model_step_jit import lumped_step_jit as _step
 
-            s = structure
-            args = (self.theta, s.dt, s.max_vel1, s.max_vel2, s.frame_skip)
-            self._advance = lambda x, tau, *_: model_step_jit.advance(x, tau, *args)
+            self._step = _step
+        s = structure
+        self._constants = (*self.theta, s.dt, s.max_vel1, s.max_vel2, s.frame_skip)
 
     @property
     def state(self) -> np.ndarray:
@@ -75,7 +75,7 @@ class ModelEnv(gym.Env[np.ndarray, Any]):
         return self._observe(), {**info, "is_success": False}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        self._x = self._advance(self._x, action_torque(action, False), self.theta, self.structure)
+        self._x = self._step(*self._x, action_torque(action, False), *self._constants)
         self._t += 1
         reward, terminated, info = self._outcome(*self._x)
         truncated = not terminated and self._t >= self.max_episode_steps

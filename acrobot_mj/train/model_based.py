@@ -131,6 +131,20 @@ def step_structure(env: gym.Env) -> StepStructure:
     return StepStructure(acrobot.model.opt.timestep, acrobot.frame_skip, MAX_VEL1, MAX_VEL2)
 
 
+def identified_model(
+    env: gym.Env, decisions: int, seed: int, noise: float
+) -> tuple[int, np.ndarray, float, StepStructure]:
+    """Steps 1 and 2 of the module docstring on ``env``: ``decisions`` random-action
+    transitions, the lumped parameters fitted to them (a model that misses its data is
+    refused). Returns the transitions' count, the parameters, the fit's RMS error and what the
+    learner was told of the step."""
+    data = collect(env, decisions, seed, noise)
+    structure = step_structure(env)
+    theta, rms = identify(data, structure)
+    check_fit(rms)
+    return len(data), theta, rms, structure
+
+
 def train_in_model(
     config: TrainConfig,
     seed: int,
@@ -145,10 +159,9 @@ def train_in_model(
     if env is not None:
         raise ValueError("model-based training identifies the package's own env; give no env")
     real = make_env(config)
-    data = collect(real, config.identify_decisions, seed, config.start_noise)
-    structure = step_structure(real)
-    theta, rms = identify(data, structure)
-    check_fit(rms)
+    decisions, theta, rms, structure = identified_model(
+        real, config.identify_decisions, seed, config.start_noise
+    )
     compiled = getattr(config, "kernel", None) == "numba"  # the model's step compiled too
     model = ModelEnv(theta, real.unwrapped.task, structure, config.max_episode_steps, compiled)
     judge = ModelJudge(model, config, seed)
@@ -159,8 +172,8 @@ def train_in_model(
     record.update(
         env="the identified model (ModelEnv)",
         greedy_from_rest=greedy_result(greedy),
-        decisions_total=len(data) + greedy.length,
-        model={"data_decisions": len(data), "theta": theta.tolist(), "rms": rms},
+        decisions_total=decisions + greedy.length,
+        model={"data_decisions": decisions, "theta": theta.tolist(), "rms": rms},
     )
     if out is not None:
         write_run(out, record, f"seed {seed}, learnt in an identified model")

@@ -34,14 +34,14 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.identification import identify, realise
+from acrobot_mj.control.identification import realise
 from acrobot_mj.control.trajectory import Trajectory
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import write_json
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.report.balance import balance_env, closed_loop
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.model_based import check_fit, collect, step_structure
+from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.plan_config import KIND, TRAJECTORY_FILE, PlanConfig, read_plan_record
 from acrobot_mj.train.rundir import RUN_FILE, check_fresh
 from acrobot_mj.train.trainer import check_seed
@@ -57,14 +57,13 @@ def learn_model(config: PlanConfig, seed: int) -> dict[str, Any]:
     """Steps 1 and 2: the data and the identified model, with its realisation."""
     env = data_env(config)
     try:
-        data = collect(env, config.identify_decisions, seed, config.data_noise)
-        structure = step_structure(env)
+        decisions, theta, rms, structure = identified_model(
+            env, config.identify_decisions, seed, config.data_noise
+        )
     finally:
         env.close()
-    theta, rms = identify(data, structure)
-    check_fit(rms)
     params = realise(theta, structure)
-    return {"data_decisions": len(data), "theta": theta.tolist(), "rms": rms,
+    return {"data_decisions": decisions, "theta": theta.tolist(), "rms": rms,
             "params": dataclasses.asdict(params)}  # fmt: skip
 
 

@@ -34,11 +34,10 @@ BALANCE_PROTOCOL = Protocol(episodes=100, start_noise=BALANCE_NOISE, seed=0)
 
 
 def policy_episode(
-    config: PlanConfig, trajectory: Trajectory, start: np.ndarray, env: Any = None
+    config: PlanConfig, trajectory: Trajectory, start: np.ndarray, env: Any
 ) -> dict[str, Any]:
-    """The policy's episode from the exact ``start`` in the MuJoCo balance env: its actions,
-    per-step torques, final state and outcome."""
-    env = env or balance_env_for(config, trajectory)
+    """The policy's episode from the exact ``start`` in ``env`` (the MuJoCo balance env of
+    :func:`balance_env_for`): its actions, per-step torques, final state and outcome."""
     actor = BalanceActor(env, SwingUpController(trajectory), config.discrete, None)
     actions: list[Any] = []
     episode = run_episode(
