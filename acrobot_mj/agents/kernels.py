@@ -183,3 +183,30 @@ def greedy_step(w, a, active, nxt, obs, tiles, sizes, traces, count, reward, rat
     if not truncated:
         count = decay(pairs, values, position, count, rates[2], rates[3])
     return a2, count
+
+
+@njit(cache=True)
+def lockstep_greedy(ids, w, a, active, nxt, obs, tiles, sizes, traces, count, rewards, truncated,
+                    rates, gathered, q, out) -> None:  # fmt: skip
+    """:func:`greedy_step` for learners ``ids[j]`` of a lockstep group, in one call: row ``i`` of
+    each 2-D array (``w``, ``active``, ``nxt``, and ``traces = (pairs, values, position)``) is
+    learner ``i``'s, row ``j`` of ``obs``, ``gathered``, ``q`` and entry ``j`` of ``rewards``,
+    ``truncated`` and ``out`` the step's. ``out[j]``: a', or -1 when Python must finish (then
+    ``gathered[j, 0]`` and ``q[j]`` hold what it needs). A learner that goes on moves to
+    (s', a'). One thread: ``--jobs`` processes are the parallelism (numba's threads, on
+    OpenMP, would also make later forks of the process abort)."""
+    num_features, n_actions, replacing = sizes
+    pairs, values, position = traces
+    for j in range(ids.size):
+        i = ids[j]
+        a2, c = greedy_step(
+            w[i], a[i], active[i], nxt[i], obs[j], tiles,
+            (num_features, n_actions, replacing, truncated[j]),
+            (pairs[i], values[i], position[i]), count[i], rewards[j], rates, gathered[j], q[j],
+        )  # fmt: skip
+        count[i] = c
+        out[j] = a2
+        if a2 >= 0 and not truncated[j]:
+            for t in range(active.shape[1]):
+                active[i, t] = nxt[i, t]
+            a[i] = a2

@@ -24,6 +24,8 @@ class DivergenceError(ArithmeticError):
     def __init__(self, message: str, rewards: bool = False) -> None:
         super().__init__(message)
         self.rewards = rewards
+        #: In a lockstep group: the index of the learner that diverged.
+        self.learner: int | None = None
 
 
 @runtime_checkable
@@ -100,7 +102,8 @@ class FeatureSpec:
 @dataclass(frozen=True)
 class AgentSpec:
     """An algorithm: its name, the config fields it reads (its hyperparameters), the features it
-    accepts, how to build one learner and, if it can, K learners in lockstep."""
+    accepts, how to build one learner and, if it can, K learners in lockstep (for the configs
+    ``lockstep_if`` accepts)."""
 
     name: str
     doc: str
@@ -108,3 +111,5 @@ class AgentSpec:
     features: tuple[str, ...]
     build: Callable[[Features, Any, Any, int], Agent]  # features, config, seed, n_actions
     lockstep: Callable[[Features, Any, Sequence[int]], LockstepAgents] | None = None
+    #: Which configs the lockstep form serves (None: all of them).
+    lockstep_if: Callable[[Any], bool] | None = None

@@ -216,7 +216,8 @@ def build(
 
 SPEC = AgentSpec(
     name="sarsa_lambda",
-    doc="linear Sarsa(lambda) with eligibility traces (Sutton and Barto)",
+    doc="linear Sarsa(lambda) with eligibility traces (Sutton and Barto), in lockstep with "
+    "kernel numba",
     uses=("alpha", "gamma", "epsilon", "lam", "traces", "trace_cutoff", "kernel"),
     features=("grid", "tiles"),
     build=build,

@@ -145,6 +145,7 @@ class TrainConfig:
         spec = agent_spec(self.algorithm)
         return (
             spec.lockstep is not None
+            and (spec.lockstep_if is None or spec.lockstep_if(self))
             and self.energy_shaping == 0.0
             and self.population == 1
             and self.max_decisions == 0

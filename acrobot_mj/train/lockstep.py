@@ -2,8 +2,9 @@
 
 Learner ``k`` sees exactly what ``train(config, seeds[k])`` would show it: its sub-env is reset
 with the same per-episode seed and start noise, and the algorithm's lockstep form (for SARSA
-:class:`~acrobot_mj.agents.lockstep_sarsa.LockstepSarsa`) draws and computes as the single agent
-does; so the records and checkpoints are identical to the single-env trainer's, up to
+:class:`~acrobot_mj.agents.lockstep_sarsa.LockstepSarsa`, for compiled Sarsa(lambda)
+:class:`~acrobot_mj.agents.lockstep_lambda.LockstepSarsaLambda`) draws and computes as the
+single agent does; so the records and checkpoints are identical to the single-env trainer's, up to
 ``wall_seconds`` (the training time shared out).
 """
 
@@ -59,9 +60,9 @@ def train_lockstep(
         able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
         raise ValueError(
             f"lockstep training needs an algorithm with a lockstep form: {', '.join(able)}, "
-            f"one learner per run and no energy shaping; got {config.algorithm} (population "
-            f"{config.population}, energy_shaping {config.energy_shaping}): train it with one "
-            "process per seed"
+            f"one learner per run and no energy shaping; got {config.algorithm} (kernel "
+            f"{config.kernel}, population {config.population}, energy_shaping "
+            f"{config.energy_shaping}): train it with one process per seed"
         )
     if run_dirs is None and out_dir is not None:
         run_dirs = [seed_dir(Path(out_dir), s) for s in seeds]
@@ -174,10 +175,15 @@ class _Lockstep:
             raise type(stop)(
                 "interrupted; each learner's checkpoint holds its last completed episode"
             ) from None
-        except DivergenceError:
+        except DivergenceError as error:
             for checkpoint in self.checkpoints:  # each learner's last finite state
                 checkpoint.save()
-            raise
+            if error.learner is None:
+                raise
+            i = error.learner
+            raise diverged(
+                config, self.seeds[i], int(self.episode[i]), len(self.histories[i]), error
+            ) from None
         for checkpoint in self.checkpoints:
             checkpoint.save()
             checkpoint.close()

@@ -1,6 +1,7 @@
 """Several seeds of one config: one run directory per seed, a summary across them, and their
-learning curves together. Algorithms with a lockstep form train all seeds at once on one vector
-env (:mod:`.lockstep`, identical records); the others run one seed per process."""
+learning curves together. Algorithms with a lockstep form train the seeds together on one vector
+env (:mod:`.lockstep`, identical records; with ``jobs`` processes, one group of seeds each); the
+others run one seed per process."""
 
 from __future__ import annotations
 
@@ -87,8 +88,15 @@ def train_seeds(
         return _summarize_into(out, config, seeds, records, protocol)
 
 
+def _train_group(config, seeds, out, resume, board) -> list[dict[str, Any]]:
+    """In a worker: one lockstep group of seeds."""
+    dirs = [seed_dir(Path(out), s) for s in seeds]
+    return train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
+
+
 def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[str, Any]]:
-    if config.lockstep:
+    jobs = min(jobs, len(seeds))
+    if config.lockstep and jobs == 1:
         return train_lockstep(
             config, seeds, out, progress=progress, resume=resume, tensorboard=board
         )
@@ -100,17 +108,25 @@ def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[s
                 _train_one(config, s, str(seed_dir(out, s)), resume, monitor.scoped(f"seed_{s}"))
                 for s in seeds
             ]
-    boards = [None if board is None else str(seed_dir(Path(board), s)) for s in seeds]
-    calls = [
-        (config, s, str(seed_dir(out, s)), resume, False, b)
-        for s, b in zip(seeds, boards, strict=True)
-    ]
+    if config.lockstep:  # one lockstep group per process, seeds dealt out in turn
+        groups = [seeds[j::jobs] for j in range(jobs)]
+        function, calls = _train_group, [(config, g, str(out), resume, board) for g in groups]
+        label = f"lockstep {label}"
+    else:
+        boards = [None if board is None else str(seed_dir(Path(board), s)) for s in seeds]
+        function, calls = (
+            _train_one,
+            [
+                (config, s, str(seed_dir(out, s)), resume, False, b)
+                for s, b in zip(seeds, boards, strict=True)
+            ],
+        )
     bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
     logs = [seed_dir(out, s) / EPISODE_LOG for s in seeds]
     try:
         with WorkerPool(jobs) as pool, LogFollower(logs, bar):
             try:
-                finished = [future.result() for future in pool.run(_train_one, calls)]
+                finished = [future.result() for future in pool.run(function, calls)]
             except KeyboardInterrupt as stop:
                 pool.stop()
                 raise type(stop)(
@@ -118,6 +134,8 @@ def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[s
                 ) from None
     finally:
         bar.close()
+    if config.lockstep:
+        finished = [record for group in finished for record in group]
     by_seed = {record["seed"]: record for record in finished}
     return [by_seed[s] for s in seeds]
 
