@@ -37,8 +37,8 @@ Rate = Callable[[int], float]  # round -> sub-env steps per second
 PEER_DT = 0.2
 PEERS = ("envpool", "gymnax")
 SIZES = (1, 64, 1024)
-#: Fewest steps of all N per measurement (a scan of fewer times mostly the call).
-MIN_STEPS = 100
+#: Fewest steps of all N per measurement (fewer time mostly the call and threads waking up).
+MIN_STEPS = 500
 #: What to install where a peer is missing (docs/speed.md has the whole recipe).
 INSTALL = {
     "envpool": "pip install 'acrobot-mj[bench]' (or envpool) beside the package",
