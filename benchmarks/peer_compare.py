@@ -197,7 +197,7 @@ def compare(
                     mine_row["steps_per_second"] / theirs["steps_per_second"]
                 )
                 theirs["ours_over_theirs_sim_seconds"] = (
-                    mine_row["sim_seconds_per_second"] / (theirs["sim_seconds_per_second"])
+                    mine_row["sim_seconds_per_second"] / theirs["sim_seconds_per_second"]
                 )
     return section
 
