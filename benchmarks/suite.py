@@ -22,6 +22,8 @@ import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import gymnasium as gym
@@ -210,8 +212,21 @@ def lockstep_peak_memory(learners: int = 1024) -> float:
     return peak / 1e6
 
 
-def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
-    """Measure everything; returns the medians, ratios, scaling table and memory."""
+def sibling(name: str) -> ModuleType:
+    """``benchmarks/<name>.py`` as a module (this file is loaded from its path, not a package)."""
+    path = Path(__file__).with_name(f"{name}.py")
+    spec = importlib.util.spec_from_file_location(f"acrobot_mj_bench_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run(
+    quick: bool = False, rounds: int | None = None, peer_python: str | None = None
+) -> dict[str, Any]:
+    """Measure everything; returns the medians, ratios, scaling table and memory, and the
+    peers (envpool, gymnax: ``benchmarks/peer_compare.py``; ``peer_python`` runs those that
+    need their own environment)."""
     rounds = rounds or (1 if quick else 3)
     steps = 20_000 if quick else 100_000
     n = 256 if quick else 1024
@@ -233,6 +248,8 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         book = PRESETS["book"].replace(kernel="numba")
         learner(book, 1)(0)  # compiled (or loaded from the cache) before any round
         rates_of["book learner, numba (decisions)"] = learner(book, 5 if quick else 40)
+    learner_rows, learner_ratios = sibling("learners").learner_rows(quick)  # tuned; lockstep
+    rates_of.update(learner_rows)
     samples: dict[str, list[float]] = {name: [] for name in rates_of}
     for k in range(rounds):
         for name, measure in rates_of.items():
@@ -253,6 +270,8 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         ratios["book_numba_vs_gymnasium_env_step"] = (
             rates["book learner, numba (decisions)"] / env_base
         )
+    for name, key in learner_ratios.items():  # the tuned learner's decisions / env.step
+        ratios[key] = rates[name] / env_base
     versus_sync = vector_vs_sync(SYNC_SIZES, 4_000 if quick else 10_000, 5 if quick else 15)
     for size, row in versus_sync.items():
         ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
@@ -292,6 +311,7 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         "vector_env_vs_sync_steps_per_second": versus_sync,
         "scaling_steps_per_second": scaling,
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
+        **sibling("peer_compare").sections(rates, quick, rounds, peer_python, vector_env),
     }
 
 
@@ -314,7 +334,10 @@ def report(result: dict[str, Any]) -> str:
                      f"fresh process, {compiled['cached']:.1f} s from numba's cache")  # fmt: skip
     lines.append("")
     for key, value in result["ratios"].items():
-        target = result["targets"][key]
+        target = result["targets"].get(key)
+        if target is None:  # measured beside the others, with no target
+            lines.append(f"{key:<36} {value:6.2f}")
+            continue
         verdict = "meets" if value >= target else "MISSES"
         lines.append(f"{key:<36} {value:6.2f}  (target >= {target:g}: {verdict})")
     lines.append("")
@@ -335,4 +358,6 @@ def report(result: dict[str, Any]) -> str:
         f"\npeak memory of 1024 lockstep learners: "
         f"{result['lockstep_peak_memory_mb_1024_learners']:.1f} MB"
     )
+    if "peers" in result:  # and the env rows in simulated seconds per wall second
+        lines += ["", *sibling("peer_compare").section_lines(result)]
     return "\n".join(lines)

@@ -8,8 +8,10 @@ import json
 from acrobot_mj.cli import main
 
 
-def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
+def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None:
     out = tmp_path / "bench.json"
+    # A peer python that is not there (through the variable): one line, the bench goes on.
+    monkeypatch.setenv("ACROBOT_MJ_PEER_PYTHON", str(tmp_path / "no-such-python"))
     assert main(["bench", "--quick", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     result = json.loads(out.read_text())
@@ -21,9 +23,11 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
         *(f"vector_env_vs_sync_vector_env_N{n}" for n in (1, 4, 16, 64)),
         "book_numpy_vs_gymnasium_env_step",
         "book_numba_vs_gymnasium_env_step",  # numba is in the test extra
+        "tuned_numba_vs_gymnasium_env_step",
     ):
         assert result["ratios"][key] > 0 and key in text
-    assert len(result["rates_steps_per_second"]) == 10
+    assert len(result["rates_steps_per_second"]) == 11
+    assert "tuned learner, numba (decisions)" in text
     compiled = result["compiled_learner"]  # a fresh process compiles, then loads the cache
     assert compiled["cold"] > compiled["cached"] > 0 and "numba's cache" in text
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}
@@ -32,3 +36,17 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
     for row in versus_sync.values():  # the ratio is of the two rates measured side by side
         assert row["ratio"] == row["vector_env"] / row["sync_vector_env"]
     assert 1 < result["lockstep_peak_memory_mb_1024_learners"] < 1000
+    sims = result["sim_seconds_per_second"]  # the env rows, at their own steps' lengths
+    assert sims["gymnasium Acrobot-v1 env.step"] > 0 and "simulated s per wall s" in text
+    peers = result["peers"]  # gymnax never runs in this Python (its Gymnasium is older)
+    assert "gymnax" not in peers["peers"]
+    gymnax = [line for line in text.splitlines() if line.startswith("skipped gymnax")]
+    assert len(gymnax) == 1 and "no-such-python cannot run" in gymnax[0]
+    assert {"envpool", "gymnax"} <= {*peers["peers"], *(w.split(":")[0] for w in peers["skipped"])}
+
+
+def test_bench_parser_takes_a_peer_python() -> None:
+    from acrobot_mj.cli import build_parser
+
+    args = build_parser().parse_args(["bench", "--quick", "--peer-python", "/opt/peer/python"])
+    assert args.peer_python == "/opt/peer/python"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import os
 from pathlib import Path
 from typing import Any
 
@@ -117,6 +118,12 @@ def add_bench(commands: Commands) -> None:
     )
     p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.add_argument(
+        "--peer-python",
+        metavar="PATH",
+        help="a Python with gymnax and jax (a peer env: see docs/speed.md) for the peers' rows; "
+        "default $ACROBOT_MJ_PEER_PYTHON, else those rows are skipped",
+    )
     p.set_defaults(func=bench_command)
 
 
@@ -130,7 +137,8 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
     suite = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(suite)
-    result = suite.run(quick=args.quick)
+    peer_python = args.peer_python or os.environ.get("ACROBOT_MJ_PEER_PYTHON") or None
+    result = suite.run(quick=args.quick, peer_python=peer_python)
     print(suite.report(result))
     write_record(args.json, result)
     return result

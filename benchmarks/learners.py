@@ -1,0 +1,80 @@
+"""Learner rows of ``acrobot-mj bench`` beyond the book ones: the tuned preset's model-based
+learning, cut to a short budget (and the place of a lockstep Sarsa(lambda) row, not built yet).
+
+Each function returns a rate: round -> training decisions per wall second, as
+``benchmarks/suite.py``'s ``learner`` does; :func:`learner_rows` names them for the suite.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from acrobot_mj.agents.registry import make_agent
+from acrobot_mj.envs.model_env import ModelEnv
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episodes import (
+    episode_seed,
+    learn_episode,
+    make_env,
+    noise_options,
+    shape_rewards,
+)
+from acrobot_mj.train.model_based import identified_model
+from acrobot_mj.train.presets import PRESETS
+
+Rate = Callable[[int], float]  # round -> decisions per second
+
+
+def tuned_config(decisions: int, kernel: str | None) -> TrainConfig:
+    """The ``tuned`` preset as one learner of ``decisions`` simulated decisions (its model
+    identified from the preset's 1,000 env decisions), with ``kernel`` (``"numba"`` or None)."""
+    return PRESETS["tuned"].replace(population=1, max_decisions=decisions, kernel=kernel)
+
+
+def tuned_learner(decisions: int, kernel: str | None) -> Rate:
+    """Simulated learning decisions per wall second of ``train --preset tuned``'s learner: Sarsa
+    (lambda) on tiles with energy shaping, in the :class:`ModelEnv` identified (once, untimed:
+    about 1,000 MuJoCo decisions and a least-squares fit) from the real env. Each round runs a
+    fresh learner for ``decisions`` decisions, episodes seeded and start-noised as training
+    does; the population's judging and the greedy run are left out."""
+    config = tuned_config(decisions, kernel)
+    real = make_env(config)
+    _, theta, _, structure = identified_model(
+        real, config.identify_decisions, 0, config.start_noise
+    )
+    compiled = kernel == "numba"
+    model = ModelEnv(theta, real.unwrapped.task, structure, config.max_episode_steps, compiled)
+    env = shape_rewards(model, config)
+
+    def measure(k: int) -> float:
+        agent = make_agent(config, seed=k)
+        steps, episode, start = 0, 0, time.perf_counter()
+        with np.errstate(over="ignore", invalid="ignore"):  # as training runs it
+            while steps < decisions:
+                noise = noise_options(config.start_noise_at(episode))
+                seed = episode_seed(k, episode)
+                steps += learn_episode(env, agent, seed, noise, decisions - steps).length
+                episode += 1
+        return steps / (time.perf_counter() - start)
+
+    return measure
+
+
+def learner_rows(quick: bool) -> tuple[dict[str, Rate], dict[str, str]]:
+    """The rows this module adds to the suite's rates, by name (the compiled kernel when numba
+    is installed, compiled before any round), and the key of each row's ratio to Gymnasium's
+    ``Acrobot-v1`` ``env.step``."""
+    numba = importlib.util.find_spec("numba") is not None
+    kernel = "numba" if numba else None
+    rate = tuned_learner(2_000 if quick else 5_000, kernel)
+    if numba:
+        tuned_learner(50, kernel)(0)  # compiled (or loaded from numba's cache) before timing
+    name = f"tuned learner, {kernel or 'numpy'} (decisions)"
+    rows, ratios = {name: rate}, {name: f"tuned_{kernel or 'numpy'}_vs_gymnasium_env_step"}
+    # A lockstep Sarsa(lambda) row (K learners on the vector env, decisions of all per second)
+    # belongs here: rows["lockstep Sarsa(lambda), K=..."] and its ratio key. Not built yet.
+    return rows, ratios
