@@ -1,5 +1,5 @@
 """Learner rows of ``acrobot-mj bench`` beyond the book ones: the tuned preset's model-based
-learning, cut to a short budget (and the place of a lockstep Sarsa(lambda) row, not built yet).
+learning, cut to a short budget, and K compiled book learners in lockstep on one vector env.
 
 Each function returns a rate: round -> training decisions per wall second, as
 ``benchmarks/suite.py``'s ``learner`` does; :func:`learner_rows` names them for the suite.
@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import importlib.util
 import time
+import tracemalloc
 from collections.abc import Callable
 
 import numpy as np
 
-from acrobot_mj.agents.registry import make_agent
+from acrobot_mj.agents.registry import make_agent, make_features
 from acrobot_mj.envs.model_env import ModelEnv
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episodes import (
@@ -23,6 +24,7 @@ from acrobot_mj.train.episodes import (
     noise_options,
     shape_rewards,
 )
+from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.presets import PRESETS
 
@@ -75,6 +77,43 @@ def learner_rows(quick: bool) -> tuple[dict[str, Rate], dict[str, str]]:
         tuned_learner(50, kernel)(0)  # compiled (or loaded from numba's cache) before timing
     name = f"tuned learner, {kernel or 'numpy'} (decisions)"
     rows, ratios = {name: rate}, {name: f"tuned_{kernel or 'numpy'}_vs_gymnasium_env_step"}
-    # A lockstep Sarsa(lambda) row (K learners on the vector env, decisions of all per second)
-    # belongs here: rows["lockstep Sarsa(lambda), K=..."] and its ratio key. Not built yet.
+    if numba:
+        k = 4 if quick else 20
+        lockstep_book(2, 1)(0)  # compiled (or loaded from numba's cache) before timing
+        name = f"lockstep book, numba, K={k} (decisions)"
+        rows[name] = lockstep_book(k, 1 if quick else 3)
+        ratios[name] = "lockstep_book_numba_vs_gymnasium_env_step"
     return rows, ratios
+
+
+def lockstep_book(learners: int, episodes: int) -> Rate:
+    """Learning decisions of all ``learners`` per wall second: the book preset compiled, its
+    seeds in lockstep on one vector env (``train --preset book --kernel numba --seeds K``), one
+    process, no greedy runs. Round ``r`` trains seeds ``r * learners`` onwards."""
+    config = PRESETS["book"].replace(kernel="numba", episodes=episodes)
+
+    def measure(r: int) -> float:
+        seeds = list(range(r * learners, (r + 1) * learners))
+        start = time.perf_counter()
+        records = train_lockstep(config, seeds, greedy=False)
+        return sum(record["steps"] for record in records) / (time.perf_counter() - start)
+
+    return measure
+
+
+def lockstep_memory_mb(learners: int) -> float:
+    """Peak memory (tracemalloc, MB) per learner of a lockstep group of ``learners`` with the
+    tuned preset's tile coding (1,260,900 weights), built and one episode begun."""
+    from acrobot_mj.agents.lockstep_lambda import LockstepSarsaLambda
+
+    config = PRESETS["tuned"].replace(kernel="numba")
+    features = make_features(config)
+    tracemalloc.start()
+    try:
+        group = LockstepSarsaLambda(features, config, list(range(learners)))
+        ids = np.arange(learners)
+        group.begin_episodes(ids, np.tile([-np.pi / 2, 0.0, 0.0, 0.0], (learners, 1)))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    return peak / 1e6 / learners

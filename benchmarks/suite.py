@@ -311,8 +311,17 @@ def run(
         "vector_env_vs_sync_steps_per_second": versus_sync,
         "scaling_steps_per_second": scaling,
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
+        **lockstep_lambda_memory(quick),
         **sibling("peer_compare").sections(rates, quick, rounds, peer_python, vector_env),
     }
+
+
+def lockstep_lambda_memory(quick: bool) -> dict[str, float]:
+    """Peak memory per learner of lockstep Sarsa(lambda) with the tuned tiles (numba only)."""
+    if not has_numba():
+        return {}
+    per_learner = sibling("learners").lockstep_memory_mb(2 if quick else 10)
+    return {"lockstep_lambda_peak_memory_mb_per_tuned_learner": per_learner}
 
 
 def report(result: dict[str, Any]) -> str:
@@ -358,6 +367,12 @@ def report(result: dict[str, Any]) -> str:
         f"\npeak memory of 1024 lockstep learners: "
         f"{result['lockstep_peak_memory_mb_1024_learners']:.1f} MB"
     )
+    per_learner = result.get("lockstep_lambda_peak_memory_mb_per_tuned_learner")
+    if per_learner is not None:
+        lines.append(
+            f"peak memory per lockstep Sarsa(lambda) learner with the tuned tiles: "
+            f"{per_learner:.1f} MB (100 learners: {per_learner / 10:.2f} GB)"
+        )
     if "peers" in result:  # and the env rows in simulated seconds per wall second
         lines += ["", *sibling("peer_compare").section_lines(result)]
     return "\n".join(lines)

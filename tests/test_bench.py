@@ -23,10 +23,11 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
         *(f"vector_env_vs_sync_vector_env_N{n}" for n in (1, 4, 16, 64)),
         "book_numpy_vs_gymnasium_env_step",
         "book_numba_vs_gymnasium_env_step",  # numba is in the test extra
+        "lockstep_book_numba_vs_gymnasium_env_step",
         "tuned_numba_vs_gymnasium_env_step",
     ):
         assert result["ratios"][key] > 0 and key in text
-    assert len(result["rates_steps_per_second"]) == 11
+    assert len(result["rates_steps_per_second"]) == 12  # with the lockstep book row
     assert "tuned learner, numba (decisions)" in text
     compiled = result["compiled_learner"]  # a fresh process compiles, then loads the cache
     assert compiled["cold"] > compiled["cached"] > 0 and "numba's cache" in text
@@ -36,6 +37,8 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
     for row in versus_sync.values():  # the ratio is of the two rates measured side by side
         assert row["ratio"] == row["vector_env"] / row["sync_vector_env"]
     assert 1 < result["lockstep_peak_memory_mb_1024_learners"] < 1000
+    # 1,260,900 weights of 8 bytes and trace positions of 4: 15.1 MB, and traces' room.
+    assert 15 < result["lockstep_lambda_peak_memory_mb_per_tuned_learner"] < 20
     sims = result["sim_seconds_per_second"]  # the env rows, at their own steps' lengths
     assert sims["gymnasium Acrobot-v1 env.step"] > 0 and "simulated s per wall s" in text
     peers = result["peers"]  # gymnax never runs in this Python (its Gymnasium is older)

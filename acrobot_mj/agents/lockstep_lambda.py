@@ -21,7 +21,6 @@ from acrobot_mj.agents import kernels
 from acrobot_mj.agents.features import TileCoder
 from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.random_stream import RandomStream, checked_values
-from acrobot_mj.agents.sarsa_lambda import SarsaLambda
 
 
 class LockstepSarsaLambda:
@@ -33,19 +32,17 @@ class LockstepSarsaLambda:
     rewards and flags.
     """
 
-    def __init__(self, features: TileCoder, c: Any, seeds: Sequence[int]) -> None:
-        probe = SarsaLambda(
-            features, 3, c.alpha, c.gamma, c.lam, c.epsilon, c.traces, c.trace_cutoff
-        )  # fmt: skip  (validates the hyperparameters)
+    def __init__(self, features: TileCoder, c: Any, seeds: Sequence[int], n_actions: int = 3):
         if not isinstance(features, TileCoder) or features.num_active > kernels.PAIRWISE_BLOCK:
             raise ValueError("lockstep Sarsa(lambda) needs tile codes of at most 128 tilings")
+        # c: a training config (validated there), read as SarsaLambda's arguments.
         self.seeds, k = [int(s) for s in seeds], len(seeds)
-        self.n_actions, self.num_features = probe.n_actions, probe.num_features
-        self.alpha, self.gamma, self.epsilon = probe.alpha, probe.gamma, probe.epsilon
-        self.replacing, self.cutoff = probe.replacing, probe.trace_cutoff
-        self.factor = probe.gamma * probe.lam
+        self.n_actions, self.num_features = n_actions, features.num_features
+        self.alpha, self.gamma, self.epsilon = c.alpha, c.gamma, c.epsilon
+        self.replacing, self.cutoff = c.traces == "replacing", c.trace_cutoff
+        self.factor = c.gamma * c.lam
         self.streams = [RandomStream(seed) for seed in self.seeds]
-        n_w, n_active = probe.n_actions * probe.num_features, features.num_active
+        n_w, n_active = n_actions * features.num_features, features.num_active
         self.w = np.zeros((k, n_w))
         self.position = np.full((k, n_w), -1, dtype=np.int32)
         room = min(n_w, 64 * n_active)  # as the single learner: grown as needed
@@ -57,7 +54,7 @@ class LockstepSarsaLambda:
         self.tiles = features.tables()
         self.sizes = (self.num_features, self.n_actions, self.replacing)
         self.rates = (self.alpha, self.gamma, self.factor, self.cutoff)
-        self._gathered, self._q = np.zeros((k, n_active)), np.zeros((k, probe.n_actions))
+        self._gathered, self._q = np.zeros((k, n_active)), np.zeros((k, n_actions))
 
     # -- the episode protocol, K at a time -------------------------------------------------
 
