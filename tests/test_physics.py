@@ -156,3 +156,23 @@ def test_energy_matches_mujoco(model, data) -> None:
         mujoco.mj_forward(model, data)
         expected = dynamics.total_energy(x[:2], x[2:])
         assert data.energy.sum() == pytest.approx(expected, rel=1e-10, abs=1e-10)
+
+
+@pytest.mark.parametrize(
+    "p",
+    [
+        dynamics.DEFAULT_PARAMS,
+        # Not the report's numbers: every inertial term of its own size.
+        dynamics.AcrobotParams(l1=1.3, lc1=0.7, lc2=0.35, m1=0.8, m2=1.7, I1=0.4, I2=0.9, g=9.81),
+    ],
+)
+def test_the_scalar_energy_is_total_energy_bit_for_bit(p) -> None:
+    # Equality, not closeness: the energy shaping's potential is this function, and the
+    # shaped presets' runs (and golden values) were made with total_energy's numbers, so the
+    # kinetic term must be summed in einsum's order (row by row, then the rows) and the sines
+    # must be numpy's. 20,000 states beyond the velocity limits and past +-pi.
+    rng = np.random.default_rng(7)
+    states = rng.uniform([-4, -4, -15, -30], [4, 4, 15, 30], (20_000, 4))
+    for q1, q2, dq1, dq2 in states.tolist():
+        expected = float(dynamics.total_energy(np.array([q1, q2]), np.array([dq1, dq2]), p))
+        assert dynamics.state_energy(q1, q2, dq1, dq2, p) == expected, (q1, q2, dq1, dq2)

@@ -22,7 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.physics.dynamics import DEFAULT_PARAMS, potential_energy, total_energy
+from acrobot_mj.physics.dynamics import DEFAULT_PARAMS, potential_energy, state_energy
 from acrobot_mj.physics.params import AcrobotParams
 
 
@@ -35,10 +35,11 @@ def _rest_energies(params: AcrobotParams) -> tuple[float, float]:
 
 
 def energy_potential(obs: Any, params: AcrobotParams = DEFAULT_PARAMS) -> float:
-    """The normalised energy of ``obs = (q1, q2, dq1, dq2)``: 0 hanging at rest, 1 upright."""
-    x = np.asarray(obs, dtype=np.float64)
+    """The normalised energy of ``obs = (q1, q2, dq1, dq2)``: 0 hanging at rest, 1 upright
+    (``dynamics.state_energy``: ``total_energy``'s numbers on Python floats)."""
+    q1, q2, dq1, dq2 = np.asarray(obs, dtype=np.float64).tolist()
     hanging, upright = _rest_energies(params)
-    return (float(total_energy(x[:2], x[2:4], params)) - hanging) / (upright - hanging)
+    return (state_energy(q1, q2, dq1, dq2, params) - hanging) / (upright - hanging)
 
 
 class EnergyShaping(gym.Wrapper):
