@@ -113,3 +113,6 @@ class AgentSpec:
     lockstep: Callable[[Features, Any, Sequence[int]], LockstepAgents] | None = None
     #: Which configs the lockstep form serves (None: all of them).
     lockstep_if: Callable[[Any], bool] | None = None
+    #: Whether several seeds train in lockstep unless told otherwise (where it is the faster
+    #: way; else one process per seed, and lockstep when asked for).
+    lockstep_default: bool = True

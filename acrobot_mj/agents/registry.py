@@ -82,7 +82,14 @@ def _lockstep_lambda(features: Features, config: Any, seeds: Any) -> Any:
 for _spec in FEATURE_SPECS:
     register_features(_spec)
 register_agent(sarsa.SPEC)
-# Compiled, Sarsa(lambda) runs in lockstep; with numpy one process per seed is faster.
+# Compiled, Sarsa(lambda) can run in lockstep, when asked: measured (docs/speed.md), a group
+# makes 0.5 to 0.75 of one compiled learner's decisions per second on this machine (the batch's
+# physics and K weight tables out of cache), so seeds run one per process by default.
 register_agent(
-    replace(sarsa_lambda.SPEC, lockstep=_lockstep_lambda, lockstep_if=lambda c: c.kernel == "numba")
+    replace(
+        sarsa_lambda.SPEC,
+        lockstep=_lockstep_lambda,
+        lockstep_if=lambda c: c.kernel == "numba",
+        lockstep_default=False,
+    )
 )

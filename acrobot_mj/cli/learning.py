@@ -57,7 +57,16 @@ def add_train(commands: Commands) -> None:
         "lockstep on one batched vector env, Sarsa(lambda) one per process",
     )
     p.add_argument(
-        "--jobs", type=positive_int, default=1, help="processes for --seeds with Sarsa(lambda)"
+        "--jobs",
+        type=positive_int,
+        default=1,
+        help="processes for --seeds (one seed at a time each, or a lockstep group each)",
+    )
+    p.add_argument(
+        "--lockstep",
+        action=argparse.BooleanOptionalAction,
+        help="with --seeds: train the seeds together on one vector env (Sarsa(lambda) needs "
+        "--kernel numba; the same runs); default: where that is faster, tabular SARSA",
     )
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
@@ -86,6 +95,8 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     config = config_of(args)
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
+    if args.seeds is None and args.lockstep is not None:
+        raise ValueError("--lockstep trains several seeds together: it needs --seeds")
     if args.seeds is not None:
         return _train_seeds(args, config, progress)
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
@@ -131,6 +142,7 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
         progress=progress,
         overwrite=args.force,
         tensorboard=args.tensorboard,
+        lockstep=args.lockstep,
     )
     score = get_task(config.task).score
     g, s = summary[f"greedy_from_rest_{score.quantity}"], summary["successes"]

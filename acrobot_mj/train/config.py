@@ -141,7 +141,7 @@ class TrainConfig:
     @property
     def lockstep(self) -> bool:
         """Whether seeds can train together on one vector env (an algorithm with a lockstep
-        form, one learner per run, no shaping)."""
+        form for this config, one learner per run, no shaping, no decision cap)."""
         spec = agent_spec(self.algorithm)
         return (
             spec.lockstep is not None
@@ -151,6 +151,12 @@ class TrainConfig:
             and self.max_decisions == 0
             and self.identify_decisions == 0
         )
+
+    @property
+    def lockstep_by_default(self) -> bool:
+        """Whether seeds train in lockstep unless told otherwise: they can, and for this
+        algorithm that is the faster way (tabular SARSA)."""
+        return self.lockstep and agent_spec(self.algorithm).lockstep_default
 
     @property
     def learner_decisions(self) -> int:

@@ -56,14 +56,7 @@ def train_lockstep(
     every learner's episodes (or the monitor of a bigger run), ``tensorboard``: a directory for
     their scalars. Returns the run records, one per seed.
     """
-    if not config.lockstep:
-        able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
-        raise ValueError(
-            f"lockstep training needs an algorithm with a lockstep form: {', '.join(able)}, "
-            f"one learner per run and no energy shaping; got {config.algorithm} (kernel "
-            f"{config.kernel}, population {config.population}, energy_shaping "
-            f"{config.energy_shaping}): train it with one process per seed"
-        )
+    check_lockstep(config)
     if run_dirs is None and out_dir is not None:
         run_dirs = [seed_dir(Path(out_dir), s) for s in seeds]
     if run_dirs is not None and len(run_dirs) != len(seeds):
@@ -81,6 +74,19 @@ def train_lockstep(
             run.train(monitor)
         elapsed = time.perf_counter() - started
         return run.records(elapsed, greedy)
+
+
+def check_lockstep(config: TrainConfig) -> None:
+    """Refuse a config whose seeds cannot train in lockstep, saying what would allow it."""
+    if not config.lockstep:
+        able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
+        raise ValueError(
+            f"lockstep training needs an algorithm with a lockstep form: {', '.join(able)}, "
+            f"one learner per run, no energy shaping and no decision cap; got "
+            f"{config.algorithm} (kernel {config.kernel}, population {config.population}, "
+            f"energy_shaping {config.energy_shaping}, max_decisions {config.max_decisions}): "
+            "train it with one process per seed"
+        )
 
 
 class _Lockstep:

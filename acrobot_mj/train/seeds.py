@@ -15,7 +15,7 @@ from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.follow import LogFollower
 from acrobot_mj.train.heldout import DEFAULT, Protocol
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.lockstep import check_lockstep, train_lockstep
 from acrobot_mj.train.progress import Progress, run_total, watching
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.rundir import (
@@ -70,13 +70,15 @@ def train_seeds(
     overwrite: bool = False,
     protocol: Protocol | None = DEFAULT,
     tensorboard: str | Path | None = None,
+    lockstep: bool | None = None,
 ) -> dict[str, Any]:
     """Train one run per seed into ``out_dir/seed_S``, evaluate each on the held-out
     ``protocol`` (its ``eval.json``; None: no evaluation), then write ``out_dir/summary.json``
     and the learning curve across seeds (see the module docstring; ``jobs`` processes).
     ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1, read from their
     episode logs as the workers write them); ``tensorboard``: each seed's scalars in
-    ``tensorboard/seed_S``."""
+    ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True), one run
+    per seed (False), or the algorithm's faster way (None: lockstep for tabular SARSA)."""
     if tensorboard is not None:
         summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
@@ -84,7 +86,10 @@ def train_seeds(
         if not resume and not overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
-        records = _train_all(config, seeds, out, jobs, resume, progress, tensorboard)
+        together = config.lockstep_by_default if lockstep is None else lockstep
+        if together:
+            check_lockstep(config)
+        records = _train_all(config, seeds, out, jobs, resume, progress, tensorboard, together)
         return _summarize_into(out, config, seeds, records, protocol)
 
 
@@ -94,9 +99,9 @@ def _train_group(config, seeds, out, resume, board) -> list[dict[str, Any]]:
     return train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
 
 
-def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[str, Any]]:
+def _train_all(config, seeds, out, jobs, resume, progress, board, together) -> list[dict]:
     jobs = min(jobs, len(seeds))
-    if config.lockstep and jobs == 1:
+    if together and jobs == 1:
         return train_lockstep(
             config, seeds, out, progress=progress, resume=resume, tensorboard=board
         )
@@ -108,7 +113,7 @@ def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[s
                 _train_one(config, s, str(seed_dir(out, s)), resume, monitor.scoped(f"seed_{s}"))
                 for s in seeds
             ]
-    if config.lockstep:  # one lockstep group per process, seeds dealt out in turn
+    if together:  # one lockstep group per process, seeds dealt out in turn
         groups = [seeds[j::jobs] for j in range(jobs)]
         function, calls = _train_group, [(config, g, str(out), resume, board) for g in groups]
         label = f"lockstep {label}"
@@ -134,7 +139,7 @@ def _train_all(config, seeds, out, jobs, resume, progress, board) -> list[dict[s
                 ) from None
     finally:
         bar.close()
-    if config.lockstep:
+    if together:
         finished = [record for group in finished for record in group]
     by_seed = {record["seed"]: record for record in finished}
     return [by_seed[s] for s in seeds]

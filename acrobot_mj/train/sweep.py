@@ -82,7 +82,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) ->
     # those with checkpoints resumed together, the others started together.
     groups: dict[tuple[str, bool], list[Trial]] = {}
     for trial in todo:
-        if trial.config.lockstep:
+        if trial.config.lockstep_by_default:
             saved = (trial_dir(out, trial) / CHECKPOINT_FILE).exists()
             groups.setdefault((trial.point_name, saved), []).append(trial)
     for (_, saved), group in groups.items():
@@ -97,7 +97,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) ->
         for t in group:  # train_lockstep wrote each run.json; an earlier failure is over
             (trial_dir(out, t) / ERROR_FILE).unlink(missing_ok=True)
         bar.advance(len(group))
-    rest = [t for t in todo if not t.config.lockstep]
+    rest = [t for t in todo if not t.config.lockstep_by_default]
     calls = [(t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in rest]
     if jobs == 1:  # in this process, one after the other
         for call in calls:
