@@ -22,6 +22,7 @@ import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -161,6 +162,15 @@ def has_numba() -> bool:
     return importlib.util.find_spec("numba") is not None
 
 
+def analytic_module() -> Any:
+    """``benchmarks/analytic.py`` (the analytic backend's rows), loaded beside this file."""
+    path = Path(__file__).with_name("analytic.py")
+    spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks_analytic", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def compile_seconds() -> dict[str, float]:
     """Seconds for a fresh process to build the compiled book learner and run one episode:
     with an empty numba cache (compiling) and again with the cache it wrote (loading)."""
@@ -292,6 +302,9 @@ def run(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
         "vector_env_vs_sync_steps_per_second": versus_sync,
         "scaling_steps_per_second": scaling,
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
+        "analytic_backend": analytic_module().analytic_rows(quick)
+        if has_numba()
+        else "numba not installed: the analytic backend rows are skipped (acrobot-mj[fast])",
     }
 
 
@@ -335,4 +348,5 @@ def report(result: dict[str, Any]) -> str:
         f"\npeak memory of 1024 lockstep learners: "
         f"{result['lockstep_peak_memory_mb_1024_learners']:.1f} MB"
     )
+    lines += analytic_module().report_lines(result["analytic_backend"])
     return "\n".join(lines)

@@ -120,6 +120,7 @@ def test_fast_starts_through_the_velocity_limits_match_mujoco() -> None:
         actions = rng.integers(0, 3, n)
         (obs, reward, *_), (obs_a, reward_a, *_) = (env.step(actions) for env in envs)
         assert _angles_apart(obs, obs_a).max() <= TOLERANCE
+        assert np.abs(reward - reward_a).max() <= TOLERANCE
         clipped += np.count_nonzero(np.abs(obs[:, 2:]) == (MAX_VEL1, MAX_VEL2))
     assert clipped > 20
 

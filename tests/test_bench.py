@@ -32,3 +32,11 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
     for row in versus_sync.values():  # the ratio is of the two rates measured side by side
         assert row["ratio"] == row["vector_env"] / row["sync_vector_env"]
     assert 1 < result["lockstep_peak_memory_mb_1024_learners"] < 1000
+    analytic = result["analytic_backend"]  # numba is in the test extra
+    assert set(analytic["sizes"]) == {"1", "64", "1024", "4096"} and "analytic backend" in text
+    for row in analytic["sizes"].values():
+        for name in ("analytic_env", "mujoco_env", "kernel_scan"):
+            assert row[name] > 0
+            assert row[f"{name}_sim_s_per_s"] == row[name] * analytic["decision_s"]
+    assert analytic["decision_s"] == 0.2  # frame_skip 4 of 0.05 s
+    assert analytic["profile_N1024"]["step_us"] > 0 and analytic["profile_N1024"]["physics_us"] > 0

@@ -278,6 +278,11 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         return reward, terminated & going, truncated & going
 
     @property
+    def physics(self) -> BatchPhysics | AnalyticPhysics:
+        """The physics stepping the sub-envs (the backend's), for measurements and tests."""
+        return self._physics
+
+    @property
     def nthread(self) -> int:
         """Threads the batch steps on (at most one per sub-env)."""
         return self._physics.nthread
