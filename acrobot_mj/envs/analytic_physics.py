@@ -31,11 +31,13 @@ from acrobot_mj.physics.dynamics import forward_dynamics
 from acrobot_mj.physics.params import AcrobotParams
 
 #: Batches of at least this many acrobots step on all of numba's threads (unless told
-#: otherwise); smaller ones on the calling thread. The numbers are the same either way. On 2
-#: cores, 4 physics steps of N acrobots took 13.8 us serial and 10.3 us on 2 threads at N = 64,
-#: 52 and 29 us at 256, 208 and 102 us at 1024 (threads pay from about 64 when idle; waking
-#: them costs more on a loaded machine, so the switch is at MuJoCo's 256).
-THREADED_FROM = 256
+#: otherwise); smaller ones on the calling thread. The numbers are the same either way. Measured
+#: on 2 cores (4 physics steps per call): idle, 2 threads took 10.3 us against 13.8 us serial
+#: at N = 64, 29 against 52 us at 256 and 102 against 208 us at 1024; but with another process
+#: busy on one core, a parallel call waits for its descheduled thread, and 2 threads ran 10 to
+#: 30 times slower than one at N = 256 to 4096, 0.5x at 16384 and 0.85x at 65536. One thread
+#: loses at most 2x on an idle machine; threads lose 10x on a loaded one: below 65536, one.
+THREADED_FROM = 65536
 #: Largest relative gap between MuJoCo's accelerations and the lumped model's at random states
 #: for a model to be accepted (rounding is about 1e-15; a wrong parameter is far above).
 DYNAMICS_TOLERANCE = 1e-9
