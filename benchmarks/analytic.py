@@ -6,8 +6,9 @@ gymnax's Acrobot-v1), in interleaved rounds, medians:
 
 - ``analytic_env`` and ``mujoco_env``: ``env.step`` of random actions through autoresets, in
   sub-env steps (decisions) per second;
-- ``kernel_scan``: many decisions of N acrobots in one compiled call (physics only: no task,
-  resets, checks or Python), the ceiling of the analytic env;
+- ``kernel_scan`` (one thread) and ``kernel_scan_threads`` (numba's threads): many decisions of
+  N acrobots in one compiled call (physics only: no task, resets, checks or Python), the
+  ceiling of the analytic env;
 - each also in simulated seconds per wall second (decisions/s x 0.2 s).
 
 ``profile`` splits the analytic env's step at N = 1024 into the physics (the kernel call) and
@@ -41,9 +42,12 @@ def _env_rate(env: AcrobotVectorEnv, steps: int) -> float:
     return env.num_envs * steps / (time.perf_counter() - start)
 
 
-def _scan_rate(n: int, decisions: int) -> float:
-    """Decisions per second of the bare kernel: ``decisions`` of ``n`` acrobots in one call."""
-    from acrobot_mj.envs.analytic_kernel import scan
+def _scan_rate(n: int, decisions: int, threads: bool) -> float:
+    """Decisions per second of the bare kernel: ``decisions`` of ``n`` acrobots in one call, on
+    one thread or (``threads``) on numba's."""
+    from acrobot_mj.envs import analytic_kernel
+
+    scan = analytic_kernel.scan_parallel if threads else analytic_kernel.scan
 
     physics = AcrobotVectorEnv(num_envs=n, backend="analytic").physics
     state = np.tile([-np.pi / 2, 0.0, 0.0, 0.0], (n, 1))
@@ -91,11 +95,15 @@ def analytic_rows(quick: bool = False, rounds: int | None = None) -> dict[str, A
         envs = {b: AcrobotVectorEnv(num_envs=n, frame_skip=FRAME_SKIP, backend=b)
                 for b in ("analytic", "mujoco")}  # fmt: skip
         _env_rate(envs["analytic"], 2)  # compiled (or loaded from numba's cache) first
-        samples: dict[str, list[float]] = {"analytic_env": [], "mujoco_env": [], "kernel_scan": []}
+        samples: dict[str, list[float]] = {
+            "analytic_env": [], "mujoco_env": [], "kernel_scan": [], "kernel_scan_threads": []
+        }  # fmt: skip
+        decisions = max(10, 10 * budget // n)
         for _ in range(rounds):
             samples["analytic_env"].append(_env_rate(envs["analytic"], steps))
             samples["mujoco_env"].append(_env_rate(envs["mujoco"], steps))
-            samples["kernel_scan"].append(_scan_rate(n, max(10, 10 * budget // n)))
+            samples["kernel_scan"].append(_scan_rate(n, decisions, threads=False))
+            samples["kernel_scan_threads"].append(_scan_rate(n, decisions, threads=True))
         row = {name: statistics.median(values) for name, values in samples.items()}
         for name in list(row):
             row[f"{name}_sim_s_per_s"] = row[name] * decision
@@ -117,13 +125,13 @@ def report_lines(rows: dict[str, Any] | str) -> list[str]:
         return ["", rows]
     lines = ["", f"analytic backend (frame_skip {rows['frame_skip']}, decisions of "
              f"{rows['decision_s']:g} s): decisions/s, simulated s per wall s"]  # fmt: skip
-    lines.append(f"{'N':>6} {'analytic env':>13} {'MuJoCo env':>11} {'kernel scan':>12} "
-                 f"{'sim s/s analytic':>17} {'MuJoCo':>8} {'scan':>9} {'an/MJ':>6}")  # fmt: skip
+    head = f"{'N':>6} {'analytic env':>13} {'MuJoCo env':>11} {'scan 1 thread':>14} "
+    lines.append(head + f"{'scan threads':>13} {'sim s/s analytic':>17} {'MuJoCo':>7} {'an/MJ':>6}")
     for n, r in rows["sizes"].items():
         lines.append(
-            f"{n:>6} {r['analytic_env']:13.0f} {r['mujoco_env']:11.0f} {r['kernel_scan']:12.0f} "
-            f"{r['analytic_env_sim_s_per_s']:17.0f} {r['mujoco_env_sim_s_per_s']:8.0f} "
-            f"{r['kernel_scan_sim_s_per_s']:9.0f} {r['analytic_vs_mujoco']:6.1f}"
+            f"{n:>6} {r['analytic_env']:13.0f} {r['mujoco_env']:11.0f} {r['kernel_scan']:14.0f} "
+            f"{r['kernel_scan_threads']:13.0f} {r['analytic_env_sim_s_per_s']:17.0f} "
+            f"{r['mujoco_env_sim_s_per_s']:7.0f} {r['analytic_vs_mujoco']:6.1f}"
         )
     p = rows["profile_N1024"]
     lines.append(f"analytic env step at N=1024: {p['step_us']:.0f} us, of which physics "

@@ -35,7 +35,7 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys) -> None:
     analytic = result["analytic_backend"]  # numba is in the test extra
     assert set(analytic["sizes"]) == {"1", "64", "1024", "4096"} and "analytic backend" in text
     for row in analytic["sizes"].values():
-        for name in ("analytic_env", "mujoco_env", "kernel_scan"):
+        for name in ("analytic_env", "mujoco_env", "kernel_scan", "kernel_scan_threads"):
             assert row[name] > 0
             assert row[f"{name}_sim_s_per_s"] == row[name] * analytic["decision_s"]
     assert analytic["decision_s"] == 0.2  # frame_skip 4 of 0.05 s

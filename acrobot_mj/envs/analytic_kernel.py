@@ -5,7 +5,8 @@ numba compiles :func:`acrobot_mj.envs.analytic_step.env_step` itself, so the Pyt
 compiled step are one definition, bit for bit (no fastmath). The row kernels run it on every
 row of a ``(N, 4)`` state array, on the calling thread (:func:`step_rows`) or on numba's threads
 (:func:`step_rows_parallel`): each row is the same scalar code either way, so the numbers are
-the same. :func:`scan` runs many decisions in one call, physics only: the benchmark's ceiling.
+the same. :func:`scan` (and :func:`scan_parallel`) runs many decisions in one call, physics
+only: the benchmark's ceiling.
 """
 
 from __future__ import annotations
@@ -45,10 +46,20 @@ def step_rows_parallel(state, tau, theta, substeps):  # pragma: no cover  (compi
         _row(state, i, tau[i], theta, substeps)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def scan(state, taus, theta, substeps):  # pragma: no cover  (compiled)
     """``len(taus)`` decisions of every row of ``state`` in one call, decision ``t`` with torques
-    ``taus[t]`` (``(T, N)``): the physics alone, no task, no resets."""
+    ``taus[t]`` (``(T, N)``): the physics alone, no task, no resets, on the calling thread."""
+    for i in range(state.shape[0]):
+        for t in range(taus.shape[0]):
+            _row(state, i, taus[t, i], theta, substeps)
+
+
+# Its own function, not scan compiled twice: numba's disk cache keys a function by its name
+# and signature, not by its parallel flag.
+@njit(cache=True, parallel=True)
+def scan_parallel(state, taus, theta, substeps):  # pragma: no cover  (compiled)
+    """:func:`scan` on numba's threads (rows split between them)."""
     for i in prange(state.shape[0]):
         for t in range(taus.shape[0]):
             _row(state, i, taus[t, i], theta, substeps)
