@@ -51,7 +51,7 @@ def _scan_rate(n: int, decisions: int, threads: bool) -> float:
 
     physics = AcrobotVectorEnv(num_envs=n, backend="analytic").physics
     state = np.tile([-np.pi / 2, 0.0, 0.0, 0.0], (n, 1))
-    taus = np.random.default_rng(0).integers(-1, 2, (decisions, n)).astype(np.float64)
+    taus = np.random.default_rng(0).integers(-1, 2, (n, decisions)).astype(np.float64)
     scan(state[:1].copy(), taus[:1, :1].copy(), physics.theta, FRAME_SKIP)  # compiled, cached
     start = time.perf_counter()
     scan(state, taus, physics.theta, FRAME_SKIP)

@@ -48,11 +48,12 @@ def step_rows_parallel(state, tau, theta, substeps):  # pragma: no cover  (compi
 
 @njit(cache=True)
 def scan(state, taus, theta, substeps):  # pragma: no cover  (compiled)
-    """``len(taus)`` decisions of every row of ``state`` in one call, decision ``t`` with torques
-    ``taus[t]`` (``(T, N)``): the physics alone, no task, no resets, on the calling thread."""
+    """``T`` decisions of every row ``i`` of ``state`` in one call, with torques ``taus[i]``
+    (``(N, T)``, each row's contiguous): the physics alone, no task, no resets, on the calling
+    thread."""
     for i in range(state.shape[0]):
-        for t in range(taus.shape[0]):
-            _row(state, i, taus[t, i], theta, substeps)
+        for t in range(taus.shape[1]):
+            _row(state, i, taus[i, t], theta, substeps)
 
 
 # Its own function, not scan compiled twice: numba's disk cache keys a function by its name
@@ -61,8 +62,8 @@ def scan(state, taus, theta, substeps):  # pragma: no cover  (compiled)
 def scan_parallel(state, taus, theta, substeps):  # pragma: no cover  (compiled)
     """:func:`scan` on numba's threads (rows split between them)."""
     for i in prange(state.shape[0]):
-        for t in range(taus.shape[0]):
-            _row(state, i, taus[t, i], theta, substeps)
+        for t in range(taus.shape[1]):
+            _row(state, i, taus[i, t], theta, substeps)
 
 
 def available_threads() -> int:
