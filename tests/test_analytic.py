@@ -18,8 +18,10 @@ from acrobot_mj.envs import analytic_physics
 from acrobot_mj.envs.analytic_physics import THREADED_FROM, AnalyticPhysics, lumped_parameters
 from acrobot_mj.envs.analytic_step import env_step
 from acrobot_mj.envs.assets import models_dir
+from acrobot_mj.envs.batch_physics import checked_observation
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.physics.angles import wrap_angle
 
 pytest.importorskip("numba")  # the fast extra (in the test extra)
 
@@ -151,6 +153,27 @@ def test_the_compiled_step_is_the_python_step_bit_for_bit() -> None:
     nan = env_step(0.0, 0.0, math.nan, 0.0, 0.0, *theta, 1)
     assert math.isnan(env_step_jit(0.0, 0.0, math.nan, 0.0, 0.0, *theta, 1)[2]) and math.isnan(
         nan[2]
+    )
+
+
+def test_the_compiled_observation_is_the_shared_one_bit_for_bit() -> None:
+    from acrobot_mj.envs.analytic_kernel import wrap_jit
+
+    rng = np.random.default_rng(6)
+    angles = np.concatenate([
+        rng.uniform(-4, 4, 4000), rng.uniform(-1e6, 1e6, 4000),
+        [math.pi, -math.pi, np.nextafter(math.pi, 0), np.nextafter(-math.pi, -4), 3 * math.pi,
+         -3 * math.pi, 0.0, -0.0, 1e6 - 1, 2 * math.pi],
+    ])  # fmt: skip
+    wrapped = wrap_angle(angles)
+    compiled = np.array([wrap_jit(float(a)) for a in angles])
+    np.testing.assert_array_equal(compiled, wrapped)
+    assert np.array_equal(np.signbit(compiled), np.signbit(wrapped))
+    physics = AnalyticPhysics(AcrobotVectorEnv().model, 500)
+    physics.qpos[...] = rng.uniform(-20, 20, (500, 2))
+    physics.qvel[...] = rng.uniform(-30, 30, (500, 2))
+    np.testing.assert_array_equal(
+        physics.observe(), checked_observation(physics.state.copy(), False)
     )
 
 

@@ -26,6 +26,7 @@ from mujoco import MjData, MjModel
 from acrobot_mj.checks import check_int
 from acrobot_mj.control.identification import lumped
 from acrobot_mj.envs.batch_physics import FEW, checked_observation
+from acrobot_mj.envs.env import HUGE, MAX_ANGLE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics.dynamics import forward_dynamics
 from acrobot_mj.physics.params import AcrobotParams
@@ -161,6 +162,7 @@ class AnalyticPhysics:
         self._tau = self.ctrl[:, 0]
         self._kernel = kernel.step_rows if self._nthread == 1 else kernel.step_rows_parallel
         self._set_threads = kernel.set_threads
+        self._observe = kernel.observe_rows
 
     @property
     def nthread(self) -> int:
@@ -174,9 +176,13 @@ class AnalyticPhysics:
         self._kernel(self.state, self._tau, self.theta, substeps)
 
     def observe(self) -> np.ndarray:
-        """Every acrobot's observation, angles wrapped; raises on a bad state, naming the
-        sub-envs (:func:`~acrobot_mj.envs.batch_physics.checked_observation`)."""
-        return checked_observation(self.state.copy(), self.few)
+        """Every acrobot's observation, angles wrapped (``wrap_angle``'s numbers, compiled: one
+        pass over the rows); on a bad state, raises naming the sub-envs, as the MuJoCo backend
+        (:func:`~acrobot_mj.envs.batch_physics.checked_observation`)."""
+        obs = np.empty_like(self.state)
+        if self._observe(self.state, obs, MAX_ANGLE, HUGE):
+            return obs
+        return checked_observation(self.state.copy(), self.few)  # raises
 
     def snapshot(self) -> np.ndarray:
         """A copy of every acrobot's state and control, ``(num_envs, 5)``."""
