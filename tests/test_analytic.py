@@ -229,11 +229,13 @@ def test_a_bad_state_is_refused_naming_the_sub_env(n) -> None:
     assert math.isnan(vec.get_attr("state")[1][2])
 
 
-def _model_file(tmp_path, old: str, new: str) -> str:
-    """The packaged scene with ``old`` replaced by ``new`` in acrobot.xml."""
+def _model_file(tmp_path, *edits: tuple[str, str]) -> str:
+    """The packaged scene with each edit's old text replaced by its new one in acrobot.xml."""
     robot = (models_dir() / "acrobot.xml").read_text()
-    assert old in robot
-    (tmp_path / "acrobot.xml").write_text(robot.replace(old, new, 1))
+    for old, new in edits:
+        assert old in robot
+        robot = robot.replace(old, new, 1)
+    (tmp_path / "acrobot.xml").write_text(robot)
     (tmp_path / "scene.xml").write_text((models_dir() / "scene.xml").read_text())
     return str(tmp_path / "scene.xml")
 
@@ -243,7 +245,7 @@ def test_the_parameters_come_from_the_model(tmp_path) -> None:
     assert lumped == pytest.approx((3.5, 0.5, 1.25, 14.7, 4.9), abs=1e-12)  # the report's
     link2 = '<inertial pos="0.5 0 0" mass="1" diaginertia="0.001 1 1"/>\n        <geom name="link2"'
     heavy = link2.replace('mass="1" diaginertia="0.001 1 1"', 'mass="2" diaginertia="1 1.5 1.5"')
-    heavier = _model_file(tmp_path, link2, heavy)
+    heavier = _model_file(tmp_path, (link2, heavy))
     model = AcrobotVectorEnv(model_path=heavier).model
     assert lumped_parameters(model) == pytest.approx((5.25, 1.0, 2.0, 24.5, 9.8), abs=1e-12)
     result = _compare(2, 200, model_path=heavier, frame_skip=4, max_episode_steps=100)
@@ -257,6 +259,14 @@ def test_the_parameters_come_from_the_model(tmp_path) -> None:
         ({"backend": "analytic", "integrator": "rk4"}, None, "semi-implicit Euler only"),
         ({"backend": "analytic"}, ('damping="0"', 'damping="0.1"'), r"damping \[0.1, 0.1\]"),
         ({"backend": "analytic"}, ('armature="0"', 'armature="0.2"'), "armature"),
+        (
+            {"backend": "analytic"},
+            [
+                ('<flag constraint="disable"', "<flag"),
+                ('name="shoulder"/>', 'name="shoulder" range="-3 3"/>'),
+            ],
+            "joint limits, equality constraints or contacts",
+        ),
         # A centre of mass off the link's line: a dynamics the lumped form has no term for.
         (
             {"backend": "analytic"},
@@ -267,7 +277,8 @@ def test_the_parameters_come_from_the_model(tmp_path) -> None:
 )
 def test_what_the_analytic_model_cannot_represent_is_refused(tmp_path, kwargs, edit, match):
     if edit is not None:
-        kwargs = {**kwargs, "model_path": _model_file(tmp_path, *edit)}
+        edits = edit if isinstance(edit, list) else [edit]
+        kwargs = {**kwargs, "model_path": _model_file(tmp_path, *edits)}
     with pytest.raises(ValueError, match=match):
         AcrobotVectorEnv(num_envs=2, **kwargs)
 

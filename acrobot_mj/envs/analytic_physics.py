@@ -49,7 +49,7 @@ _INTEGRATOR_NAMES = {int(mujoco.mjtIntegrator.mjINT_EULER): "euler",
 def refuse_unrepresentable(model: MjModel) -> None:
     """Raise ``ValueError`` naming what of ``model`` the lumped model leaves out: another
     integrator than Euler, joint damping, armature, friction loss, stiffness, or active
-    joint limits."""
+    joint limits, equality constraints or contacts."""
     name = _INTEGRATOR_NAMES.get(int(model.opt.integrator), str(model.opt.integrator))
     if name != "euler":
         raise ValueError(
@@ -67,11 +67,14 @@ def refuse_unrepresentable(model: MjModel) -> None:
                 f"the model's joints have {field} {values.tolist()}, which the analytic "
                 "backend does not model; use backend='mujoco'"
             )
-    constrained = not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-    if constrained and (np.any(model.jnt_limited) or model.neq):
+    flags, bits = model.opt.disableflags, mujoco.mjtDisableBit
+    contacts = not flags & bits.mjDSBL_CONTACT and np.any(
+        model.geom_contype | model.geom_conaffinity
+    )
+    if not flags & bits.mjDSBL_CONSTRAINT and (np.any(model.jnt_limited) or model.neq or contacts):
         raise ValueError(
-            "the model has joint limits or equality constraints, which the analytic backend "
-            "does not model; use backend='mujoco'"
+            "the model has joint limits, equality constraints or contacts, which the analytic "
+            "backend does not model; use backend='mujoco'"
         )
 
 

@@ -80,7 +80,8 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     ``RecordVideo`` and ``HumanRendering`` wrappers need that form).
 
     Pickling (and ``copy.deepcopy``) rebuilds the batch and restores every sub-env's full
-    MuJoCo state, elapsed steps, pending autoresets and generators: the copy steps identically.
+    MuJoCo state (the analytic backend: its states and controls), elapsed steps, pending
+    autoresets and generators: the copy steps identically.
 
     Backends (``backend``): ``"mujoco"`` (the default and the reference) steps ``mujoco.batch``;
     ``"analytic"`` steps the lumped manipulator model (parameters derived from the loaded model)
