@@ -12,10 +12,10 @@ gymnax's Acrobot-v1), in interleaved rounds, medians:
 - each also in simulated seconds per wall second (decisions/s x 0.2 s).
 
 ``profile`` splits the analytic env's step at N = 1024 into the physics (the kernel call) and
-the rest (actions, observation check, the task's outcome, flags and info), in microseconds
+the rest (actions, observation, the task's outcome, flags and info), in microseconds
 (medians of single calls; the physics stepped once more between the env's steps, so the states
-stay the env's kind).
-Needs numba (the ``fast`` extra).
+stay the env's kind). :func:`one_step_gap` measures the rounding gap of one physics step
+between the backends. Needs numba (the ``fast`` extra).
 """
 
 from __future__ import annotations
@@ -24,8 +24,12 @@ import statistics
 import time
 from typing import Any
 
+import mujoco
 import numpy as np
 
+from acrobot_mj.envs.analytic_physics import lumped_parameters
+from acrobot_mj.envs.analytic_step import env_step
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 
 SIZES = (1, 64, 1024, 4096)
@@ -81,6 +85,25 @@ def profile(n: int = 1024, steps: int = 200) -> dict[str, float]:
         "rest_us": (total - alone) * 1e6,
         "physics_fraction": alone / total,
     }
+
+
+def one_step_gap(states: int = 20_000, seed: int = 1) -> float:
+    """Largest absolute gap [rad, rad/s] between one ``mj_step`` and one analytic physics step
+    (no velocity limits) from random states (angles in [-pi, pi), velocities up to the limits)
+    and torques in [-1, 1] N m: the rounding that the acrobot's chaos then amplifies."""
+    model = AcrobotVectorEnv().model
+    data = mujoco.MjData(model)
+    theta = (*lumped_parameters(model), model.opt.timestep, np.inf, np.inf)
+    rng, worst = np.random.default_rng(seed), 0.0
+    for _ in range(states):
+        speeds = rng.uniform(-1, 1, 2) * (MAX_VEL1, MAX_VEL2)
+        x = np.concatenate([rng.uniform(-np.pi, np.pi, 2), speeds])
+        tau = float(rng.uniform(-1, 1))
+        data.qpos[:], data.qvel[:], data.ctrl[:] = x[:2], x[2:], tau
+        mujoco.mj_step(model, data)
+        step = env_step(*x.tolist(), tau, *theta, 1)
+        worst = max(worst, float(np.max(np.abs(np.concatenate([data.qpos, data.qvel]) - step))))
+    return worst
 
 
 def analytic_rows(quick: bool = False, rounds: int | None = None) -> dict[str, Any]:
