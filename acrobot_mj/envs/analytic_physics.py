@@ -155,6 +155,8 @@ class AnalyticPhysics:
         from acrobot_mj.envs import analytic_kernel as kernel  # numba: the fast extra
 
         self.model = model
+        #: What the kernel takes: ``a, b, c`` [kg m^2], ``d, e`` [N m], ``dt`` [s] and the
+        #: velocity limits [rad/s].
         self.theta = np.array((*lumped_parameters(model), model.opt.timestep, MAX_VEL1, MAX_VEL2))
         self.state, self.ctrl = np.zeros((num_envs, 4)), np.zeros((num_envs, 1))
         self.qpos, self.qvel = self.state[:, :2], self.state[:, 2:]
