@@ -284,7 +284,7 @@ def run(
             "vector_env": statistics.median(p[0] for p in pairs),
             "batch_ceiling": statistics.median(p[1] for p in pairs),
         }
-    return {
+    result = {
         "machine": {
             "cpus": os.cpu_count(),
             "processor": platform.processor() or platform.machine(),
@@ -313,7 +313,26 @@ def run(
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
         **lockstep_lambda_memory(quick),
         **sibling("peer_compare").sections(rates, quick, rounds, peer_python, vector_env),
+        "analytic_backend": sibling("analytic").analytic_rows(quick)
+        if has_numba()
+        else "numba not installed: the analytic backend rows are skipped (acrobot-mj[fast])",
     }
+    versus_gymnax(result)
+    return result
+
+
+def versus_gymnax(result: dict[str, Any]) -> None:
+    """The analytic backend over gymnax's vmap+scan at N = 1024 in simulated seconds per wall
+    second, a ratio with its target, when both were measured in this run."""
+    analytic, peers = result["analytic_backend"], result.get("peers", {}).get("peers", {})
+    gymnax = peers.get("gymnax", {}).get("rows", {}).get("1024")  # peers' rows: by str(N)
+    if isinstance(analytic, str) or gymnax is None or 1024 not in analytic["sizes"]:
+        return
+    ours = analytic["sizes"][1024]["analytic_env_sim_s_per_s"]
+    result["ratios"]["analytic_vs_gymnax_sim_seconds_N1024"] = (
+        ours / gymnax["sim_seconds_per_second"]
+    )
+    result["targets"]["analytic_vs_gymnax_sim_seconds_N1024"] = 1.0
 
 
 def lockstep_lambda_memory(quick: bool) -> dict[str, float]:
@@ -375,4 +394,5 @@ def report(result: dict[str, Any]) -> str:
         )
     if "peers" in result:  # and the env rows in simulated seconds per wall second
         lines += ["", *sibling("peer_compare").section_lines(result)]
+    lines += sibling("analytic").report_lines(result["analytic_backend"])
     return "\n".join(lines)

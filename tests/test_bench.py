@@ -47,6 +47,15 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
     assert len(gymnax) == 1 and "no-such-python cannot run" in gymnax[0]
     assert {"envpool", "gymnax"} <= {*peers["peers"], *(w.split(":")[0] for w in peers["skipped"])}
 
+    analytic = result["analytic_backend"]  # numba is in the test extra
+    assert set(analytic["sizes"]) == {"1", "64", "1024", "4096"} and "analytic backend" in text
+    for row in analytic["sizes"].values():
+        for name in ("analytic_env", "mujoco_env", "kernel_scan", "kernel_scan_threads"):
+            assert row[name] > 0
+            assert row[f"{name}_sim_s_per_s"] == row[name] * analytic["decision_s"]
+    assert analytic["decision_s"] == 0.2  # frame_skip 4 of 0.05 s
+    assert analytic["profile_N1024"]["step_us"] > 0 and analytic["profile_N1024"]["physics_us"] > 0
+
 
 def test_bench_parser_takes_a_peer_python() -> None:
     from acrobot_mj.cli import build_parser

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from mujoco import MjModel
+from mujoco import MjData, MjModel
 from mujoco.batch import Batch
 
 from acrobot_mj.checks import check_int
@@ -88,26 +88,48 @@ class BatchPhysics:
         # One copy of the (N, 4) rows where qvel follows qpos in each state row (the batch's
         # layout), else two.
         obs = np.concatenate((q, v), axis=1) if self._rows is None else self._rows.copy()
-        if self.few:  # the usual case, every angle inside [-pi, pi): nothing to wrap or raise
-            usual = True
-            for q1, q2, v1, v2 in obs.tolist():  # a loop: cheaper than all() over a generator
-                inside = _MIN_PI <= q1 < _PI and _MIN_PI <= q2 < _PI
-                if not (inside and abs(v1) < HUGE and abs(v2) < HUGE):  # NaN fails every test
-                    usual = False
-                    break
-        else:
-            usual = (np.abs(obs) * _QUICK).max() < _PI  # one reduction
-        if usual:
-            return obs
-        # As the single env: NaN fails the test too; the row test names the bad sub-envs.
-        if not (np.abs(q).max() < MAX_ANGLE and np.abs(v).max() < HUGE):
-            bad = ~((np.abs(q) < MAX_ANGLE).all(1) & (np.abs(v) < HUGE).all(1))
-            raise RuntimeError(
-                f"sub-envs {np.flatnonzero(bad).tolist()} reached a non-finite state or angles "
-                f"beyond +-{MAX_ANGLE:g} rad; reset them before stepping again"
-            )
-        obs[:, :2] = wrap_angle(q)
+        return checked_observation(obs, self.few)
+
+    def snapshot(self) -> np.ndarray:
+        """A copy of every simulation's whole MuJoCo state row (time, qpos, qvel, ctrl, warm
+        start, ...)."""
+        return self.batch.state.copy()
+
+    def restore(self, rows: np.ndarray) -> None:
+        """Put back the state rows of a :meth:`snapshot`."""
+        self.batch.state[...] = rows
+
+    def get_data(self, i: int, data: MjData) -> None:
+        """Copy simulation ``i``'s state into ``data`` (of the same model)."""
+        self.batch.get_data(i, data)
+
+
+def checked_observation(obs: np.ndarray, few: bool) -> np.ndarray:
+    """The observations of the rows ``obs`` (``(N, 4)``: ``q1, q2, dq1, dq2``, changed in
+    place), angles wrapped into [-pi, pi) (as they are when inside); raises on a non-finite
+    state or angles beyond ``MAX_ANGLE``, naming the rows, as the single env does. ``few``: test
+    the rows in Python (cheaper than numpy's calls on a few rows; the same result)."""
+    if few:  # the usual case, every angle inside [-pi, pi): nothing to wrap or raise
+        usual = True
+        for q1, q2, v1, v2 in obs.tolist():  # a loop: cheaper than all() over a generator
+            inside = _MIN_PI <= q1 < _PI and _MIN_PI <= q2 < _PI
+            if not (inside and abs(v1) < HUGE and abs(v2) < HUGE):  # NaN fails every test
+                usual = False
+                break
+    else:
+        usual = (np.abs(obs) * _QUICK).max() < _PI  # one reduction
+    if usual:
         return obs
+    q, v = obs[:, :2], obs[:, 2:]
+    # As the single env: NaN fails the test too; the row test names the bad sub-envs.
+    if not (np.abs(q).max() < MAX_ANGLE and np.abs(v).max() < HUGE):
+        bad = ~((np.abs(q) < MAX_ANGLE).all(1) & (np.abs(v) < HUGE).all(1))
+        raise RuntimeError(
+            f"sub-envs {np.flatnonzero(bad).tolist()} reached a non-finite state or angles "
+            f"beyond +-{MAX_ANGLE:g} rad; reset them before stepping again"
+        )
+    obs[:, :2] = wrap_angle(q)
+    return obs
 
 
 def state_rows(qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray | None:

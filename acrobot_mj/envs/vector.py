@@ -7,6 +7,8 @@ clipping after every physics step, angle wrapping, ``frame_skip``, integrator, s
 truncation), with the physics of all of them advanced by one ``Batch.step`` call per physics
 step (:class:`~acrobot_mj.envs.batch_physics.BatchPhysics`: one thread for small batches, all
 CPUs for large ones). ``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)`` returns it.
+With ``backend="analytic"`` the same task is stepped by the lumped Lagrangian model compiled
+with numba instead (:class:`~acrobot_mj.envs.analytic_physics.AnalyticPhysics`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int
+from acrobot_mj.envs.analytic_physics import AnalyticPhysics
 from acrobot_mj.envs.batch_physics import BatchPhysics
 from acrobot_mj.envs.env import AcrobotEnv
 from acrobot_mj.envs.resets import reset_noise
@@ -30,6 +33,9 @@ from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
 
 _FLOAT, _BOOL = np.dtype(np.float64), np.dtype(bool)
+#: The physics a vector env can step on: MuJoCo's batch (the default and the reference), or the
+#: lumped analytic model compiled with numba.
+BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
 __all__ = ["METHODS", "PER_ENV", "SETTABLE", "SHARED", "AcrobotVectorEnv"]
 
 
@@ -41,7 +47,7 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads of the batch:
     by default one below :data:`~acrobot_mj.envs.batch_physics.THREADED_FROM` sub-envs and all
     CPUs from there; 0 for all CPUs, or a number, always honoured; the numbers are the same
-    whichever); ``render_envs`` (below); and the single env's ``frame_skip``,
+    whichever); ``backend`` (below); ``render_envs`` (below); and the single env's ``frame_skip``,
     ``integrator``, ``task``, ``continuous``, ``model_path``, ``render_mode``, ``width``,
     ``height``, ``camera`` and task options (validated by the single env's rules).
 
@@ -74,7 +80,18 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     ``RecordVideo`` and ``HumanRendering`` wrappers need that form).
 
     Pickling (and ``copy.deepcopy``) rebuilds the batch and restores every sub-env's full
-    MuJoCo state, elapsed steps, pending autoresets and generators: the copy steps identically.
+    MuJoCo state (the analytic backend: its states and controls), elapsed steps, pending
+    autoresets and generators: the copy steps identically.
+
+    Backends (``backend``): ``"mujoco"`` (the default and the reference) steps ``mujoco.batch``;
+    ``"analytic"`` steps the lumped manipulator model (parameters derived from the loaded model)
+    in a numba kernel (the ``fast`` extra), on one thread below
+    :data:`~acrobot_mj.envs.analytic_physics.THREADED_FROM` sub-envs and numba's threads from
+    there (``nthread`` as above). Everything else (task, resets, seeding, info, pickling,
+    rendering) is the same code. It refuses what the lumped model cannot represent (``rk4``,
+    damping, armature, a model whose dynamics differ); its trajectories match MuJoCo's to
+    rounding, which the acrobot's chaos amplifies over long episodes (``tests/test_analytic.py``).
+    ``batch`` is the ``mujoco.batch.Batch`` with the MuJoCo backend, None with the analytic one.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["rgb_array"]}
@@ -87,8 +104,12 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         nthread: int | None = None,
         render_mode: str | None = None,
         render_envs: int | None = 1,
+        backend: str = "mujoco",
         **env_kwargs: Any,
     ) -> None:
+        if not isinstance(backend, str) or backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+        self.backend = backend
         self.num_envs = check_int("num_envs", num_envs, 1)
         mode = _autoreset_mode(autoreset_mode)
         self.render_envs = (
@@ -134,8 +155,10 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
 
     def _build_batch(self) -> None:
         """The batch of ``num_envs`` simulations and the views into it (redone by unpickling)."""
-        self._physics = physics = BatchPhysics(self.model, self.num_envs, self._nthread)
-        self.batch, self._qpos, self._qvel = physics.batch, physics.qpos, physics.qvel
+        physics = BACKENDS[self.backend](self.model, self.num_envs, self._nthread)
+        self._physics = physics
+        self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
+        self._qpos, self._qvel = physics.qpos, physics.qvel
         self._ctrl = physics.ctrl
         self._outcome = self.task.outcome(ARRAY)
 
@@ -143,16 +166,17 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         state = self.__dict__.copy()
         for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl", "_outcome"):
             state.pop(key)
-        # Every simulation's whole MuJoCo state row (time, qpos, qvel, ctrl, warm start, ...).
-        state["batch_state"] = self.batch.state.copy()
+        # Every simulation's whole state row (MuJoCo's: time, qpos, qvel, ctrl, warm start, ...).
+        state["batch_state"] = self._physics.snapshot()
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         state = dict(state)
         rows = state.pop("batch_state")
+        state.setdefault("backend", "mujoco")  # pickled before there were backends
         self.__dict__.update(state)
         self._build_batch()
-        self.batch.state[...] = rows
+        self._physics.restore(rows)
 
     # -- resets ----------------------------------------------------------------------------
 
@@ -255,9 +279,14 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         return reward, terminated & going, truncated & going
 
     @property
+    def physics(self) -> BatchPhysics | AnalyticPhysics:
+        """The physics stepping the sub-envs (the backend's), for measurements and tests."""
+        return self._physics
+
+    @property
     def nthread(self) -> int:
         """Threads the batch steps on (at most one per sub-env)."""
-        return self.batch.nthread
+        return self._physics.nthread
 
     @property
     def _elapsed(self) -> np.ndarray:
@@ -300,7 +329,7 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
 
     def _frame(self, i: int) -> np.ndarray:
         """Sub-env ``i``'s frame, rendered by the single env put in its state."""
-        self.batch.get_data(i, self._template.data)
+        self._physics.get_data(i, self._template.data)
         return self._template.render()
 
     def close_extras(self, **kwargs: Any) -> None:

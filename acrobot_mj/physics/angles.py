@@ -25,6 +25,12 @@ def wrap_angle(angle: Angle) -> Angle:
         wrapped = (angle + math.pi) % _TWO_PI - math.pi
         wrapped[wrapped >= math.pi] -= _TWO_PI
         return np.where(inside, angle, wrapped)
+    return wrap_float(angle)
+
+
+def wrap_float(angle: float) -> float:
+    """:func:`wrap_angle` of one float [rad] (plain arithmetic: numba compiles this very
+    function for the analytic backend's observation, with the same numbers)."""
     if -math.pi <= angle < math.pi:
         return angle
     wrapped = (angle + math.pi) % _TWO_PI - math.pi

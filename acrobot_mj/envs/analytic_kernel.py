@@ -1,0 +1,93 @@
+"""The analytic backend's kernels, compiled with numba (the ``fast`` extra; imported only when
+an :class:`~acrobot_mj.envs.analytic_physics.AnalyticPhysics` is built).
+
+numba compiles :func:`acrobot_mj.envs.analytic_step.env_step` itself, so the Python and the
+compiled step are one definition, bit for bit (no fastmath). The row kernels run it on every
+row of a ``(N, 4)`` state array, on the calling thread (:func:`step_rows`) or on numba's threads
+(:func:`step_rows_parallel`): each row is the same scalar code either way, so the numbers are
+the same. :func:`scan` (and :func:`scan_parallel`) runs many decisions in one call, physics
+only: the benchmark's ceiling.
+"""
+
+from __future__ import annotations
+
+from acrobot_mj.envs.analytic_step import env_step
+from acrobot_mj.physics.angles import wrap_float
+
+try:
+    from numba import config, njit, prange, set_num_threads
+except ImportError as error:  # pragma: no cover  (the fast extra is missing)
+    raise ImportError("the analytic backend needs numba: pip install acrobot-mj[fast]") from error
+
+#: :func:`env_step`, compiled.
+env_step_jit = njit(cache=True)(env_step)
+#: :func:`~acrobot_mj.physics.angles.wrap_float`, compiled (wrap_angle's numbers).
+wrap_jit = njit(cache=True)(wrap_float)
+
+
+@njit(cache=True)
+def observe_rows(state, obs, max_angle, huge):  # pragma: no cover  (compiled)
+    """Write the observations of ``state``'s rows into ``obs`` (angles wrapped); False if any
+    row has an angle beyond ``max_angle``, a velocity beyond ``huge`` or a NaN (``obs`` is then
+    not to be used: the caller raises)."""
+    ok = True
+    for i in range(state.shape[0]):
+        q1, q2, v1, v2 = state[i, 0], state[i, 1], state[i, 2], state[i, 3]
+        if not (abs(q1) < max_angle and abs(q2) < max_angle and abs(v1) < huge and abs(v2) < huge):
+            ok = False
+        obs[i, 0], obs[i, 1], obs[i, 2], obs[i, 3] = wrap_jit(q1), wrap_jit(q2), v1, v2
+    return ok
+
+
+@njit(cache=True)
+def _row(state, i, tau, theta, substeps):  # pragma: no cover  (compiled)
+    q1, q2, v1, v2 = env_step_jit(
+        state[i, 0], state[i, 1], state[i, 2], state[i, 3], tau,
+        theta[0], theta[1], theta[2], theta[3], theta[4], theta[5], theta[6], theta[7], substeps,
+    )  # fmt: skip
+    state[i, 0], state[i, 1], state[i, 2], state[i, 3] = q1, q2, v1, v2
+
+
+@njit(cache=True)
+def step_rows(state, tau, theta, substeps):  # pragma: no cover  (compiled)
+    """``substeps`` steps of every row of ``state`` (``(N, 4)``, in place) with torques ``tau``
+    (``(N,)``) and ``theta = (a, b, c, d, e, dt, lim1, lim2)``, on the calling thread."""
+    for i in range(state.shape[0]):
+        _row(state, i, tau[i], theta, substeps)
+
+
+@njit(cache=True, parallel=True)
+def step_rows_parallel(state, tau, theta, substeps):  # pragma: no cover  (compiled)
+    """:func:`step_rows` on numba's threads (rows split between them)."""
+    for i in prange(state.shape[0]):
+        _row(state, i, tau[i], theta, substeps)
+
+
+@njit(cache=True)
+def scan(state, taus, theta, substeps):  # pragma: no cover  (compiled)
+    """``T`` decisions of every row ``i`` of ``state`` in one call, with torques ``taus[i]``
+    (``(N, T)``, each row's contiguous): the physics alone, no task, no resets, on the calling
+    thread."""
+    for i in range(state.shape[0]):
+        for t in range(taus.shape[1]):
+            _row(state, i, taus[i, t], theta, substeps)
+
+
+# Its own function, not scan compiled twice: numba's disk cache keys a function by its name
+# and signature, not by its parallel flag.
+@njit(cache=True, parallel=True)
+def scan_parallel(state, taus, theta, substeps):  # pragma: no cover  (compiled)
+    """:func:`scan` on numba's threads (rows split between them)."""
+    for i in prange(state.shape[0]):
+        for t in range(taus.shape[1]):
+            _row(state, i, taus[i, t], theta, substeps)
+
+
+def available_threads() -> int:
+    """numba's threads (``NUMBA_NUM_THREADS``, by default one per CPU)."""
+    return int(config.NUMBA_NUM_THREADS)
+
+
+def set_threads(n: int) -> None:
+    """Run the parallel kernels on ``n`` of numba's threads."""
+    set_num_threads(n)
