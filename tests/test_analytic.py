@@ -314,3 +314,22 @@ def test_the_dynamics_check_refuses_wrong_parameters() -> None:
     analytic_physics.check_dynamics(model, right)
     with pytest.raises(ValueError, match="dynamics differ"):
         analytic_physics.check_dynamics(model, type(right)(I2=1.0 + 1e-6))
+
+
+def _step_threaded(n: int) -> None:
+    env = AcrobotVectorEnv(num_envs=n, backend="analytic", nthread=2)
+    env.reset(seed=1)
+    for _ in range(5):
+        env.step(np.ones(n, dtype=np.int64))
+
+
+def test_a_process_forked_after_the_threaded_kernels_can_run_them() -> None:
+    # Under GNU OpenMP (numba's default layer where libgomp is found) a child forked after the
+    # parent ran a parallel kernel aborts when it runs one; the backend picks a fork-safe layer.
+    import multiprocessing
+
+    _step_threaded(64)
+    child = multiprocessing.get_context("fork").Process(target=_step_threaded, args=(64,))
+    child.start()
+    child.join(60)
+    assert child.exitcode == 0

@@ -11,6 +11,8 @@ only: the benchmark's ceiling.
 
 from __future__ import annotations
 
+import os
+
 from acrobot_mj.envs.analytic_step import env_step
 from acrobot_mj.physics.angles import wrap_float
 
@@ -18,6 +20,12 @@ try:
     from numba import config, njit, prange, set_num_threads
 except ImportError as error:  # pragma: no cover  (the fast extra is missing)
     raise ImportError("the analytic backend needs numba: pip install acrobot-mj[fast]") from error
+
+if "NUMBA_THREADING_LAYER" not in os.environ and config.THREADING_LAYER == "default":
+    # A fork-safe pool for the threaded kernels (tbb, else numba's own workqueue): under GNU
+    # OpenMP, numba's default where present, a process forked after the parallel kernels ran
+    # aborts when it runs them itself (worker pools fork).
+    config.THREADING_LAYER = "forksafe"
 
 #: :func:`env_step`, compiled.
 env_step_jit = njit(cache=True)(env_step)
