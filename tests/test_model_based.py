@@ -70,6 +70,24 @@ def test_the_model_env_follows_mujoco(data, which, steps, atol) -> None:
     assert t == steps - 1 or ra[2]
 
 
+def test_the_model_env_follows_mujoco_through_the_velocity_limits() -> None:
+    # Starts at the limits, with the torque pushing past them: MuJoCo's Euler step moves the
+    # angles with the new velocity, then the env clips it. A model that clipped first would be
+    # off by up to 1 rad within these decisions (measured: 1.03); the same order agrees to
+    # rounding (1e-12: a few decisions of fast, not yet chaotic, motion).
+    real = gym.make("acrobot_mj/Acrobot-v0", frame_skip=4)
+    model = ModelEnv(TRUTH, real.unwrapped.task)
+    clipped = 0
+    for start in ([-1.5, 0.3, 4 * np.pi, 9 * np.pi], [0.2, -2.0, -4 * np.pi + 0.01, -9 * np.pi]):
+        a, _ = real.reset(options={"state": start})
+        b, _ = model.reset(options={"state": start})
+        for action in (2, 2, 0, 0, 1, 2):
+            a, b = real.step(action)[0], model.step(action)[0]
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
+            clipped += int(np.isclose(abs(a[2]), 4 * np.pi) or np.isclose(abs(a[3]), 9 * np.pi))
+    assert clipped >= 2  # decisions that end at a limit (more bind inside decisions)
+
+
 def test_the_wrong_structure_or_no_data_fails_clearly(data) -> None:
     with pytest.raises(ValueError, match="at least 3 transitions, some with torque"):
         identify([])

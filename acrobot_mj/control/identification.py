@@ -53,8 +53,9 @@ def lumped(p: AcrobotParams) -> tuple[float, float, float, float, float]:
 
 def lumped_step(q1, q2, v1, v2, tau, a, b, c, d, e, dt, lim1, lim2, frame_skip) -> tuple:
     """One decision of the lumped model ``(a, b, c, d, e)`` from ``(q1, q2, v1, v2)`` with
-    torque ``tau`` [N m]: ``frame_skip`` semi-implicit Euler steps of ``dt`` [s], velocities
-    clipped to ``lim1``, ``lim2`` [rad/s] after each. Plain floats and arithmetic only, so
+    torque ``tau`` [N m]: ``frame_skip`` semi-implicit Euler steps of ``dt`` [s] (the angles
+    moved with the new velocity), then the velocities clipped to ``lim1``, ``lim2`` [rad/s],
+    as the env clips after each ``mj_step``. Plain floats and arithmetic only, so
     numba compiles this very function (:mod:`acrobot_mj.envs.model_step_jit`); the clipping is
     ``min(lim, max(-lim, v))`` written out with Python's rules."""
     for _ in range(frame_skip):
@@ -65,12 +66,12 @@ def lumped_step(q1, q2, v1, v2, tau, a, b, c, d, e, dt, lim1, lim2, frame_skip) 
         f2 = tau - b * s2 * v1 * v1 - phi2
         det = d11 * c - d12 * d12
         v1 = v1 + dt * (c * f1 - d12 * f2) / det
-        v1 = v1 if v1 > -lim1 else -lim1
-        v1 = v1 if v1 < lim1 else lim1
         v2 = v2 + dt * (d11 * f2 - d12 * f1) / det
+        q1, q2 = q1 + dt * v1, q2 + dt * v2  # as MuJoCo's Euler: the new, unclipped velocity
+        v1 = v1 if v1 > -lim1 else -lim1  # then the env's limits
+        v1 = v1 if v1 < lim1 else lim1
         v2 = v2 if v2 > -lim2 else -lim2
         v2 = v2 if v2 < lim2 else lim2
-        q1, q2 = q1 + dt * v1, q2 + dt * v2
     return q1, q2, v1, v2
 
 
