@@ -114,6 +114,10 @@ def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) 
     assert record["decisions_total"] == 300 + record["greedy_from_rest"]["length"]
     pop = record["population"]
     assert pop["scores"][pop["kept"]] == min(pop["scores"]) and "identified model" in pop["rule"]
+    # The shaping is applied once, and the record keeps the task's own returns: -1 a decision
+    # (the goal's too). Shaped twice, the learners' env reported the inner wrapper's shaped
+    # rewards as the unshaped ones (returns like -565.0118).
+    assert record["episode_returns"] == [-float(n) for n in record["episode_lengths"]]
     # Evaluation is in the env, from the run's checkpoint; the rest episode is the record's.
     evaluation = evaluate(tmp_path, Protocol(episodes=3))
     assert evaluation["rest"]["length"] == record["greedy_from_rest"]["length"]

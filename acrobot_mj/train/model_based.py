@@ -38,7 +38,7 @@ from acrobot_mj.envs.model_env import ModelEnv
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episodes import greedy_from_rest, make_env, shape_rewards
+from acrobot_mj.train.episodes import greedy_from_rest, make_env
 from acrobot_mj.train.learner import OnEpisode
 from acrobot_mj.train.population import train_learners
 from acrobot_mj.train.progress import Monitor
@@ -165,9 +165,8 @@ def train_in_model(
     compiled = getattr(config, "kernel", None) == "numba"  # the model's step compiled too
     model = ModelEnv(theta, real.unwrapped.task, structure, config.max_episode_steps, compiled)
     judge = ModelJudge(model, config, seed)
-    record, agent = train_learners(
-        config, seed, out, shape_rewards(model, config), resume, progress, on_episode, judge
-    )
+    # The model as it is: each learner's training env adds the config's shaping (once).
+    record, agent = train_learners(config, seed, out, model, resume, progress, on_episode, judge)
     greedy = greedy_from_rest(real, agent, seed)
     record.update(
         env="the identified model (ModelEnv)",
