@@ -27,8 +27,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from acrobot_mj.control.identification import lumped_step
 from acrobot_mj.envs.analytic_physics import lumped_parameters
-from acrobot_mj.envs.analytic_step import env_step
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 
@@ -101,7 +101,7 @@ def one_step_gap(states: int = 20_000, seed: int = 1) -> float:
         tau = float(rng.uniform(-1, 1))
         data.qpos[:], data.qvel[:], data.ctrl[:] = x[:2], x[2:], tau
         mujoco.mj_step(model, data)
-        step = env_step(*x.tolist(), tau, *theta, 1)
+        step = lumped_step(*x.tolist(), tau, *theta, 1)
         worst = max(worst, float(np.max(np.abs(np.concatenate([data.qpos, data.qvel]) - step))))
     return worst
 

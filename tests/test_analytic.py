@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import acrobot_mj
+from acrobot_mj.control.identification import lumped_step
 from acrobot_mj.envs import analytic_physics
 from acrobot_mj.envs.analytic_physics import THREADED_FROM, AnalyticPhysics, lumped_parameters
-from acrobot_mj.envs.analytic_step import env_step
 from acrobot_mj.envs.assets import models_dir
 from acrobot_mj.envs.batch_physics import checked_observation
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
@@ -29,10 +29,10 @@ pytest.importorskip("numba")  # the fast extra (in the test extra)
 #: compute the same equations in different arithmetic (MuJoCo: kinematics through quaternions,
 #: the composite rigid body mass matrix, recursive Newton-Euler and an LDL solve; the analytic
 #: backend: the lumped closed form and Cramer's rule), so one physics step differs by rounding
-#: (measured: at most 2.8e-14 over 20,000 random states and torques), and the acrobot's chaos
+#: (measured: at most 2.3e-14 over 20,000 random states and torques), and the acrobot's chaos
 #: amplifies that by about 10x per 2 s of pumped swinging. Over the 1000 steps below, in
-#: episodes of at most 100 decisions of 0.2 s, the largest gap measured was 1.6e-11 at N = 64
-#: and 7.5e-11 at N = 256 (at N = 1: 2.7e-13; random actions alone stay near the bottom, not
+#: episodes of at most 100 decisions of 0.2 s, the largest gap measured was 1.9e-11 at N = 64
+#: and 4.6e-11 at N = 256 (at N = 1: 6e-13; random actions alone stay near the bottom, not
 #: chaotic: 1e-13): 1e-8 leaves two orders of margin
 #: and still fails at once for a wrong parameter, sign or order of the step (those are 1e-4 and
 #: more after one decision). Longer chaotic episodes drift further: 2.5e-8 by 150 decisions.
@@ -138,7 +138,7 @@ def test_continuous_actions_match_mujoco() -> None:
 
 
 def test_the_compiled_step_is_the_python_step_bit_for_bit() -> None:
-    from acrobot_mj.envs.analytic_kernel import env_step_jit
+    from acrobot_mj.envs.model_step_jit import lumped_step_jit
 
     rng = np.random.default_rng(5)
     theta = (*lumped_parameters(AcrobotVectorEnv().model), 0.05, MAX_VEL1, MAX_VEL2)
@@ -146,12 +146,12 @@ def test_the_compiled_step_is_the_python_step_bit_for_bit() -> None:
     for _ in range(2000):
         x = (*rng.uniform(-4, 4, 2), *(rng.uniform(-1.2, 1.2, 2) * (MAX_VEL1, MAX_VEL2)))
         tau, substeps = float(rng.uniform(-1, 1)), int(rng.integers(1, 5))
-        python = env_step(*x, tau, *theta, substeps)
-        assert env_step_jit(*x, tau, *theta, substeps) == python
+        python = lumped_step(*x, tau, *theta, substeps)
+        assert lumped_step_jit(*x, tau, *theta, substeps) == python
         clipped += abs(python[2]) == MAX_VEL1 or abs(python[3]) == MAX_VEL2
     assert clipped > 100  # the clipping was exercised
-    nan = env_step(0.0, 0.0, math.nan, 0.0, 0.0, *theta, 1)
-    assert math.isnan(env_step_jit(0.0, 0.0, math.nan, 0.0, 0.0, *theta, 1)[2]) and math.isnan(
+    nan = lumped_step(0.0, 0.0, math.nan, 0.0, 0.0, *theta, 1)
+    assert math.isnan(lumped_step_jit(0.0, 0.0, math.nan, 0.0, 0.0, *theta, 1)[2]) and math.isnan(
         nan[2]
     )
 

@@ -88,6 +88,16 @@ def test_the_model_env_follows_mujoco_through_the_velocity_limits() -> None:
     assert clipped >= 2  # decisions that end at a limit (more bind inside decisions)
 
 
+def test_a_model_that_breaks_down_stops_with_an_error_not_nan_observations() -> None:
+    # Finite parameters whose mass matrix overflows: det = inf - inf is NaN from the first step.
+    # The step keeps the NaN (its limits do not clip it into a number), the env refuses it.
+    task = gym.make("acrobot_mj/Acrobot-v0").unwrapped.task
+    model = ModelEnv((3.5, 1e308, 1.25, 14.7, 4.9), task)
+    model.reset()
+    with pytest.raises(RuntimeError, match="the model reached a non-finite state"):
+        model.step(1)
+
+
 def test_the_wrong_structure_or_no_data_fails_clearly(data) -> None:
     with pytest.raises(ValueError, match="at least 3 transitions, some with torque"):
         identify([])

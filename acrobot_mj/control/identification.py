@@ -55,9 +55,10 @@ def lumped_step(q1, q2, v1, v2, tau, a, b, c, d, e, dt, lim1, lim2, frame_skip) 
     """One decision of the lumped model ``(a, b, c, d, e)`` from ``(q1, q2, v1, v2)`` with
     torque ``tau`` [N m]: ``frame_skip`` semi-implicit Euler steps of ``dt`` [s] (the angles
     moved with the new velocity), then the velocities clipped to ``lim1``, ``lim2`` [rad/s],
-    as the env clips after each ``mj_step``. Plain floats and arithmetic only, so
-    numba compiles this very function (:mod:`acrobot_mj.envs.model_step_jit`); the clipping is
-    ``min(lim, max(-lim, v))`` written out with Python's rules."""
+    as the env clips after each ``mj_step``, a NaN left as it is (as ``np.clip`` leaves it, so
+    a diverged state is seen, not clipped). Plain floats and arithmetic only, so numba compiles
+    this very function (:mod:`acrobot_mj.envs.model_step_jit`); the identified model and the
+    vector env's analytic backend both step with it."""
     for _ in range(frame_skip):
         c2, s2 = math.cos(q2), math.sin(q2)
         d11, d12 = a + 2 * b * c2, c + b * c2
@@ -68,10 +69,14 @@ def lumped_step(q1, q2, v1, v2, tau, a, b, c, d, e, dt, lim1, lim2, frame_skip) 
         v1 = v1 + dt * (c * f1 - d12 * f2) / det
         v2 = v2 + dt * (d11 * f2 - d12 * f1) / det
         q1, q2 = q1 + dt * v1, q2 + dt * v2  # as MuJoCo's Euler: the new, unclipped velocity
-        v1 = v1 if v1 > -lim1 else -lim1  # then the env's limits
-        v1 = v1 if v1 < lim1 else lim1
-        v2 = v2 if v2 > -lim2 else -lim2
-        v2 = v2 if v2 < lim2 else lim2
+        if v1 > lim1:  # then the env's limits (NaN kept, as np.clip keeps it)
+            v1 = lim1
+        elif v1 < -lim1:
+            v1 = -lim1
+        if v2 > lim2:
+            v2 = lim2
+        elif v2 < -lim2:
+            v2 = -lim2
     return q1, q2, v1, v2
 
 

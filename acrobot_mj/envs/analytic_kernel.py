@@ -1,7 +1,8 @@
 """The analytic backend's kernels, compiled with numba (the ``fast`` extra; imported only when
 an :class:`~acrobot_mj.envs.analytic_physics.AnalyticPhysics` is built).
 
-numba compiles :func:`acrobot_mj.envs.analytic_step.env_step` itself, so the Python and the
+The step is :func:`acrobot_mj.control.identification.lumped_step`, compiled
+(:mod:`acrobot_mj.envs.model_step_jit`: the identified model's step too), so the Python and the
 compiled step are one definition, bit for bit (no fastmath). The row kernels run it on every
 row of a ``(N, 4)`` state array, on the calling thread (:func:`step_rows`) or on numba's threads
 (:func:`step_rows_parallel`): each row is the same scalar code either way, so the numbers are
@@ -13,7 +14,6 @@ from __future__ import annotations
 
 import os
 
-from acrobot_mj.envs.analytic_step import env_step
 from acrobot_mj.physics.angles import wrap_float
 
 try:
@@ -21,14 +21,14 @@ try:
 except ImportError as error:  # pragma: no cover  (the fast extra is missing)
     raise ImportError("the analytic backend needs numba: pip install acrobot-mj[fast]") from error
 
+from acrobot_mj.envs.model_step_jit import lumped_step_jit  # after numba's own check
+
 if "NUMBA_THREADING_LAYER" not in os.environ and config.THREADING_LAYER == "default":
     # A fork-safe pool for the threaded kernels (tbb, else numba's own workqueue): under GNU
     # OpenMP, numba's default where present, a process forked after the parallel kernels ran
     # aborts when it runs them itself (worker pools fork).
     config.THREADING_LAYER = "forksafe"
 
-#: :func:`env_step`, compiled.
-env_step_jit = njit(cache=True)(env_step)
 #: :func:`~acrobot_mj.physics.angles.wrap_float`, compiled (wrap_angle's numbers).
 wrap_jit = njit(cache=True)(wrap_float)
 
@@ -49,7 +49,7 @@ def observe_rows(state, obs, max_angle, huge):  # pragma: no cover  (compiled)
 
 @njit(cache=True)
 def _row(state, i, tau, theta, substeps):  # pragma: no cover  (compiled)
-    q1, q2, v1, v2 = env_step_jit(
+    q1, q2, v1, v2 = lumped_step_jit(
         state[i, 0], state[i, 1], state[i, 2], state[i, 3], tau,
         theta[0], theta[1], theta[2], theta[3], theta[4], theta[5], theta[6], theta[7], substeps,
     )  # fmt: skip

@@ -4,7 +4,7 @@ lumped form, compiled with numba, over plain numpy state arrays.
 :class:`AnalyticPhysics` has :class:`~acrobot_mj.envs.batch_physics.BatchPhysics`'s interface
 (``qpos``, ``qvel``, ``ctrl``, ``columns``, ``step``, ``observe``, ``nthread``), so the vector
 env runs either (``backend="analytic"``). Its step is
-:func:`~acrobot_mj.envs.analytic_step.env_step`: MuJoCo's semi-implicit Euler in MuJoCo's
+:func:`~acrobot_mj.control.identification.lumped_step`: MuJoCo's semi-implicit Euler in MuJoCo's
 order (``v' = v + h a``, then ``q' = q + h v'``, then the task's velocity limits, as the env
 applies them after each ``mj_step``). The lumped parameters are derived from the loaded
 ``MjModel`` (:func:`lumped_parameters`), and a model the lumped equations cannot represent is
@@ -175,7 +175,7 @@ class AnalyticPhysics:
         return self._nthread
 
     def step(self, substeps: int) -> None:
-        """``substeps`` physics steps of every acrobot, in place (``env_step``, compiled)."""
+        """``substeps`` physics steps of every acrobot, in place (``lumped_step``, compiled)."""
         if self._nthread > 1:
             self._set_threads(self._nthread)
         self._kernel(self.state, self._tau, self.theta, substeps)

@@ -16,6 +16,7 @@ import numpy as np
 
 from acrobot_mj.control.identification import BOOK_STEP, StepStructure, lumped_step
 from acrobot_mj.control.model import HANGING
+from acrobot_mj.envs.env import MAX_ANGLE
 from acrobot_mj.envs.resets import RESET_OPTIONS, reset_noise, reset_state
 from acrobot_mj.envs.spaces import action_space, action_torque, observation_space
 from acrobot_mj.envs.tasks import SCALAR, Task
@@ -83,4 +84,13 @@ class ModelEnv(gym.Env[np.ndarray, Any]):
 
     def _observe(self) -> np.ndarray:
         q1, q2, v1, v2 = self._x
+        # As the MuJoCo env: NaN (kept by the step's limits), infinities or runaway angles stop
+        # the episode with an error instead of reaching the learner.
+        if not (
+            -MAX_ANGLE < q1 < MAX_ANGLE and -MAX_ANGLE < q2 < MAX_ANGLE and v1 == v1 and v2 == v2
+        ):
+            raise RuntimeError(
+                f"the model reached a non-finite state or angles beyond +-{MAX_ANGLE:g} rad: "
+                f"{list(self._x)}; call reset() before stepping again"
+            )
         return np.array((wrap_angle(q1), wrap_angle(q2), v1, v2))
