@@ -1,4 +1,5 @@
-"""Shared fixtures: the compiled models, the report's parameters and seeded random states."""
+"""Shared fixtures: the compiled models, the report's parameters and seeded random states; a
+lockstep run interrupted and resumed."""
 
 from __future__ import annotations
 
@@ -61,3 +62,34 @@ def figures(monkeypatch) -> dict:
 
     monkeypatch.setattr(plots, "save_figure", capture)
     return saved
+
+
+def lockstep_interrupted_and_resumed(config, seeds, tmp_path, monkeypatch, stop_at: int):
+    """``train_lockstep`` whole into ``tmp_path/whole``, and into ``tmp_path/split`` stopped by
+    Ctrl-C inside the ``stop_at``-th ``vec.step`` (mid-episode), checked to have stopped part-way
+    at each learner's episode boundary, then resumed: the two lists of run records."""
+    from acrobot_mj.envs.vector import AcrobotVectorEnv
+    from acrobot_mj.train.checkpoint import load_checkpoint
+    from acrobot_mj.train.lockstep import train_lockstep
+    from acrobot_mj.train.rundir import CHECKPOINT_FILE
+
+    whole = train_lockstep(config, seeds, tmp_path / "whole")
+    calls = {"n": 0}
+    step = AcrobotVectorEnv.step
+
+    def interrupting(self, actions):
+        calls["n"] += 1
+        if calls["n"] == stop_at:
+            raise KeyboardInterrupt
+        return step(self, actions)
+
+    monkeypatch.setattr(AcrobotVectorEnv, "step", interrupting)
+    with pytest.raises(KeyboardInterrupt, match="checkpoint"):
+        train_lockstep(config, seeds, tmp_path / "split")
+    monkeypatch.setattr(AcrobotVectorEnv, "step", step)
+    done = [
+        load_checkpoint(tmp_path / "split" / f"seed_{s}" / CHECKPOINT_FILE)[0]["episodes_done"]
+        for s in seeds
+    ]
+    assert 0 < min(done) and max(done) < config.episodes  # stopped part-way
+    return whole, train_lockstep(config, seeds, tmp_path / "split", resume=True)

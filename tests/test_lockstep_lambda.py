@@ -12,13 +12,13 @@ pytest.importorskip("numba", reason="lockstep Sarsa(lambda) is compiled (the fas
 from acrobot_mj.agents.lockstep_lambda import LockstepSarsaLambda
 from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.registry import make_features
-from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.checkpoint import load_checkpoint
 from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.rundir import CHECKPOINT_FILE
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train
+from tests.conftest import lockstep_interrupted_and_resumed
 
 RECORD_KEYS = ("episode_lengths", "episode_returns", "episode_successes", "steps",
                "greedy_from_rest")  # fmt: skip
@@ -85,28 +85,8 @@ def test_the_numpy_reference_agrees_with_the_lockstep_group(tmp_path) -> None:
 
 
 def test_lockstep_checkpoints_and_resume_exactly(tmp_path, monkeypatch) -> None:
-    config = BOOK.replace(episodes=9, checkpoint_every=2)
-    seeds = [0, 5]
-    whole = train_lockstep(config, seeds, tmp_path / "whole")
-    calls = {"n": 0}
-    step = AcrobotVectorEnv.step
-
-    def interrupting(self, actions):  # Ctrl-C inside vec.step, mid-episode
-        calls["n"] += 1
-        if calls["n"] == 2500:
-            raise KeyboardInterrupt
-        return step(self, actions)
-
-    monkeypatch.setattr(AcrobotVectorEnv, "step", interrupting)
-    with pytest.raises(KeyboardInterrupt, match="checkpoint"):
-        train_lockstep(config, seeds, tmp_path / "split")
-    monkeypatch.setattr(AcrobotVectorEnv, "step", step)
-    done = [
-        load_checkpoint(tmp_path / "split" / f"seed_{s}" / CHECKPOINT_FILE)[0]["episodes_done"]
-        for s in seeds
-    ]
-    assert 0 < min(done) and max(done) < 9  # stopped part-way, each at an episode boundary
-    resumed = train_lockstep(config, seeds, tmp_path / "split", resume=True)
+    config, seeds = BOOK.replace(episodes=9, checkpoint_every=2), [0, 5]
+    whole, resumed = lockstep_interrupted_and_resumed(config, seeds, tmp_path, monkeypatch, 2500)
     dirs = [tmp_path / "split" / f"seed_{s}" for s in seeds]
     assert_same_runs(resumed, dirs, whole, [tmp_path / "whole" / f"seed_{s}" for s in seeds])
 

@@ -18,6 +18,7 @@ from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.rundir import CHECKPOINT_FILE, load_agent
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train
+from tests.conftest import lockstep_interrupted_and_resumed
 
 #: What a resumed or lockstep run must reproduce exactly (wall_seconds aside).
 RECORD_KEYS = (
@@ -333,32 +334,8 @@ def test_lockstep_refuses_sarsa_lambda() -> None:
 
 
 def test_lockstep_checkpoints_and_resume_exactly(tmp_path, monkeypatch) -> None:
-    from acrobot_mj.envs.vector import AcrobotVectorEnv
-    from acrobot_mj.train.lockstep import train_lockstep
-
     config = PRESETS["report"].replace(episodes=12, frame_skip=4, checkpoint_every=3)
-    seeds = [0, 5]
-    whole = train_lockstep(config, seeds, tmp_path / "whole")
-    # Interrupt in the middle of episodes (Ctrl-C inside vec.step), then resume.
-    calls = {"n": 0}
-    step = AcrobotVectorEnv.step
-
-    def interrupting(self, actions):
-        calls["n"] += 1
-        if calls["n"] == 1500:
-            raise KeyboardInterrupt
-        return step(self, actions)
-
-    monkeypatch.setattr(AcrobotVectorEnv, "step", interrupting)
-    with pytest.raises(KeyboardInterrupt, match="checkpoint"):
-        train_lockstep(config, seeds, tmp_path / "split")
-    monkeypatch.setattr(AcrobotVectorEnv, "step", step)
-    done = [
-        load_checkpoint(tmp_path / "split" / f"seed_{s}" / CHECKPOINT_FILE)[0]["episodes_done"]
-        for s in seeds
-    ]
-    assert 0 < min(done) and max(done) < 12  # stopped part-way, each at an episode boundary
-    resumed = train_lockstep(config, seeds, tmp_path / "split", resume=True)
+    whole, resumed = lockstep_interrupted_and_resumed(config, [0, 5], tmp_path, monkeypatch, 1500)
     for a, b in zip(whole, resumed, strict=True):
         for key in RECORD_KEYS:
             assert a[key] == b[key], key

@@ -36,12 +36,12 @@ class LockstepSarsaLambda:
         if not isinstance(features, TileCoder) or features.num_active > kernels.PAIRWISE_BLOCK:
             raise ValueError("lockstep Sarsa(lambda) needs tile codes of at most 128 tilings")
         # c: a training config (validated there), read as SarsaLambda's arguments.
-        self.seeds, k = [int(s) for s in seeds], len(seeds)
+        k = len(seeds)
         self.n_actions, self.num_features = n_actions, features.num_features
         self.alpha, self.gamma, self.epsilon = c.alpha, c.gamma, c.epsilon
         self.replacing, self.cutoff = c.traces == "replacing", c.trace_cutoff
         self.factor = c.gamma * c.lam
-        self.streams = [RandomStream(seed) for seed in self.seeds]
+        self.streams = [RandomStream(int(seed)) for seed in seeds]
         n_w, n_active = n_actions * features.num_features, features.num_active
         self.w = np.zeros((k, n_w))
         self.position = np.full((k, n_w), -1, dtype=np.int32)
@@ -102,7 +102,9 @@ class LockstepSarsaLambda:
                                 bool(truncated[r]))  # fmt: skip
         return out
 
-    def _step(self, i: int, reward: float, obs: np.ndarray, terminated: bool, truncated: bool):
+    def _step(
+        self, i: int, reward: float, obs: np.ndarray, terminated: bool, truncated: bool
+    ) -> int:
         """A decision in Python around the kernels (CompiledSarsaLambda.learn's other path)."""
         q, self.count[i] = kernels.mark(
             self.w[i], self.a[i], self.active[i], self.num_features, self.pairs[i],

@@ -1,7 +1,8 @@
 """Several seeds of one config: one run directory per seed, a summary across them, and their
-learning curves together. Algorithms with a lockstep form train the seeds together on one vector
-env (:mod:`.lockstep`, identical records; with ``jobs`` processes, one group of seeds each); the
-others run one seed per process."""
+learning curves together. Tabular SARSA trains the seeds together on one vector env
+(:mod:`.lockstep`, identical records), and so does compiled Sarsa(lambda) when asked
+(``lockstep=True``: slower than processes here); with ``jobs`` processes, one lockstep group of
+seeds each. The others run one seed per process."""
 
 from __future__ import annotations
 
