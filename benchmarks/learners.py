@@ -8,9 +8,12 @@ Each function returns a rate: round -> training decisions per wall second, as
 from __future__ import annotations
 
 import importlib.util
+import json
+import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -27,6 +30,7 @@ from acrobot_mj.train.episodes import (
 from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.seeds import train_seeds
 
 Rate = Callable[[int], float]  # round -> decisions per second
 
@@ -117,3 +121,41 @@ def lockstep_memory_mb(learners: int) -> float:
     finally:
         tracemalloc.stop()
     return peak / 1e6 / learners
+
+
+def tuned_seeds(seeds: int, jobs: int, config: TrainConfig) -> float:
+    """Decisions per wall second of ``train --preset tuned --seeds S --jobs J`` as the CLI
+    runs it (``train_seeds`` into a temporary directory): each seed's model identification
+    (env decisions), its learners (simulated decisions), records, checkpoints, learning curve,
+    greedy run and held-out evaluation. The decisions counted are the records' (learning and
+    env); the evaluation's are not, though its time is."""
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        train_seeds(config, list(range(seeds)), Path(tmp) / "run", jobs=jobs)
+        wall = time.perf_counter() - start
+        records = [json.loads(path.read_text()) for path in Path(tmp).glob("run/seed_*/run.json")]
+    if len(records) != seeds:
+        raise RuntimeError(f"tuned over {seeds} seeds wrote {len(records)} run records")
+    return sum(r["steps"] + r["decisions_total"] for r in records) / wall
+
+
+def tuned_seeds_row(quick: bool, baseline: Rate) -> dict[str, float | int | str]:
+    """The tuned preset over 20 seeds, ``--jobs 2`` (quick: 2 seeds of 2 short learners),
+    compiled when numba is installed, measured once between two rounds of ``baseline``
+    (Gymnasium's ``env.step``: the ratio is to their mean). A minute or two on two cores."""
+    numba = importlib.util.find_spec("numba") is not None
+    config = PRESETS["tuned"].replace(kernel="numba" if numba else None)
+    seeds, jobs = (2, 2) if quick else (20, 2)
+    if quick:
+        config = config.replace(population=2, max_decisions=20_000, identify_decisions=300)
+    before = baseline(0)
+    rate = tuned_seeds(seeds, jobs, config)
+    base = (before + baseline(1)) / 2
+    return {
+        "seeds": seeds,
+        "jobs": jobs,
+        "kernel": config.kernel or "numpy",
+        "decisions_per_second": rate,
+        "gymnasium_env_step_per_second": base,
+        "ratio": rate / base,
+    }

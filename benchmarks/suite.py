@@ -272,6 +272,9 @@ def run(
         )
     for name, key in learner_ratios.items():  # the tuned learner's decisions / env.step
         ratios[key] = rates[name] / env_base
+    baseline = rates_of["gymnasium Acrobot-v1 env.step"]
+    seeds_row = sibling("learners").tuned_seeds_row(quick, baseline)
+    ratios["tuned_seeds_vs_gymnasium_env_step"] = seeds_row["ratio"]
     versus_sync = vector_vs_sync(SYNC_SIZES, 4_000 if quick else 10_000, 5 if quick else 15)
     for size, row in versus_sync.items():
         ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
@@ -304,7 +307,9 @@ def run(
             **{f"vector_env_vs_sync_vector_env_N{size}": 1.0 for size in SYNC_SIZES},
             "book_numpy_vs_gymnasium_env_step": 1.5,
             "book_numba_vs_gymnasium_env_step": 1.5,
+            "tuned_seeds_vs_gymnasium_env_step": 3.0,
         },
+        "tuned_seeds": seeds_row,
         "compiled_learner": compile_seconds()
         if has_numba()
         else "numba not installed: the compiled rows are skipped (pip install acrobot-mj[fast])",
@@ -360,6 +365,12 @@ def report(result: dict[str, Any]) -> str:
     else:
         lines.append(f"compiled learner: build and first episode {compiled['cold']:.1f} s in a "
                      f"fresh process, {compiled['cached']:.1f} s from numba's cache")  # fmt: skip
+    row = result["tuned_seeds"]
+    lines.append(
+        f"tuned over {row['seeds']} seeds, --jobs {row['jobs']} ({row['kernel']}): "
+        f"{row['decisions_per_second']:.0f} decisions/s, Acrobot-v1 env.step "
+        f"{row['gymnasium_env_step_per_second']:.0f}/s around it"
+    )
     lines.append("")
     for key, value in result["ratios"].items():
         target = result["targets"].get(key)

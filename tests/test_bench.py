@@ -25,10 +25,15 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
         "book_numba_vs_gymnasium_env_step",  # numba is in the test extra
         "lockstep_book_numba_vs_gymnasium_env_step",
         "tuned_numba_vs_gymnasium_env_step",
+        "tuned_seeds_vs_gymnasium_env_step",
     ):
         assert result["ratios"][key] > 0 and key in text
     assert len(result["rates_steps_per_second"]) == 12  # with the lockstep book row
     assert "tuned learner, numba (decisions)" in text
+    seeds = result["tuned_seeds"]  # 2 seeds of the CLI's whole run, between two baselines
+    assert (seeds["seeds"], seeds["jobs"], seeds["kernel"]) == (2, 2, "numba")
+    assert seeds["ratio"] == seeds["decisions_per_second"] / seeds["gymnasium_env_step_per_second"]
+    assert "tuned over 2 seeds, --jobs 2 (numba)" in text
     compiled = result["compiled_learner"]  # a fresh process compiles, then loads the cache
     assert compiled["cold"] > compiled["cached"] > 0 and "numba's cache" in text
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}

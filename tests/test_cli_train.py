@@ -157,9 +157,13 @@ def test_curves_of_several_seed_runs(tmp_path, capsys) -> None:
         == 0
     )
     assert out.read_bytes()[:4] == b"\x89PNG"
+    one = tmp_path / "one.svg"  # one run's directory: its own curve
+    assert main(["curves", str(tmp_path / "a" / "seed_0"), "--out", str(one)]) == 0
+    assert one.read_text().count("<path") > 0
     with pytest.raises(SystemExit):
-        main(["curves", str(tmp_path / "a" / "seed_0"), "--out", str(out)])
-    assert "summary.json" in capsys.readouterr().err
+        main(["curves", str(tmp_path), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert "holds neither summary.json nor run.json" in err and len(err.strip().splitlines()) == 1
 
 
 def test_refuses_to_overwrite_a_run(tmp_path, capsys) -> None:

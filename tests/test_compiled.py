@@ -3,14 +3,17 @@ numbers, bit for bit, from its kernels up to full runs of the book and tuned pre
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
 pytest.importorskip("numba", reason="the compiled learner needs numba (the fast extra)")
 
 from acrobot_mj.agents import kernels
+from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.registry import make_agent
 from acrobot_mj.agents.sarsa_lambda_jit import CompiledSarsaLambda
+from acrobot_mj.train.checkpoint import load_checkpoint
 from acrobot_mj.train.episodes import learn_episode, make_env
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.rundir import load_agent
@@ -131,3 +134,91 @@ def test_the_compiled_model_step_is_the_python_one() -> None:
             for env in envs:
                 env.reset(options=fast)
     assert clipped > 0  # the clipping was exercised
+
+
+def partial_episode(env, agent, seed: int, decisions: int) -> None:
+    """Begin an episode and learn ``decisions`` of it (the episode stays in progress)."""
+    obs, _ = env.reset(seed=seed)
+    action = agent.begin_episode(obs)
+    for _ in range(decisions):
+        obs, reward, terminated, truncated, _ = env.step(action)
+        action = agent.learn(reward, obs, terminated, truncated)
+        assert action is not None, "the episode ended: give fewer decisions"
+
+
+def test_the_checkpoint_state_mid_episode_is_the_state_after_the_last_episode() -> None:
+    # The compiled learner rebuilds a checkpoint's state from the weights the episode in
+    # progress changed (kernels.mark's log), instead of a copy after every episode. Exact:
+    # compared with copies taken when the episode began.
+    config = BOOK.replace(kernel="numba", epsilon=0.05)  # draws: the stream moves too
+    env, agent = make_env(config), make_agent(config.replace(kernel="numba"), seed=2)
+    state = agent.checkpoint_state()
+    room = agent._undo[0].size
+    # The first episode from zero weights is long: 600 decisions log far more than the
+    # log's first room, so it must grow (and keep its entries).
+    partial_episode(env, agent, 0, 600)
+    assert agent._undo[0].size > room
+    rewound = state()
+    assert not np.array_equal(agent.w, rewound["w"]) and not rewound["w"].any()
+    for episode in range(1, 4):
+        learn_episode(env, agent, seed=episode)
+    before, state = agent.state_dict(), agent.checkpoint_state()
+    assert all(np.array_equal(state()[k], before[k]) for k in before)  # between episodes
+    partial_episode(env, agent, 9, 40)
+    after = state()
+    assert after.keys() == before.keys()
+    for key in before:
+        assert np.array_equal(after[key], before[key]), key
+    assert not np.array_equal(agent.w, before["w"])  # the episode did change weights
+    partial_episode(env, agent, 10, 5)  # a second episode begun: that state is gone
+    with pytest.raises(RuntimeError, match="after the next two had begun"):
+        state()
+
+
+class StopAtDecision(gym.Wrapper):
+    """Ctrl-C in the middle of the ``n``-th decision of the run."""
+
+    def __init__(self, env, n: int) -> None:
+        super().__init__(env)
+        self.n = n
+
+    def step(self, action):
+        self.n -= 1
+        if self.n == 0:
+            raise KeyboardInterrupt
+        return self.env.step(action)
+
+
+def test_a_compiled_run_stopped_mid_episode_resumes_to_the_same_run(tmp_path) -> None:
+    config = BOOK.replace(kernel="numba", episodes=12, checkpoint_every=1000)
+    whole = train(config, 6, tmp_path / "whole")
+    stopped = StopAtDecision(make_env(config), sum(whole["episode_lengths"][:7]) + 30)
+    with pytest.raises(KeyboardInterrupt):
+        train(config, 6, tmp_path / "split", env=stopped)
+    meta, arrays = load_checkpoint(tmp_path / "split" / "checkpoint.npz")
+    assert meta["episodes_done"] == 7  # stopped 30 decisions into the 8th episode
+    train(config.replace(episodes=7), 6, tmp_path / "seven")
+    seven = load_checkpoint(tmp_path / "seven" / "checkpoint.npz")[1]
+    assert all(np.array_equal(arrays[k], seven[k]) for k in seven)  # the rewound state
+    resumed = train(config, 6, tmp_path / "split", resume=True)
+    for key in ("episode_lengths", "episode_returns", "greedy_from_rest", "steps"):
+        assert resumed[key] == whole[key], key
+    a = load_checkpoint(tmp_path / "whole" / "checkpoint.npz")[1]
+    b = load_checkpoint(tmp_path / "split" / "checkpoint.npz")[1]
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_a_diverging_compiled_learner_checkpoints_its_last_finite_state(tmp_path) -> None:
+    # The divergence is found mid-episode, after weights have overflowed: the checkpoint is
+    # rewound to the end of the last finite episode (loading refuses non-finite weights).
+    config = BOOK.replace(kernel="numba", alpha=0.2)
+    with pytest.raises(DivergenceError, match="diverged in episode"):
+        train(config, 0, tmp_path)
+    meta, arrays = load_checkpoint(tmp_path / "checkpoint.npz")
+    assert np.isfinite(arrays["w"]).all() and arrays["w"].any()
+    done = meta["episodes_done"]
+    assert done >= 1
+    reference = train(config.replace(episodes=done, kernel="numpy"), 0, tmp_path / "numpy")
+    assert reference["episodes_done"] == done
+    ref = load_checkpoint(tmp_path / "numpy" / "checkpoint.npz")[1]
+    assert all(np.array_equal(arrays[k], ref[k]) for k in ref)

@@ -55,6 +55,10 @@ def test_population_run_keeps_the_best_learner(tmp_path):
     assert config == CONFIG and seed == 2
     np.testing.assert_array_equal(agent.w, kept.w)
     assert not list(tmp_path.glob("learner_*/checkpoint.npz"))
+    # One figure for the run; the learners' own (drawn on demand by acrobot-mj curves) would
+    # cost more than a tuned learner's training.
+    assert (tmp_path / "learning_curve.png").is_file()
+    assert not list(tmp_path.glob("learner_*/learning_curve.png"))
     # evaluate's rest episode is the record's greedy run from rest.
     ev = evaluate(tmp_path, Protocol(episodes=1))
     assert ev["rest"]["length"] == record["greedy_from_rest"]["length"]

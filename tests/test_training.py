@@ -163,6 +163,11 @@ def test_resume_refuses_a_different_config_or_seed(tmp_path) -> None:
     # More episodes than before is what resume is for.
     more = train(TINY_BOOK.replace(episodes=8), seed=1, out_dir=tmp_path, resume=True)
     assert more["episodes_done"] == 8
+    # And checkpoints at other intervals: they change nothing learned.
+    whole = train(TINY_BOOK.replace(episodes=10), seed=1)
+    later = TINY_BOOK.replace(episodes=10, checkpoint_every=5)
+    resumed = train(later, seed=1, out_dir=tmp_path, resume=True)
+    assert resumed["episode_lengths"] == whole["episode_lengths"]
 
 
 def test_trains_on_gymnasiums_acrobot_too() -> None:

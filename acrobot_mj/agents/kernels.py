@@ -89,10 +89,16 @@ def q_values(w, active, num_features, n_actions, gathered, out) -> None:
 
 
 @njit(cache=True)
-def mark(w, a, active, num_features, pairs, values, position, count, replacing, gathered):
+def mark(w, a, active, num_features, pairs, values, position, count, replacing, gathered,
+         undo):  # fmt: skip
     """The TD error's first part ``-Q(s, a)`` (returned), then the traces of (s, a) set to 1
-    (replacing) or raised by 1 (accumulating), new ones appended; returns ``(-Q, count)``."""
+    (replacing) or raised by 1 (accumulating), new ones appended; returns ``(-Q, count)``.
+    ``undo = (pairs, values, used)``: each new trace's pair and its weight before any change
+    are appended there (``used[0]`` entries; see :func:`rewind`), unless its arrays are
+    empty. Only traced weights change, so the log holds every weight the episode changed."""
     n = active.size
+    undo_pairs, undo_values, used = undo
+    logging = undo_pairs.size > 0
     for i in range(n):
         gathered[i] = w[a * num_features + active[i]]
     q = pairwise_sum(gathered, n)
@@ -104,11 +110,28 @@ def mark(w, a, active, num_features, pairs, values, position, count, replacing, 
     for i in range(n):  # new traces after the known ones, in order (numpy's concatenate)
         pair = a * num_features + active[i]
         if position[pair] < 0:
+            if logging:
+                undo_pairs[used[0]] = pair
+                undo_values[used[0]] = w[pair]
+                used[0] += 1
             position[pair] = count
             pairs[count] = pair
             values[count] = 1.0
             count += 1
     return q, count
+
+
+def undo_log(room: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An empty :func:`mark` log with room for ``room`` entries (0: no log is kept)."""
+    return np.zeros(room, dtype=np.int64), np.zeros(room), np.zeros(1, dtype=np.int64)
+
+
+@njit(cache=True)
+def rewind(w, undo_pairs, undo_values, used) -> None:
+    """Undo :func:`mark`'s log on ``w`` (latest entry first, so a weight traced twice gets the
+    value its first entry saw): the weights as they were when the log was started."""
+    for u in range(used - 1, -1, -1):
+        w[undo_pairs[u]] = undo_values[u]
 
 
 @njit(cache=True)
@@ -139,6 +162,25 @@ def decay(pairs, values, position, count, factor, cutoff) -> int:
 
 
 @njit(cache=True)
+def update_decay(w, pairs, values, position, count, step, factor, cutoff) -> int:
+    """:func:`update` then :func:`decay` in one pass over the traces (each weight and trace
+    gets the same operations in the same order: the same numbers, half the memory traffic)."""
+    kept = 0
+    for i in range(count):
+        pair = pairs[i]
+        w[pair] += step * values[i]
+        value = values[i] * factor
+        if cutoff <= 0.0 or value >= cutoff:
+            pairs[kept] = pair
+            values[kept] = value
+            position[pair] = kept
+            kept += 1
+        else:
+            position[pair] = -1
+    return kept
+
+
+@njit(cache=True)
 def clear(pairs, position, count) -> None:
     """Drop every trace (the start of an episode)."""
     for i in range(count):
@@ -146,7 +188,8 @@ def clear(pairs, position, count) -> None:
 
 
 @njit(cache=True)
-def greedy_step(w, a, active, nxt, obs, tiles, sizes, traces, count, reward, rates, gathered, q):
+def greedy_step(w, a, active, nxt, obs, tiles, sizes, traces, count, reward, rates, gathered, q,
+                undo):  # fmt: skip
     """A whole non-terminal decision when the policy needs no random draw (``epsilon = 0`` and
     one best action): mark (s, a), the TD error, the next state's tiles and values, a' = argmax,
     the update and the decay, in that order (the numpy learner's). Returns ``(a', count)``;
@@ -154,12 +197,12 @@ def greedy_step(w, a, active, nxt, obs, tiles, sizes, traces, count, reward, rat
     the marking, the tiles and the values are done, and ``q`` and the returned ``-Q(s, a)``
     (``count`` holds it, see below) let Python finish. ``sizes = (num_features, n_actions,
     replacing, truncated)``, ``rates = (alpha, gamma, decay factor, cutoff)``,
-    ``traces = (pairs, values, position)``; the TD error's first part comes back in
-    ``gathered[0]``."""
+    ``traces = (pairs, values, position)``, ``undo`` :func:`mark`'s log; the TD error's
+    first part comes back in ``gathered[0]``."""
     num_features, n_actions, replacing, truncated = sizes
     pairs, values, position = traces
     q_sa, count = mark(w, a, active, num_features, pairs, values, position, count, replacing,
-                       gathered)  # fmt: skip
+                       gathered, undo)  # fmt: skip
     delta = reward - q_sa
     low, scale, offset, extent, wrap, stride, base = tiles
     tile_active(obs, low, scale, offset, extent, wrap, stride, base, nxt)
@@ -179,22 +222,24 @@ def greedy_step(w, a, active, nxt, obs, tiles, sizes, traces, count, reward, rat
     delta = delta + rates[1] * q[a2]
     if not -math.inf < delta < math.inf:
         return -1, count  # Python raises the divergence, with the same value
-    update(w, pairs, values, count, rates[0] * delta)
-    if not truncated:
-        count = decay(pairs, values, position, count, rates[2], rates[3])
-    return a2, count
+    if truncated:
+        update(w, pairs, values, count, rates[0] * delta)
+        return a2, count
+    return a2, update_decay(w, pairs, values, position, count, rates[0] * delta, rates[2],
+                            rates[3])  # fmt: skip
 
 
 @njit(cache=True)
 def lockstep_greedy(ids, w, a, active, nxt, obs, tiles, sizes, traces, count, rewards, truncated,
-                    rates, gathered, q, out) -> None:  # fmt: skip
+                    rates, gathered, q, out, undo) -> None:  # fmt: skip
     """:func:`greedy_step` for learners ``ids[j]`` of a lockstep group, in one call: row ``i`` of
     each 2-D array (``w``, ``active``, ``nxt``, and ``traces = (pairs, values, position)``) is
     learner ``i``'s, row ``j`` of ``obs``, ``gathered``, ``q`` and entry ``j`` of ``rewards``,
     ``truncated`` and ``out`` the step's. ``out[j]``: a', or -1 when Python must finish (then
     ``gathered[j, 0]`` and ``q[j]`` hold what it needs). A learner that goes on moves to
     (s', a'). One thread: ``--jobs`` processes are the parallelism (numba's threads, on
-    OpenMP, would also make later forks of the process abort)."""
+    OpenMP, would also make later forks of the process abort). ``undo``: an empty
+    :func:`mark` log (the group's checkpoints copy the weights)."""
     num_features, n_actions, replacing = sizes
     pairs, values, position = traces
     for j in range(ids.size):
@@ -203,6 +248,7 @@ def lockstep_greedy(ids, w, a, active, nxt, obs, tiles, sizes, traces, count, re
             w[i], a[i], active[i], nxt[i], obs[j], tiles,
             (num_features, n_actions, replacing, truncated[j]),
             (pairs[i], values[i], position[i]), count[i], rewards[j], rates, gathered[j], q[j],
+            undo,
         )  # fmt: skip
         count[i] = c
         out[j] = a2

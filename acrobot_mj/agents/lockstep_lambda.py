@@ -5,7 +5,7 @@ so the numpy :class:`~acrobot_mj.agents.sarsa_lambda.SarsaLambda`) with seed ``s
 own :class:`~acrobot_mj.agents.random_stream.RandomStream`, the same kernels on its rows of the
 group's arrays, and the same order of work, so on the same observations it takes the same
 actions and learns the same weights bit for bit. The usual decision (epsilon 0, one best
-action) of every learner is one parallel call (:func:`.kernels.lockstep_greedy`); ties,
+action) of every learner is one kernel call (:func:`.kernels.lockstep_greedy`); ties,
 exploration and the goal's terminal update are finished in Python, learner by learner, as the
 single agent does.
 """
@@ -21,6 +21,9 @@ from acrobot_mj.agents import kernels
 from acrobot_mj.agents.features import TileCoder
 from acrobot_mj.agents.protocol import DivergenceError
 from acrobot_mj.agents.random_stream import RandomStream, checked_values
+
+#: The kernels' undo log, not kept: a group's checkpoints copy each learner's weights.
+_NO_UNDO = kernels.undo_log(0)
 
 
 class LockstepSarsaLambda:
@@ -90,6 +93,7 @@ class LockstepSarsaLambda:
                 ids[rows], self.w, self.a, self.active, self.next, obs[rows], self.tiles,
                 self.sizes, (self.pairs, self.values, self.position), self.count,
                 rewards[rows], truncated[rows], self.rates, self._gathered, self._q, chosen,
+                _NO_UNDO,
             )  # fmt: skip
             out[rows] = chosen
             for j in np.flatnonzero(chosen < 0).tolist():  # a tie, or a value not a number
@@ -109,6 +113,7 @@ class LockstepSarsaLambda:
         q, self.count[i] = kernels.mark(
             self.w[i], self.a[i], self.active[i], self.num_features, self.pairs[i],
             self.values[i], self.position[i], self.count[i], self.replacing, self._gathered[0],
+            _NO_UNDO,
         )  # fmt: skip
         if terminated:
             self._apply(i, reward - q)

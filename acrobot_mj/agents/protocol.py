@@ -40,6 +40,17 @@ class Features(Protocol):
 
 
 @runtime_checkable
+class Rewinding(Protocol):
+    """An agent that can give, when asked, its :meth:`Agent.state_dict` as it was after its
+    last completed episode, even in the middle of the next one (from a log of what that episode
+    changed), so a checkpoint need not copy the agent's arrays after every episode."""
+
+    def checkpoint_state(self) -> Callable[[], dict[str, np.ndarray]]:
+        """Between episodes: a function that gives the state as it is now, if called before
+        the episode after the next one begins (else it raises RuntimeError)."""
+
+
+@runtime_checkable
 class Agent(Protocol):
     """A learner with its own random stream. The episode protocol::
 

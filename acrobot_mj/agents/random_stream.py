@@ -44,12 +44,21 @@ class RandomStream:
         ties = [i for i, v in enumerate(values) if v == best]
         return ties[self.below(len(ties))]
 
-    def state_dict(self, prefix: str = "") -> dict[str, np.ndarray]:
-        """The stream's state as arrays, their names starting with ``prefix``."""
+    def position(self) -> tuple[Any, ...]:
+        """Where the stream is now, cheaply (a block is replaced, never changed): give it to
+        :meth:`state_dict` later for the state as it is now."""
+        return self.generator.bit_generator.state, self._block, self._next
+
+    def state_dict(
+        self, prefix: str = "", at: tuple[Any, ...] | None = None
+    ) -> dict[str, np.ndarray]:
+        """The stream's state (or, ``at``, the state at that :meth:`position`) as arrays, their
+        names starting with ``prefix``."""
+        bit_state, block, nxt = self.position() if at is None else at
         return {
-            f"{prefix}bit_generator": np.array(json.dumps(self.generator.bit_generator.state)),
-            f"{prefix}block": np.array(self._block, dtype=np.float64),
-            f"{prefix}next": np.array(self._next),
+            f"{prefix}bit_generator": np.array(json.dumps(bit_state)),
+            f"{prefix}block": np.array(block, dtype=np.float64),
+            f"{prefix}next": np.array(nxt),
         }
 
     def load_state_dict(self, state: dict[str, Any], prefix: str = "") -> None:

@@ -7,10 +7,15 @@ lengths and weights, bit for bit (``tests/test_compiled.py`` checks full runs). 
 call per decision when the policy needs no random draw (:func:`.kernels.greedy_step`), instead
 of about fifteen numpy calls on tiny arrays; otherwise the policy draws in Python between two
 kernel calls.
+
+A checkpoint's state (:meth:`CompiledSarsaLambda.checkpoint_state`) is rebuilt when it is
+written, from the current weights and a log of the weights the episode in progress changed,
+instead of a copy of every weight after every episode (10 MB for the tuned tiles).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -49,6 +54,11 @@ class CompiledSarsaLambda(SarsaLambda):
         self._factor = self.gamma * self.lam
         self._traces = (self._pairs, self._values, self._position)
         self._rates = (self.alpha, self.gamma, self._factor, self.trace_cutoff)
+        # The weights this episode changed (kernels.mark's log), and what the rest of the
+        # state was when it began: begin_episode calls so far, the stream's state.
+        self._undo = kernels.undo_log(room)
+        self._begun = 0
+        self._stream_at_start = self.stream.position()
 
     @property
     def traces(self) -> np.ndarray:
@@ -64,6 +74,9 @@ class CompiledSarsaLambda(SarsaLambda):
 
     def begin_episode(self, obs: Any) -> int:
         self._clear_traces()
+        self._stream_at_start = self.stream.position()
+        self._undo[2][0] = 0
+        self._begun += 1
         self._a = self._policy(self._active_q(obs, self._active))
         return self._a
 
@@ -72,12 +85,14 @@ class CompiledSarsaLambda(SarsaLambda):
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
         if self._count + self._next.size > self._pairs.size:
             self._grow()
+        if self._undo[2][0] + self._next.size > self._undo[0].size:
+            self._grow_undo()
         if not terminated and self.epsilon == 0.0:  # one compiled call, unless the policy draws
             a2, self._count = kernels.greedy_step(
                 self._w, self._a, self._active, self._next, np.asarray(obs, dtype=float),
                 self._tiles, (self.num_features, self.n_actions, self.replacing, bool(truncated)),
                 self._traces, self._count, float(reward), self._rates, self._gathered,
-                self._q_out,
+                self._q_out, self._undo,
             )  # fmt: skip
             if a2 >= 0:
                 return self._advance(a2, truncated)
@@ -85,7 +100,7 @@ class CompiledSarsaLambda(SarsaLambda):
             return self._finish(float(self._gathered[0]), self._q_out.tolist(), truncated)
         q, self._count = kernels.mark(
             self._w, self._a, self._active, self.num_features, self._pairs, self._values,
-            self._position, self._count, self.replacing, self._gathered,
+            self._position, self._count, self.replacing, self._gathered, self._undo,
         )  # fmt: skip
         if terminated:
             self._apply(reward - q)
@@ -128,9 +143,45 @@ class CompiledSarsaLambda(SarsaLambda):
         self._pairs, self._values = pairs, values
         self._traces = (self._pairs, self._values, self._position)
 
+    def _grow_undo(self) -> None:
+        """Twice the room for the episode's log of changed weights, its entries kept."""
+        pairs, values, used = self._undo
+        grown = kernels.undo_log(2 * pairs.size + self._next.size)
+        n = int(used[0])
+        grown[0][:n], grown[1][:n], grown[2][0] = pairs[:n], values[:n], n
+        self._undo = grown
+
     def _clear_traces(self) -> None:
         kernels.clear(self._pairs, self._position, self._count)
         self._count = 0
+
+    # -- checkpoints -----------------------------------------------------------------------
+
+    def checkpoint_state(self) -> Callable[[], dict[str, np.ndarray]]:
+        """See :class:`~acrobot_mj.agents.protocol.Rewinding`: the state now, rebuilt when
+        the returned function is called (the weights rewound through the log of the episode
+        begun since, if one was)."""
+        begun = self._begun
+
+        def state() -> dict[str, np.ndarray]:
+            now = self.state_dict()
+            if self._begun == begun:
+                return now
+            if self._begun != begun + 1:
+                raise RuntimeError(
+                    "the state after an episode was asked for after the next two had begun"
+                )
+            pairs, values, used = self._undo
+            kernels.rewind(now["w"].reshape(-1), pairs, values, int(used[0]))
+            return {**now, **self.stream.state_dict("stream.", at=self._stream_at_start)}
+
+        return state
+
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        super().load_state_dict(state)
+        self._begun += 2  # a state asked for before the load is gone: say so if called
+        self._undo[2][0] = 0
+        self._stream_at_start = self.stream.position()
 
 
 def build(features: TileCoder, config: Any, seed: Any, n_actions: int) -> CompiledSarsaLambda:

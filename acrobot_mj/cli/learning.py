@@ -258,8 +258,13 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def add_curves(commands: Commands) -> None:
-    p = commands.add_parser("curves", help="learning curves of several --seeds runs, one figure")
-    p.add_argument("run_dirs", nargs="+", help="directories written by train --seeds")
+    p = commands.add_parser("curves", help="learning curves of several runs, one figure")
+    p.add_argument(
+        "run_dirs",
+        nargs="+",
+        help="directories written by train: of --seeds (their median and band) or one run's "
+        "(a population's learner_K among them)",
+    )
     p.add_argument(
         "--out", required=True, help="the figure file: .png, .svg or .pdf (by its suffix)"
     )
@@ -272,24 +277,31 @@ def add_curves(commands: Commands) -> None:
     p.set_defaults(func=curves_command)
 
 
+def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
+    """The config and run records of a ``--seeds`` directory (its runs) or of one run."""
+    summary_file, run_file = folder / SUMMARY_FILE, folder / RUN_FILE
+    if summary_file.is_file():
+        summary = json.loads(summary_file.read_text())
+        if not summary.get("runs"):
+            raise ValueError(f"{summary_file} lists no runs: nothing to draw")
+        runs = [json.loads((folder / run / RUN_FILE).read_text()) for run in summary["runs"]]
+        return TrainConfig.from_dict(summary["config"]), runs
+    if run_file.is_file():
+        record = json.loads(run_file.read_text())
+        return TrainConfig.from_dict(record["config"]), [record]
+    raise FileNotFoundError(
+        f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give directories written by "
+        "acrobot-mj train"
+    )
+
+
 def curves_command(args: argparse.Namespace) -> None:
     figure_format(args.out)  # a bad suffix is refused before any run is read
     groups, config = {}, None
     for folder in args.run_dirs:
-        summary_file = Path(folder) / SUMMARY_FILE
-        if not summary_file.is_file():
-            raise FileNotFoundError(
-                f"{summary_file} not found: give directories written by acrobot-mj train --seeds"
-            )
-        summary = json.loads(summary_file.read_text())
-        if not summary.get("runs"):
-            raise ValueError(f"{summary_file} lists no runs: nothing to draw")
-        config = TrainConfig.from_dict(summary["config"])
+        config, records = _curve_records(Path(folder))
         score = get_task(config.task).score
-        groups[Path(folder).name] = [
-            score.values(json.loads((Path(folder) / run / RUN_FILE).read_text()))
-            for run in summary["runs"]
-        ]
+        groups[Path(folder).name] = [score.values(record) for record in records]
     task = get_task(config.task)
     reference = task.reference(config.frame_skip) if args.minimum else None
     compare_curves(

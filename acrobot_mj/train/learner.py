@@ -12,7 +12,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.agents.protocol import Agent, DivergenceError
+from acrobot_mj.agents.protocol import Agent, DivergenceError, Rewinding
 from acrobot_mj.agents.registry import make_agent, make_features
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import RunLog
@@ -64,6 +64,12 @@ def diverged(
     )
 
 
+def checkpoint_state(agent: Agent) -> Callable[[], Any]:
+    """What a checkpoint snapshot calls: the agent's own rewinding state if it has one (no copy
+    after every episode), else its ``state_dict``."""
+    return agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
+
+
 def budget_left(config: TrainConfig, history: History) -> int | None:
     """Decisions a learner may still take under ``config.max_decisions`` (None: no cap)."""
     cap = config.learner_decisions
@@ -80,12 +86,14 @@ def train_agent(
     on_episode: OnEpisode | None = None,
     greedy: bool = True,
     tee: RunLog | None = None,
+    curve: bool = True,
 ) -> tuple[dict[str, Any], Agent]:
     """:func:`train` for one learner (no freshness check); returns the record and the agent.
     ``greedy=False`` skips the greedy episode from rest after training (a population's
     learners: nothing uses theirs, and it would cost the env decisions). ``progress``: show a
     bar, or the :class:`~acrobot_mj.train.progress.Monitor` of the run this learner is in;
-    ``tee``: the population's log, which gets each episode's line too."""
+    ``tee``: the population's log, which gets each episode's line too; ``curve=False``: no
+    ``learning_curve.png`` (a population's learners: ``acrobot-mj curves`` draws one)."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = training_env(config, env)
     agent = make_agent(config, seed=seed)
@@ -98,7 +106,7 @@ def train_agent(
         history, arrays = read_for_resume(out / CHECKPOINT_FILE, config, seed)
         load_into(agent.load_state_dict, arrays, out / CHECKPOINT_FILE)
     checkpoints.start(history)
-    checkpoints.snapshot(agent.state_dict, history)
+    checkpoints.snapshot(checkpoint_state(agent), history)
     with watching(progress, run_total(config), f"{config.algorithm} seed {seed}") as monitor:
         monitor.restored(history)
         started = time.perf_counter()
@@ -112,7 +120,7 @@ def train_agent(
         config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
     )
     if out is not None:
-        write_run(out, record, f"seed {seed}")
+        write_run(out, record, f"seed {seed}", curve)
     if stop:
         raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
     return record, agent
@@ -135,7 +143,7 @@ def _learn(config, seed, env, agent, history, checkpoints, monitor, on_episode):
                 checkpoints.close()
                 raise diverged(config, seed, episode, len(history), error) from None
             history.add_episode(result)
-            checkpoints.snapshot(agent.state_dict, history)
+            checkpoints.snapshot(checkpoint_state(agent), history)
             monitor.episode(episode, result.length, result.episode_return, result.success)
             if (episode + 1) % config.checkpoint_every == 0:
                 checkpoints.save()

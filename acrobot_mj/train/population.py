@@ -9,8 +9,9 @@ uses training episodes only, from the learners' own training starts; no greedy r
 for it (the learners make none), so the run's decisions are its learning episodes' and the
 kept learner's one greedy run from rest.
 
-A run directory holds ``learner_K/`` (each a run of its own: record, learning curve, and its
-checkpoints while the population trains, so an interrupted run resumes) and, at the top, the
+A run directory holds ``learner_K/`` (each a run of its own: record, episode log, and its
+checkpoints while the population trains, so an interrupted run resumes; no learning curve, which
+would cost more than the learner's training: ``acrobot-mj curves`` draws one) and, at the top, the
 usual ``run.json``, ``checkpoint.npz`` (the kept learner's agent) and learning curve, so
 ``evaluate`` and ``render`` work on it unchanged. Once the top-level checkpoint is written the
 learners' checkpoints are deleted (ten of them would take ten times the disk); resuming a
@@ -150,6 +151,7 @@ def _train_each(config, seed, out, env, resume, monitor, on_episode, judge):
                 on_episode,
                 greedy=False,
                 tee=tee,
+                curve=False,
             )
         except KeyboardInterrupt as error:
             raise type(error)(

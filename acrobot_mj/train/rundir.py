@@ -28,6 +28,9 @@ from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import EpisodeLog, RunLog, read_rows
 from acrobot_mj.train.records import HISTORY_KEYS, History, checkpoint_meta
 
+#: An agent's arrays (its ``state_dict``).
+StateNow = dict[str, np.ndarray]
+
 RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = (
     "run.json",
     "eval.json",
@@ -135,9 +138,10 @@ def read_for_resume(
     path: Path, config: TrainConfig, seed: int
 ) -> tuple[History, dict[str, np.ndarray]]:
     """The history and agent arrays of a checkpoint that ``config`` and ``seed``
-    may continue (more episodes than it holds are allowed, but no change of the schedule)."""
+    may continue (more episodes than it holds are allowed, but no change of the schedule;
+    another ``checkpoint_every`` too, which changes nothing learned)."""
     meta, arrays, saved = read_checkpoint(path)
-    check_same_run(path, meta, saved, config, seed, may_differ=("episodes",))
+    check_same_run(path, meta, saved, config, seed, may_differ=("episodes", "checkpoint_every"))
     history = read_history(path, meta)
     if config.episodes < meta["episodes_done"]:
         raise CheckpointError(
@@ -212,7 +216,7 @@ class Checkpoints:
     ) -> None:
         self.path, self.config, self.seed = path, config, seed
         self.log = None if path is None else EpisodeLog(path.parent / EPISODE_LOG, learner, tee)
-        self._state: tuple[dict[str, np.ndarray], int, int] | None = None
+        self._state: tuple[Any, int, int] | None = None
         self._logged = 0
 
     def start(self, history: History) -> None:
@@ -222,9 +226,13 @@ class Checkpoints:
             self.log.start(history)
             self._logged = len(history)
 
-    def snapshot(self, state: Callable[[], dict[str, np.ndarray]], history: History) -> None:
+    def snapshot(
+        self, state: Callable[[], StateNow | Callable[[], StateNow]], history: History
+    ) -> None:
         """Log the episodes ``history`` gained, and remember the agent's arrays (``state()``,
-        called only if there is a file to write) and the progress, after a completed episode."""
+        called only if there is a file to write, or the function it returns, called when the
+        checkpoint is written: :class:`~acrobot_mj.agents.protocol.Rewinding`) and the
+        progress, after a completed episode."""
         if self.log is None:
             return
         lists = history.episode_lengths, history.episode_returns, history.episode_successes
@@ -238,6 +246,8 @@ class Checkpoints:
         if self.log is None or self._state is None:
             return
         arrays, length, steps = self._state
+        if callable(arrays):
+            arrays = arrays()
         self.log.sync()
         meta = checkpoint_meta(self.config, self.seed, length, steps, EPISODE_LOG)
         save_checkpoint(self.path, arrays, meta)
@@ -248,11 +258,15 @@ class Checkpoints:
             self.log.close()
 
 
-def write_run(out: Path, record: dict[str, Any], label: str) -> None:
-    """A finished run's ``run.json`` and learning curve (``label``: which run, for the title)."""
+def write_run(out: Path, record: dict[str, Any], label: str, curve: bool = True) -> None:
+    """A finished run's ``run.json`` and (``curve``) learning curve (``label``: which run, for
+    the title)."""
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / RUN_FILE, record)
-    plot_learning_curves(out / CURVE_FILE, TrainConfig.from_dict(record["config"]), [record], label)
+    if curve:
+        plot_learning_curves(
+            out / CURVE_FILE, TrainConfig.from_dict(record["config"]), [record], label
+        )
 
 
 def plot_learning_curves(
