@@ -137,3 +137,15 @@ def test_wrapper_refuses_bad_gamma_and_step_before_reset():
 def test_config_refuses_bad_energy_shaping(value):
     with pytest.raises((ValueError, TypeError), match="energy_shaping"):
         TrainConfig(energy_shaping=value)
+
+
+def test_the_wrappers_potential_is_energy_potential_bit_for_bit():
+    # EnergyShaping.potential skips energy_potential's conversions; the numbers must not move.
+    from acrobot_mj.physics.params import AcrobotParams
+
+    rng = np.random.default_rng(7)
+    for params in (AcrobotParams(), AcrobotParams(m2=1.3, lc2=0.4)):
+        shaping = EnergyShaping(make_env(PRESETS["book"]), 40.0, params=params)
+        for obs in rng.uniform([-4, -4, -13, -29], [4, 4, 13, 29], (2000, 4)):
+            for given in (obs, obs.astype(np.float32), obs.tolist()):
+                assert shaping.potential(given) == 40.0 * energy_potential(given, params)

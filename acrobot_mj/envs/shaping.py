@@ -38,8 +38,13 @@ def energy_potential(obs: Any, params: AcrobotParams = DEFAULT_PARAMS) -> float:
     """The normalised energy of ``obs = (q1, q2, dq1, dq2)``: 0 hanging at rest, 1 upright
     (``dynamics.state_energy``: ``total_energy``'s numbers on Python floats)."""
     q1, q2, dq1, dq2 = np.asarray(obs, dtype=np.float64).tolist()
-    hanging, upright = _rest_energies(params)
-    return (state_energy(q1, q2, dq1, dq2, params) - hanging) / (upright - hanging)
+    return _normalised(state_energy(q1, q2, dq1, dq2, params), _rest_energies(params))
+
+
+def _normalised(energy: float, rest: tuple[float, float]) -> float:
+    """``energy`` [J] on the scale 0 hanging at rest, 1 upright at rest (``rest``)."""
+    hanging, upright = rest
+    return (energy - hanging) / (upright - hanging)
 
 
 class EnergyShaping(gym.Wrapper):
@@ -64,9 +69,15 @@ class EnergyShaping(gym.Wrapper):
             raise ValueError(f"energy shaping gamma must be in [0, 1], got {gamma!r}")
         self.scale, self.gamma, self.params = float(scale), float(gamma), params
         self._phi: float | None = None
+        self._rest = _rest_energies(params)
 
     def potential(self, obs: Any) -> float:
-        return self.scale * energy_potential(obs, self.params)
+        """``scale`` times :func:`energy_potential` of ``obs`` (the same number: its steps
+        without the per-call conversions and cache lookup, which cost as much as the energy)."""
+        fast = isinstance(obs, np.ndarray) and obs.dtype == np.float64
+        q1, q2, dq1, dq2 = (obs if fast else np.asarray(obs, dtype=np.float64)).tolist()
+        energy = state_energy(q1, q2, dq1, dq2, self.params)
+        return self.scale * _normalised(energy, self._rest)
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)

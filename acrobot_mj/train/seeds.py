@@ -49,8 +49,10 @@ def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, A
     }
 
 
-def _train_one(config, seed, out_dir, resume, progress, tensorboard=None) -> dict[str, Any]:
-    return train(
+def _train_one(config, seed, out_dir, resume, progress, tensorboard=None, protocol=None):
+    """One seed's run and (``protocol``) its held-out evaluation, in the process that trained
+    it: ``(record, evaluation or None)``."""
+    record = train(
         config,
         seed,
         out_dir,
@@ -59,6 +61,7 @@ def _train_one(config, seed, out_dir, resume, progress, tensorboard=None) -> dic
         overwrite=True,
         tensorboard=tensorboard,
     )
+    return record, None if protocol is None else evaluate_run(out_dir, protocol)
 
 
 def train_seeds(
@@ -90,8 +93,13 @@ def train_seeds(
         together = config.lockstep_by_default if lockstep is None else lockstep
         if together:
             check_lockstep(config)
-        records = _train_all(config, seeds, out, jobs, resume, progress, tensorboard, together)
-        return _summarize_into(out, config, seeds, records, protocol)
+        runs = _train_all(config, seeds, out, jobs, resume, progress, tensorboard, together,
+                          protocol)  # fmt: skip
+        records = [record for record, _ in runs]
+        evaluations = [evaluation for _, evaluation in runs]
+        if protocol is not None and None in evaluations:  # lockstep: evaluated here
+            evaluations = [evaluate_run(seed_dir(out, s), protocol) for s in seeds]
+        return _summarize_into(out, config, seeds, records, evaluations)
 
 
 def _train_group(config, seeds, out, resume, board) -> list[dict[str, Any]]:
@@ -100,19 +108,23 @@ def _train_group(config, seeds, out, resume, board) -> list[dict[str, Any]]:
     return train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
 
 
-def _train_all(config, seeds, out, jobs, resume, progress, board, together) -> list[dict]:
+def _train_all(config, seeds, out, jobs, resume, progress, board, together, protocol):
+    """Every seed's ``(record, evaluation)``: evaluated where it was trained, except in
+    lockstep (evaluation None)."""
     jobs = min(jobs, len(seeds))
     if together and jobs == 1:
-        return train_lockstep(
+        records = train_lockstep(
             config, seeds, out, progress=progress, resume=resume, tensorboard=board
         )
+        return [(record, None) for record in records]
     count, unit = run_total(config)
     label = f"{config.algorithm} x{len(seeds)} seeds"
     if jobs == 1:
         with watching(progress, (count * len(seeds), unit), label, board) as monitor:
+            bars = [monitor.scoped(f"seed_{s}") for s in seeds]
             return [
-                _train_one(config, s, str(seed_dir(out, s)), resume, monitor.scoped(f"seed_{s}"))
-                for s in seeds
+                _train_one(config, s, str(seed_dir(out, s)), resume, bar, None, protocol)
+                for s, bar in zip(seeds, bars, strict=True)
             ]
     if together:  # one lockstep group per process, seeds dealt out in turn
         groups = [seeds[j::jobs] for j in range(jobs)]
@@ -123,7 +135,7 @@ def _train_all(config, seeds, out, jobs, resume, progress, board, together) -> l
         function, calls = (
             _train_one,
             [
-                (config, s, str(seed_dir(out, s)), resume, False, b)
+                (config, s, str(seed_dir(out, s)), resume, False, b, protocol)
                 for s, b in zip(seeds, boards, strict=True)
             ],
         )
@@ -141,8 +153,8 @@ def _train_all(config, seeds, out, jobs, resume, progress, board, together) -> l
     finally:
         bar.close()
     if together:
-        finished = [record for group in finished for record in group]
-    by_seed = {record["seed"]: record for record in finished}
+        finished = [(record, None) for group in finished for record in group]
+    by_seed = {record["seed"]: (record, evaluation) for record, evaluation in finished}
     return [by_seed[s] for s in seeds]
 
 
@@ -162,21 +174,16 @@ def summarize_evaluations(evaluations: list[dict[str, Any]], config: TrainConfig
     return summary
 
 
-def _evaluate_all(out: Path, seeds: list[int], protocol: Protocol | None) -> list[dict] | None:
-    if protocol is None:
-        return None
-    return [evaluate_run(seed_dir(out, s), protocol) for s in seeds]
-
-
-def _summarize_into(out, config, seeds, records, protocol) -> dict[str, Any]:
-    evaluations = _evaluate_all(out, seeds, protocol)
+def _summarize_into(out, config, seeds, records, evaluations) -> dict[str, Any]:
+    """``summary.json`` (with the held-out ``evaluations``, unless there are none) and the
+    learning curve across seeds."""
     summary = {
         "config": config.to_dict(),
         "versions": versions(),
         **summarize(records, config),
         "runs": [seed_dir(Path(), s).name for s in seeds],
     }
-    if evaluations is not None:
+    if None not in evaluations:
         summary["held_out"] = summarize_evaluations(evaluations, config)
     write_json(out / SUMMARY_FILE, summary)
     plot_learning_curves(out / CURVE_FILE, config, records, f"{len(seeds)} seeds")
