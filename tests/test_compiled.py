@@ -152,6 +152,9 @@ def test_the_checkpoint_state_mid_episode_is_the_state_after_the_last_episode() 
     # compared with copies taken when the episode began.
     config = BOOK.replace(kernel="numba", epsilon=0.05)  # draws: the stream moves too
     env, agent = make_env(config), make_agent(config.replace(kernel="numba"), seed=2)
+    unwatched = make_agent(config, seed=2)
+    learn_episode(make_env(config), unwatched, seed=0)
+    assert unwatched._undo[0].size == 0  # no log is kept until a checkpoint's state is asked for
     state = agent.checkpoint_state()
     room = agent._undo[0].size
     # The first episode from zero weights is long: 600 decisions log far more than the

@@ -54,9 +54,11 @@ class CompiledSarsaLambda(SarsaLambda):
         self._factor = self.gamma * self.lam
         self._traces = (self._pairs, self._values, self._position)
         self._rates = (self.alpha, self.gamma, self._factor, self.trace_cutoff)
-        # The weights this episode changed (kernels.mark's log), and what the rest of the
-        # state was when it began: begin_episode calls so far, the stream's state.
-        self._undo = kernels.undo_log(room)
+        # The weights this episode changed (kernels.mark's log, kept once a checkpoint's state
+        # has been asked for: an empty one is not written), and what the rest of the state was
+        # when it began: begin_episode calls so far, the stream's state.
+        self._room = room
+        self._undo = kernels.undo_log(0)
         self._begun = 0
         self._stream_at_start = self.stream.position()
 
@@ -85,7 +87,7 @@ class CompiledSarsaLambda(SarsaLambda):
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
         if self._count + self._next.size > self._pairs.size:
             self._grow()
-        if self._undo[2][0] + self._next.size > self._undo[0].size:
+        if self._undo[0].size and self._undo[2][0] + self._next.size > self._undo[0].size:
             self._grow_undo()
         if not terminated and self.epsilon == 0.0:  # one compiled call, unless the policy draws
             a2, self._count = kernels.greedy_step(
@@ -162,6 +164,8 @@ class CompiledSarsaLambda(SarsaLambda):
         the returned function is called (the weights rewound through the log of the episode
         begun since, if one was)."""
         begun = self._begun
+        if not self._undo[0].size:  # the first time: keep the log from the next episode on
+            self._undo = kernels.undo_log(self._room)
 
         def state() -> dict[str, np.ndarray]:
             now = self.state_dict()
