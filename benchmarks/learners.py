@@ -127,8 +127,11 @@ def tuned_seeds(seeds: int, jobs: int, config: TrainConfig) -> float:
     """Decisions per wall second of ``train --preset tuned --seeds S --jobs J`` as the CLI
     runs it (``train_seeds`` into a temporary directory): each seed's model identification
     (env decisions), its learners (simulated decisions), records, checkpoints, learning curve,
-    greedy run and held-out evaluation. The decisions counted are the records' (learning and
-    env); the evaluation's are not, though its time is."""
+    greedy run and held-out evaluation. The decisions counted are the records' (simulated
+    learning ``steps`` and the env's ``decisions_total``, as a model-based record keeps them);
+    the evaluation's are not, though its time is."""
+    if not config.identify_decisions:
+        raise ValueError("tuned_seeds counts a model-based run's decisions: identify_decisions")
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
         train_seeds(config, list(range(seeds)), Path(tmp) / "run", jobs=jobs)
@@ -159,3 +162,20 @@ def tuned_seeds_row(quick: bool, baseline: Rate) -> dict[str, float | int | str]
         "gymnasium_env_step_per_second": base,
         "ratio": rate / base,
     }
+
+
+def tuned_seeds_line(row: dict[str, float | int | str]) -> str:
+    """The report's line for :func:`tuned_seeds_row`."""
+    return (
+        f"tuned over {row['seeds']} seeds, --jobs {row['jobs']} ({row['kernel']}): "
+        f"{row['decisions_per_second']:.0f} decisions/s, Acrobot-v1 env.step "
+        f"{row['gymnasium_env_step_per_second']:.0f}/s around it"
+    )
+
+
+def lockstep_lambda_memory(quick: bool) -> dict[str, float]:
+    """Peak memory per learner of lockstep Sarsa(lambda) with the tuned tiles (numba only)."""
+    if importlib.util.find_spec("numba") is None:
+        return {}
+    per_learner = lockstep_memory_mb(2 if quick else 10)
+    return {"lockstep_lambda_peak_memory_mb_per_tuned_learner": per_learner}

@@ -316,7 +316,7 @@ def run(
         "vector_env_vs_sync_steps_per_second": versus_sync,
         "scaling_steps_per_second": scaling,
         "lockstep_peak_memory_mb_1024_learners": lockstep_peak_memory(1024),
-        **lockstep_lambda_memory(quick),
+        **sibling("learners").lockstep_lambda_memory(quick),
         **sibling("peer_compare").sections(rates, quick, rounds, peer_python, vector_env),
         "analytic_backend": sibling("analytic").analytic_rows(quick)
         if has_numba()
@@ -340,14 +340,6 @@ def versus_gymnax(result: dict[str, Any]) -> None:
     result["targets"]["analytic_vs_gymnax_sim_seconds_N1024"] = 1.0
 
 
-def lockstep_lambda_memory(quick: bool) -> dict[str, float]:
-    """Peak memory per learner of lockstep Sarsa(lambda) with the tuned tiles (numba only)."""
-    if not has_numba():
-        return {}
-    per_learner = sibling("learners").lockstep_memory_mb(2 if quick else 10)
-    return {"lockstep_lambda_peak_memory_mb_per_tuned_learner": per_learner}
-
-
 def report(result: dict[str, Any]) -> str:
     """The benchmark's table as text."""
     rates = result["rates_steps_per_second"]
@@ -365,12 +357,7 @@ def report(result: dict[str, Any]) -> str:
     else:
         lines.append(f"compiled learner: build and first episode {compiled['cold']:.1f} s in a "
                      f"fresh process, {compiled['cached']:.1f} s from numba's cache")  # fmt: skip
-    row = result["tuned_seeds"]
-    lines.append(
-        f"tuned over {row['seeds']} seeds, --jobs {row['jobs']} ({row['kernel']}): "
-        f"{row['decisions_per_second']:.0f} decisions/s, Acrobot-v1 env.step "
-        f"{row['gymnasium_env_step_per_second']:.0f}/s around it"
-    )
+    lines.append(sibling("learners").tuned_seeds_line(result["tuned_seeds"]))
     lines.append("")
     for key, value in result["ratios"].items():
         target = result["targets"].get(key)

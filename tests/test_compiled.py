@@ -151,7 +151,7 @@ def test_the_checkpoint_state_mid_episode_is_the_state_after_the_last_episode() 
     # progress changed (kernels.mark's log), instead of a copy after every episode. Exact:
     # compared with copies taken when the episode began.
     config = BOOK.replace(kernel="numba", epsilon=0.05)  # draws: the stream moves too
-    env, agent = make_env(config), make_agent(config.replace(kernel="numba"), seed=2)
+    env, agent = make_env(config), make_agent(config, seed=2)
     unwatched = make_agent(config, seed=2)
     learn_episode(make_env(config), unwatched, seed=0)
     assert unwatched._undo[0].size == 0  # no log is kept until a checkpoint's state is asked for
@@ -173,9 +173,64 @@ def test_the_checkpoint_state_mid_episode_is_the_state_after_the_last_episode() 
     for key in before:
         assert np.array_equal(after[key], before[key]), key
     assert not np.array_equal(agent.w, before["w"])  # the episode did change weights
+    with pytest.raises(RuntimeError, match="between episodes"):
+        agent.checkpoint_state()  # mid-episode: there is no state to promise
     partial_episode(env, agent, 10, 5)  # a second episode begun: that state is gone
     with pytest.raises(RuntimeError, match="after the next two had begun"):
         state()
+    fresh = make_agent(config, seed=2)
+    state = fresh.checkpoint_state()
+    fresh.load_state_dict(agent.state_dict())  # a load: the state before it is gone too
+    with pytest.raises(RuntimeError, match="after the next two had begun"):
+        state()
+
+
+def test_the_fused_update_and_decay_is_update_then_decay() -> None:
+    # kernels.update_decay must give update's weights and decay's traces byte for byte: random
+    # weights over ten decades, NaN traces, every cutoff branch (0 keeps every trace).
+    rng = np.random.default_rng(0)
+    for trial in range(3000):
+        size, n = 500, int(rng.integers(0, 200))
+        pairs = rng.choice(size, n, replace=False).astype(np.int64)
+        values = rng.uniform(0, 3, n) * 10.0 ** rng.uniform(-4, 0, n)
+        if trial % 7 == 0 and n:
+            values[rng.integers(n)] = np.nan
+        position = np.full(size, -1, np.int64)
+        position[pairs] = np.arange(n)
+        w = rng.standard_normal(size) * 10.0 ** rng.uniform(-5, 5, size)
+        step = float(rng.standard_normal()) * 10.0 ** rng.uniform(-5, 5)
+        factor, cutoff = float(rng.uniform(0, 1)), float(rng.choice([0.0, 1e-3, 0.05, 0.5]))
+        a = [x.copy() for x in (w, pairs, values, position)]
+        b = [x.copy() for x in (w, pairs, values, position)]
+        kernels.update(a[0], a[1], a[2], n, step)
+        kept = kernels.decay(a[1], a[2], a[3], n, factor, cutoff)
+        assert kernels.update_decay(b[0], b[1], b[2], b[3], n, step, factor, cutoff) == kept
+        assert a[0].tobytes() == b[0].tobytes() and a[3].tobytes() == b[3].tobytes()
+        assert a[1][:kept].tobytes() == b[1][:kept].tobytes()
+        assert a[2][:kept].tobytes() == b[2][:kept].tobytes()
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [{"traces": "accumulating"}, {"trace_cutoff": 0.0}, {"trace_cutoff": 0.3, "epsilon": 0.1}],
+)
+def test_the_rewind_is_exact_for_other_traces(changes) -> None:
+    config = BOOK.replace(kernel="numba", **changes)
+    env, agent = make_env(config), make_agent(config, seed=3)
+    for episode in range(2):
+        learn_episode(env, agent, seed=episode)
+    before, state = agent.state_dict(), agent.checkpoint_state()
+    partial_episode(env, agent, 5, 120)
+    after = state()
+    assert all(np.array_equal(after[k], before[k]) for k in before)
+
+
+def test_accumulating_traces_with_the_one_call_path_are_the_same_through_both(tmp_path) -> None:
+    # epsilon 0: the fused kernel (greedy_step, update_decay) with accumulating traces.
+    config = BOOK.replace(traces="accumulating", episodes=15)
+    (ref, ref_agent), (fast, fast_agent) = run_both(config, 2, tmp_path)
+    assert fast["episode_lengths"] == ref["episode_lengths"]
+    assert np.array_equal(fast_agent.w, ref_agent.w)
 
 
 class StopAtDecision(gym.Wrapper):

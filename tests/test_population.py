@@ -56,7 +56,7 @@ def test_population_run_keeps_the_best_learner(tmp_path):
     np.testing.assert_array_equal(agent.w, kept.w)
     assert not list(tmp_path.glob("learner_*/checkpoint.npz"))
     # One figure for the run; the learners' own (drawn on demand by acrobot-mj curves) would
-    # cost more than a tuned learner's training.
+    # cost about half a tuned learner's training each.
     assert (tmp_path / "learning_curve.png").is_file()
     assert not list(tmp_path.glob("learner_*/learning_curve.png"))
     # evaluate's rest episode is the record's greedy run from rest.
@@ -68,6 +68,10 @@ def test_population_runs_are_deterministic_and_resume_to_the_same_record(tmp_pat
     first = train(CONFIG, seed=4, out_dir=tmp_path / "a")
     second = train(CONFIG, seed=4)
     resumed = train(CONFIG, seed=4, out_dir=tmp_path / "a", resume=True)  # finished: trains again
+    # Another checkpoint interval changes nothing learned: a finished run resumes with it too.
+    other_interval = CONFIG.replace(checkpoint_every=7)
+    again = train(other_interval, seed=4, out_dir=tmp_path / "a", resume=True)
+    assert again["episode_lengths"] == first["episode_lengths"]
     # Interrupted after learner 0 and half of learner 1 (their checkpoints are still there).
     part = tmp_path / "b"
     single = CONFIG.replace(population=1)

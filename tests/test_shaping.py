@@ -149,3 +149,5 @@ def test_the_wrappers_potential_is_energy_potential_bit_for_bit():
         for obs in rng.uniform([-4, -4, -13, -29], [4, 4, 13, 29], (2000, 4)):
             for given in (obs, obs.astype(np.float32), obs.tolist()):
                 assert shaping.potential(given) == 40.0 * energy_potential(given, params)
+    shaping.params = AcrobotParams()  # replaced: the rest energies follow
+    assert shaping.potential(obs) == 40.0 * energy_potential(obs)

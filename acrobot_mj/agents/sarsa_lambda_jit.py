@@ -163,6 +163,8 @@ class CompiledSarsaLambda(SarsaLambda):
         """See :class:`~acrobot_mj.agents.protocol.Rewinding`: the state now, rebuilt when
         the returned function is called (the weights rewound through the log of the episode
         begun since, if one was)."""
+        if self._a >= 0:
+            raise RuntimeError("checkpoint_state() is for between episodes: one is in progress")
         begun = self._begun
         if not self._undo[0].size:  # the first time: keep the log from the next episode on
             self._undo = kernels.undo_log(self._room)

@@ -69,13 +69,15 @@ class EnergyShaping(gym.Wrapper):
             raise ValueError(f"energy shaping gamma must be in [0, 1], got {gamma!r}")
         self.scale, self.gamma, self.params = float(scale), float(gamma), params
         self._phi: float | None = None
-        self._rest = _rest_energies(params)
+        self._rest, self._rest_of = _rest_energies(params), params
 
     def potential(self, obs: Any) -> float:
         """``scale`` times :func:`energy_potential` of ``obs`` (the same number: its steps
         without the per-call conversions and cache lookup, which cost as much as the energy)."""
         fast = isinstance(obs, np.ndarray) and obs.dtype == np.float64
         q1, q2, dq1, dq2 = (obs if fast else np.asarray(obs, dtype=np.float64)).tolist()
+        if self._rest_of is not self.params:  # params replaced since: their rest energies
+            self._rest, self._rest_of = _rest_energies(self.params), self.params
         energy = state_energy(q1, q2, dq1, dq2, self.params)
         return self.scale * _normalised(energy, self._rest)
 

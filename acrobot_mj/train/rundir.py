@@ -118,6 +118,10 @@ def load_into(
         raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
 
 
+#: Config fields a resumed run may change: they change nothing learned.
+RESUME_MAY_DIFFER = ("checkpoint_every",)
+
+
 def check_same_run(
     path: Path,
     meta: dict[str, Any],
@@ -141,7 +145,7 @@ def read_for_resume(
     may continue (more episodes than it holds are allowed, but no change of the schedule;
     another ``checkpoint_every`` too, which changes nothing learned)."""
     meta, arrays, saved = read_checkpoint(path)
-    check_same_run(path, meta, saved, config, seed, may_differ=("episodes", "checkpoint_every"))
+    check_same_run(path, meta, saved, config, seed, may_differ=("episodes", *RESUME_MAY_DIFFER))
     history = read_history(path, meta)
     if config.episodes < meta["episodes_done"]:
         raise CheckpointError(

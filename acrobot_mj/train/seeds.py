@@ -49,7 +49,11 @@ def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, A
     }
 
 
-def _train_one(config, seed, out_dir, resume, progress, tensorboard=None, protocol=None):
+#: A seed's run record and its held-out evaluation (None: not evaluated where it trained).
+Run = tuple[dict[str, Any], dict[str, Any] | None]
+
+
+def _train_one(config, seed, out_dir, resume, progress, tensorboard=None, protocol=None) -> Run:
     """One seed's run and (``protocol``) its held-out evaluation, in the process that trained
     it: ``(record, evaluation or None)``."""
     record = train(
@@ -108,7 +112,7 @@ def _train_group(config, seeds, out, resume, board) -> list[dict[str, Any]]:
     return train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
 
 
-def _train_all(config, seeds, out, jobs, resume, progress, board, together, protocol):
+def _train_all(config, seeds, out, jobs, resume, progress, board, together, protocol) -> list[Run]:
     """Every seed's ``(record, evaluation)``: evaluated where it was trained, except in
     lockstep (evaluation None)."""
     jobs = min(jobs, len(seeds))
