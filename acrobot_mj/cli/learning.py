@@ -65,8 +65,9 @@ def add_train(commands: Commands) -> None:
     p.add_argument(
         "--lockstep",
         action=argparse.BooleanOptionalAction,
-        help="with --seeds: train the seeds together on one vector env (Sarsa(lambda) needs "
-        "--kernel numba; the same runs); default: where that is faster, tabular SARSA",
+        help="with --seeds or --population: train the seeds (or a run's learners) together on "
+        "one vector env (Sarsa(lambda) needs --kernel numba; the same runs); default: the "
+        "seeds of tabular SARSA, a population's learners one by one",
     )
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
@@ -95,8 +96,11 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     config = config_of(args)
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
-    if args.seeds is None and args.lockstep is not None:
-        raise ValueError("--lockstep trains several seeds together: it needs --seeds")
+    if args.seeds is None and args.lockstep is not None and config.population == 1:
+        raise ValueError(
+            "--lockstep trains several seeds or a population's learners together: it needs "
+            "--seeds or --population"
+        )
     if args.seeds is not None:
         return _train_seeds(args, config, progress)
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
@@ -108,6 +112,7 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
         progress=progress,
         overwrite=args.force,
         tensorboard=args.tensorboard,
+        lockstep=args.lockstep,
     )
     task = get_task(config.task)
     pop = record.get("population")

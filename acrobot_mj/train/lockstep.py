@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents.protocol import DivergenceError
+from acrobot_mj.agents.protocol import Agent, DivergenceError
 from acrobot_mj.agents.registry import AGENTS, agent_spec, make_agent, make_features
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.config import TrainConfig
@@ -64,16 +64,35 @@ def train_lockstep(
     if resume and run_dirs is None:
         raise ValueError("resume needs the run directories (out_dir or run_dirs)")
     with RunLock(out_dir) if out_dir is not None else contextlib.nullcontext():
-        run = _Lockstep(config, seeds, run_dirs)
-        if resume:
-            run.restore()
-        label = f"lockstep {config.algorithm} x{len(seeds)}"
-        total = (config.episodes * len(seeds), "episodes")
-        with watching(progress, total, label, tensorboard) as monitor:
-            started = time.perf_counter()
-            run.train(monitor)
-        elapsed = time.perf_counter() - started
-        return run.records(elapsed, greedy)
+        run, elapsed = _run(config, seeds, run_dirs, progress, resume, tensorboard)
+        return run.records(elapsed, greedy)[0]
+
+
+def train_together(
+    config: TrainConfig,
+    seeds: list[int],
+    run_dirs: list[Path] | None,
+    progress: bool | Monitor = False,
+    resume: bool = False,
+) -> tuple[list[dict[str, Any]], list[Agent]]:
+    """:func:`train_lockstep` for a population's learners (its caller holds the run's lock):
+    no greedy runs and no learning curves; the records and the trained agents."""
+    check_lockstep(config)
+    run, elapsed = _run(config, seeds, run_dirs, progress, resume, None)
+    return run.records(elapsed, greedy=False, curves=False)
+
+
+def _run(config, seeds, run_dirs, progress, resume, tensorboard) -> tuple[_Lockstep, float]:
+    """The lockstep run of ``seeds``, trained (restored first with ``resume``); its seconds."""
+    run = _Lockstep(config, seeds, run_dirs)
+    if resume:
+        run.restore()
+    label = f"lockstep {config.algorithm} x{len(seeds)}"
+    total = (config.episodes * len(seeds), "episodes")
+    with watching(progress, total, label, tensorboard) as monitor:
+        started = time.perf_counter()
+        run.train(monitor)
+    return run, time.perf_counter() - started
 
 
 def check_lockstep(config: TrainConfig) -> None:
@@ -218,9 +237,12 @@ class _Lockstep:
             if self.episode[i] % self.config.checkpoint_every == 0:
                 self.checkpoints[i].save()
 
-    def records(self, elapsed: float, greedy: bool) -> list[dict[str, Any]]:
-        """Each learner's run record (and run directory), with its greedy episode from rest."""
-        config, records = self.config, []
+    def records(
+        self, elapsed: float, greedy: bool, curves: bool = True
+    ) -> tuple[list[dict[str, Any]], list[Agent]]:
+        """Each learner's run record (and run directory, with its learning curve if
+        ``curves``), with its greedy episode from rest if ``greedy``; and the agents."""
+        config, records, agents = self.config, [], []
         env = make_env(config)
         for i, seed in enumerate(self.seeds):
             agent = make_agent(config, seed=seed)
@@ -235,6 +257,7 @@ class _Lockstep:
                 greedy=greedy_from_rest(env, agent, seed) if greedy else None,
             )
             if self.dirs is not None:
-                write_run(self.dirs[i], record, f"seed {seed}")
+                write_run(self.dirs[i], record, f"seed {seed}", curves)
             records.append(record)
-        return records
+            agents.append(agent)
+        return records, agents

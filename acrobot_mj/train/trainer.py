@@ -31,6 +31,7 @@ def train(
     on_episode: OnEpisode | None = None,
     overwrite: bool = False,
     tensorboard: str | Path | None = None,
+    lockstep: bool | None = None,
 ) -> dict[str, Any]:
     """Train ``config``'s agent with ``seed`` for ``config.episodes`` episodes.
 
@@ -39,7 +40,8 @@ def train(
     the checkpoint in ``out_dir`` and ends exactly as an uninterrupted run would. ``env`` may be
     any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)`` observations (default: the
     config's acrobot env). Returns the run record. With ``config.population > 1`` it trains
-    that many learners and keeps one (:mod:`acrobot_mj.train.population`).
+    that many learners and keeps one (:mod:`acrobot_mj.train.population`; ``lockstep``: its
+    learners together on one vector env, or not, or None: the faster way for the algorithm).
 
     ``progress`` shows one bar over all the run's learners on stderr (or is the
     :class:`~acrobot_mj.train.progress.Monitor` of a bigger run); ``tensorboard`` writes each
@@ -49,21 +51,25 @@ def train(
     """
     check_seed(seed)
     if out_dir is None:
-        return _train(config, seed, None, env, resume, progress, on_episode, tensorboard)
+        return _train(config, seed, None, env, resume, progress, on_episode, tensorboard, lockstep)
     out = Path(out_dir)
     with RunLock(out, "train", create=not resume):  # resume: the directory must be there
         if not resume and not overwrite:
             check_fresh(out)
-        return _train(config, seed, out, env, resume, progress, on_episode, tensorboard)
+        return _train(config, seed, out, env, resume, progress, on_episode, tensorboard, lockstep)
 
 
-def _train(config, seed, out, env, resume, progress, on_episode, tensorboard) -> dict[str, Any]:
+def _train(config, seed, out, env, resume, progress, on_episode, board, lockstep) -> dict:
     learners = f" x{config.population}" if config.population > 1 else ""
     label = f"{config.algorithm}{learners} seed {seed}"
-    with watching(progress, run_total(config), label, tensorboard) as monitor:
+    if lockstep and config.identify_decisions > 0:
+        raise ValueError("a model-based run's learners train one by one in the model: no lockstep")
+    with watching(progress, run_total(config), label, board) as monitor:
         if config.identify_decisions > 0:
             return train_in_model(config, seed, out, env, resume, monitor, on_episode)
-        return train_learners(config, seed, out, env, resume, monitor, on_episode)[0]
+        return train_learners(config, seed, out, env, resume, monitor, on_episode, None, lockstep)[
+            0
+        ]
 
 
 def check_seed(seed: Any) -> int:
