@@ -243,7 +243,7 @@ class _Lockstep:
         """Each learner's run record (and run directory, with its learning curve if
         ``curves``), with its greedy episode from rest if ``greedy``; and the agents."""
         config, records, agents = self.config, [], []
-        env = make_env(config)
+        env = make_env(config) if greedy else None  # for the greedy runs alone
         for i, seed in enumerate(self.seeds):
             agent = make_agent(config, seed=seed)
             agent.load_state_dict(self.learners.state_dict(i))

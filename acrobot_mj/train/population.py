@@ -183,11 +183,17 @@ def _train_together(config, seed, out, resume, monitor):
         counts = [r["episodes_done"] for r in records]
         concatenate(out / EPISODE_LOG, [d / EPISODE_LOG for d in dirs], counts)
     scores = [recent_median(score.values(record)) for record in records]
+    best = _first_best(score, scores)
+    return records, scores, best, agents[best]
+
+
+def _first_best(score: Any, scores: list[float]) -> int:
+    """The index of the best of ``scores`` by the task's ``score`` (ties: the first)."""
     best = 0
-    for i in range(1, k):  # ties: the first, as one by one
+    for i in range(1, len(scores)):
         if score.is_better(scores[i], scores[best]):
             best = i
-    return records, scores, best, agents[best]
+    return best
 
 
 def _train_each(config, seed, out, env, resume, monitor, on_episode, judge):
@@ -223,7 +229,7 @@ def _train_each(config, seed, out, env, resume, monitor, on_episode, judge):
                 tee.close()
         records.append(record)
         scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
-        if agent is None or score.is_better(scores[k], scores[best]):  # ties: the first
+        if _first_best(score, scores) == k:  # only the best so far is kept in memory
             best, agent = k, learner
     return records, scores, best, agent
 
