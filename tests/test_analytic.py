@@ -157,7 +157,7 @@ def test_the_compiled_step_is_the_python_step_bit_for_bit() -> None:
 
 
 def test_the_compiled_observation_is_the_shared_one_bit_for_bit() -> None:
-    from acrobot_mj.envs.analytic_kernel import wrap_jit
+    from acrobot_mj.envs.row_kernels import wrap_jit
 
     rng = np.random.default_rng(6)
     angles = np.concatenate([

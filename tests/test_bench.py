@@ -26,6 +26,8 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
         "lockstep_book_numba_vs_gymnasium_env_step",
         "tuned_numba_vs_gymnasium_env_step",
         "tuned_seeds_vs_gymnasium_env_step",
+        "vector_env_vs_batch_N1024",  # target 0.9 at N >= 256 (quick: N = 1024 only)
+        "vector_env_vs_batch_io_floor_N1024",
     ):
         assert result["ratios"][key] > 0 and key in text
     assert len(result["rates_steps_per_second"]) == 12  # with the lockstep book row
@@ -37,6 +39,9 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
     compiled = result["compiled_learner"]  # a fresh process compiles, then loads the cache
     assert compiled["cold"] > compiled["cached"] > 0 and "numba's cache" in text
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}
+    big = result["scaling_steps_per_second"]["1024"]
+    assert result["ratios"]["vector_env_vs_batch_N1024"] == big["vector_env"] / big["batch_ceiling"]
+    assert result["targets"]["vector_env_vs_batch_N1024"] == 0.9 and "batch + I/O" in text
     versus_sync = result["vector_env_vs_sync_steps_per_second"]
     assert set(versus_sync) == {"1", "4", "16", "64"}
     for row in versus_sync.values():  # the ratio is of the two rates measured side by side

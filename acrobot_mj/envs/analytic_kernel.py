@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import os
 
-from acrobot_mj.physics.angles import wrap_float
-
 try:
     from numba import config, njit, prange, set_num_threads
 except ImportError as error:  # pragma: no cover  (the fast extra is missing)
@@ -28,23 +26,6 @@ if "NUMBA_THREADING_LAYER" not in os.environ and config.THREADING_LAYER == "defa
     # OpenMP, numba's default where present, a process forked after the parallel kernels ran
     # aborts when it runs them itself (worker pools fork).
     config.THREADING_LAYER = "forksafe"
-
-#: :func:`~acrobot_mj.physics.angles.wrap_float`, compiled (wrap_angle's numbers).
-wrap_jit = njit(cache=True)(wrap_float)
-
-
-@njit(cache=True)
-def observe_rows(state, obs, max_angle, huge):  # pragma: no cover  (compiled)
-    """Write the observations of ``state``'s rows into ``obs`` (angles wrapped); False if any
-    row has an angle beyond ``max_angle``, a velocity beyond ``huge`` or a NaN (``obs`` is then
-    not to be used: the caller raises)."""
-    ok = True
-    for i in range(state.shape[0]):
-        q1, q2, v1, v2 = state[i, 0], state[i, 1], state[i, 2], state[i, 3]
-        if not (abs(q1) < max_angle and abs(q2) < max_angle and abs(v1) < huge and abs(v2) < huge):
-            ok = False
-        obs[i, 0], obs[i, 1], obs[i, 2], obs[i, 3] = wrap_jit(q1), wrap_jit(q2), v1, v2
-    return ok
 
 
 @njit(cache=True)

@@ -153,6 +153,7 @@ class AnalyticPhysics:
 
     def __init__(self, model: MjModel, num_envs: int, nthread: int | None = None) -> None:
         from acrobot_mj.envs import analytic_kernel as kernel  # numba: the fast extra
+        from acrobot_mj.envs import row_kernels
 
         self.model = model
         #: What the kernel takes: ``a, b, c`` [kg m^2], ``d, e`` [N m], ``dt`` [s] and the
@@ -167,7 +168,9 @@ class AnalyticPhysics:
         self._tau = self.ctrl[:, 0]
         self._kernel = kernel.step_rows if self._nthread == 1 else kernel.step_rows_parallel
         self._set_threads = kernel.set_threads
-        self._observe = kernel.observe_rows
+        self._observe = row_kernels.observe_rows
+        #: The compiled passes the vector env shares (the discrete actions' torques).
+        self.kernels = row_kernels if num_envs > FEW else None
 
     @property
     def nthread(self) -> int:

@@ -7,11 +7,19 @@ loaded machine, where a thread may wait for a core. One acrobot's ``mj_step`` co
 1.3 us, so a batch of fewer than :data:`THREADED_FROM` simulations runs faster on the calling
 thread alone (measured: ``benchmarks/suite.py``, and docs/speed.md). Every simulation is
 computed by the same C code whatever thread runs it, so the thread count changes no number.
+
+Between steps, batches of more than :data:`FEW` simulations limit velocities and build their
+observations in compiled passes (:mod:`~acrobot_mj.envs.row_kernels`) when numba is installed
+(the ``fast`` extra), else in numpy's calls: the same numbers either way. The time between
+``Batch.step`` calls counts twice: the batch's threads slow down when the calling thread is
+busy for longer between calls (measured: docs/speed.md).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import math
+from types import ModuleType
 
 import numpy as np
 from mujoco import MjData, MjModel
@@ -28,6 +36,9 @@ THREADED_FROM = 256
 #: Batches of at most this many simulations test their velocities and states in Python (a few
 #: comparisons cost less than a numpy call); larger ones in numpy. The numbers are the same.
 FEW = 8
+#: Whether batches of more than :data:`FEW` simulations use the compiled row kernels where numba
+#: is installed (the tests turn it off to compare them with numpy's calls).
+COMPILED = True
 _PI, _MIN_PI = math.pi, -math.pi
 #: Weights of ``|q1|, |q2|, |dq1|, |dq2|`` in the observation's quick test: powers of two, so
 #: exact; a weighted maximum below pi means every angle in (-pi, pi) (wrapping changes nothing),
@@ -43,6 +54,17 @@ def batch_threads(num_envs: int, nthread: int | None) -> int:
     return 1 if num_envs < THREADED_FROM else 0
 
 
+def row_kernels(num_envs: int) -> ModuleType | None:
+    """:mod:`~acrobot_mj.envs.row_kernels` for a batch of ``num_envs`` simulations, or None:
+    for at most :data:`FEW` (Python's tests cost less), without numba, or with
+    :data:`COMPILED` off."""
+    if num_envs <= FEW or not COMPILED or importlib.util.find_spec("numba") is None:
+        return None
+    from acrobot_mj.envs import row_kernels as kernels
+
+    return kernels
+
+
 class BatchPhysics:
     """``num_envs`` simulations of ``model`` in one ``Batch`` (``batch``) on
     :func:`batch_threads` threads, with live ``(num_envs, ...)`` views ``qpos``, ``qvel`` and
@@ -56,6 +78,8 @@ class BatchPhysics:
         #: Live views of the columns ``q1, q2, dq1, dq2``, as the task's outcome takes them.
         self.columns = (self.qpos[:, 0], self.qpos[:, 1], self.qvel[:, 0], self.qvel[:, 1])
         self._rows = state_rows(self.qpos, self.qvel)
+        #: The compiled row kernels (:func:`row_kernels`), or None.
+        self.kernels = row_kernels(num_envs)
 
     @property
     def nthread(self) -> int:
@@ -66,11 +90,15 @@ class BatchPhysics:
         """``substeps`` physics steps of every simulation, each followed by the velocity limits
         (``np.clip``, NaN kept). A few simulations are tested in Python first and left alone
         when inside the limits, as the single env does; each velocity column is clipped on its
-        own (a 1-D pass is several times faster than one over the strided ``(N, 2)`` view)."""
-        qvel, step = self.qvel, self.batch.step
+        own (a 1-D pass is several times faster than one over the strided ``(N, 2)`` view), or
+        all in one compiled pass (:attr:`kernels`)."""
+        qvel, step, kernels = self.qvel, self.batch.step, self.kernels
         dq1, dq2 = self.columns[2:]
         for _ in range(substeps):
             step()
+            if kernels is not None:
+                kernels.limit_rows(qvel, MAX_VEL1, MAX_VEL2)
+                continue
             if self.few:
                 for v1, v2 in qvel.tolist():
                     if not (-MAX_VEL1 <= v1 <= MAX_VEL1 and -MAX_VEL2 <= v2 <= MAX_VEL2):
@@ -83,8 +111,15 @@ class BatchPhysics:
     def observe(self) -> np.ndarray:
         """Every simulation's observation ``(q1, q2, dq1, dq2)``, angles wrapped into [-pi, pi)
         (as they are when inside); raises on a non-finite state or angles beyond
-        ``MAX_ANGLE``, naming the simulations, as the single env does."""
+        ``MAX_ANGLE``, naming the simulations, as the single env does (one compiled pass with
+        :attr:`kernels`)."""
         q, v = self.qpos, self.qvel
+        if self.kernels is not None:
+            rows = np.concatenate((q, v), axis=1) if self._rows is None else self._rows
+            obs = np.empty((len(q), 4))
+            if self.kernels.observe_rows(rows, obs, MAX_ANGLE, HUGE):
+                return obs
+            return checked_observation(np.array(rows), few=False)  # raises
         # One copy of the (N, 4) rows where qvel follows qpos in each state row (the batch's
         # layout), else two.
         obs = np.concatenate((q, v), axis=1) if self._rows is None else self._rows.copy()

@@ -28,11 +28,12 @@ from acrobot_mj.envs.analytic_physics import AnalyticPhysics
 from acrobot_mj.envs.batch_physics import BatchPhysics
 from acrobot_mj.envs.env import AcrobotEnv
 from acrobot_mj.envs.resets import reset_noise
-from acrobot_mj.envs.spaces import action_torques
+from acrobot_mj.envs.spaces import TORQUES, action_torques
 from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
 
-_FLOAT, _BOOL = np.dtype(np.float64), np.dtype(bool)
+_FLOAT, _BOOL, _INT = np.dtype(np.float64), np.dtype(bool), np.dtype(np.int64)
+_TORQUES = np.array(TORQUES)
 #: The physics a vector env can step on: MuJoCo's batch (the default and the reference), or the
 #: lumped analytic model compiled with numba.
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
@@ -235,9 +236,10 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        # The hot path (profiled at N = 1 to 64): one call per part, numpy's cheapest calls.
-        self._ctrl[:, 0] = action_torques(actions, self._continuous, self.num_envs)
+        # The hot path (profiled at N = 1 to 4096): one call per part, numpy's cheapest calls
+        # or the physics' compiled passes.
         physics = self._physics
+        self._act(actions, physics.kernels)
         physics.step(self._frame_skip)  # with the task's velocity limits after each
         self._steps += 1
         # count_nonzero: a fraction of any()'s cost on small batches
@@ -250,6 +252,21 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         if self._next_step:
             self._pending = terminated | truncated
         return obs, reward, terminated, truncated, self._masked(info)
+
+    def _act(self, actions: Any, kernels: Any) -> None:
+        """Write the actions' torques into the controls; anything outside the action space
+        raises (:func:`~acrobot_mj.envs.spaces.action_torques`), writing nothing. Integer
+        actions of the usual dtype and shape take one compiled pass where ``kernels`` are."""
+        if (
+            kernels is not None
+            and actions.__class__ is np.ndarray
+            and actions.dtype == _INT
+            and actions.shape == self.action_space.shape
+            and not self._continuous
+            and kernels.discrete_torques(actions, _TORQUES, self._ctrl) < 0
+        ):
+            return  # written
+        self._ctrl[:, 0] = action_torques(actions, self._continuous, self.num_envs)
 
     def _flags(
         self, reward: Any, terminated: Any, info: dict[str, Any], resetting: np.ndarray | None

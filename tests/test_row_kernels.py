@@ -1,0 +1,109 @@
+"""The compiled row kernels (numba) against the numpy calls they replace: the same numbers bit
+for bit, the same refusals, nothing written on a bad action."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acrobot_mj.envs import batch_physics
+from acrobot_mj.envs.batch_physics import FEW, THREADED_FROM, checked_observation
+from acrobot_mj.envs.env import HUGE, MAX_ANGLE
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, TORQUES
+from acrobot_mj.envs.vector import AcrobotVectorEnv
+from tests.test_vector import KWARGS, _actions, _assert_identical, _run
+
+kernels = pytest.importorskip("acrobot_mj.envs.row_kernels")  # the fast extra
+
+#: Velocities at and around both limits, signed zeros, infinities and NaN [rad/s].
+EDGES = np.array(
+    [0.0, -0.0, MAX_VEL1, -MAX_VEL1, MAX_VEL2, -MAX_VEL2, np.nextafter(MAX_VEL1, np.inf),
+     np.nextafter(-MAX_VEL2, -np.inf), 1e300, -np.inf, np.inf, np.nan, 3.0, -40.0]
+)  # fmt: skip
+
+
+def test_limit_rows_is_np_clip_on_a_strided_view() -> None:
+    rng = np.random.default_rng(0)
+    values = np.concatenate((EDGES, rng.uniform(-60.0, 60.0, 500)))
+    rows = np.stack((values, rng.permutation(values)), axis=1)
+    state = np.zeros((len(rows), 7))  # qvel inside wider rows, as in the batch's state
+    state[:, 3:5] = rows
+    kernels.limit_rows(state[:, 3:5], MAX_VEL1, MAX_VEL2)
+    expected = np.stack(
+        (np.clip(rows[:, 0], -MAX_VEL1, MAX_VEL1), np.clip(rows[:, 1], -MAX_VEL2, MAX_VEL2)), 1
+    )
+    # Bit for bit, NaN kept and -0.0 left as it is (array_equal would take -0.0 == 0.0).
+    assert state[:, 3:5].tobytes() == expected.tobytes()
+    assert not state[:, [0, 1, 2, 5, 6]].any()  # nothing outside the view written
+
+
+def test_observe_rows_is_checked_observation() -> None:
+    rng = np.random.default_rng(1)
+    state = np.stack(
+        [
+            rng.uniform(-9.0, 9.0, 400),
+            rng.uniform(-9.0, 9.0, 400),
+            rng.uniform(-MAX_VEL1, MAX_VEL1, 400),
+            rng.uniform(-MAX_VEL2, MAX_VEL2, 400),
+        ],
+        1,
+    )  # fmt: skip  (angles beyond +-pi: wrapped)
+    state[:4, 0] = [np.pi, -np.pi, np.nextafter(np.pi, 0.0), 3 * np.pi]  # the interval's ends
+    obs = np.empty_like(state)
+    assert kernels.observe_rows(state, obs, MAX_ANGLE, HUGE)
+    assert obs.tobytes() == checked_observation(state.copy(), few=False).tobytes()
+    for row, column, value in [(5, 2, np.nan), (9, 0, MAX_ANGLE), (0, 3, HUGE)]:
+        bad = state.copy()
+        bad[row, column] = value
+        assert not kernels.observe_rows(bad, obs, MAX_ANGLE, HUGE)
+        with pytest.raises(RuntimeError, match=rf"sub-envs \[{row}\]"):
+            checked_observation(bad, few=False)
+
+
+def test_discrete_torques_write_all_or_nothing() -> None:
+    torques, ctrl = np.array(TORQUES), np.full((6, 1), 7.0)
+    assert kernels.discrete_torques(np.array([0, 1, 2, 2, 1, 0]), torques, ctrl) == -1
+    np.testing.assert_array_equal(ctrl[:, 0], [-1.0, 0.0, 1.0, 1.0, 0.0, -1.0])
+    for bad, first in [([0, 1, 3, 2, -1, 0], 2), ([0, 0, 0, 0, 0, -1], 5)]:
+        before = ctrl.copy()
+        assert kernels.discrete_torques(np.array(bad), torques, ctrl) == first
+        np.testing.assert_array_equal(ctrl, before)  # nothing written
+
+
+def _numpy_and_compiled(monkeypatch, n: int, **kwargs) -> tuple[AcrobotVectorEnv, ...]:
+    compiled = AcrobotVectorEnv(num_envs=n, **kwargs)
+    monkeypatch.setattr(batch_physics, "COMPILED", False)
+    numpy = AcrobotVectorEnv(num_envs=n, **kwargs)
+    assert compiled.physics.kernels is kernels and numpy.physics.kernels is None
+    return numpy, compiled
+
+
+@pytest.mark.parametrize("n", [FEW + 1, THREADED_FROM])  # one thread, and the batch's threads
+def test_the_vector_env_steps_alike_with_and_without_the_kernels(monkeypatch, n) -> None:
+    # Through autoresets, velocity limits (set_state puts sub-envs at them) and angle wrapping.
+    numpy, compiled = _numpy_and_compiled(monkeypatch, n, **KWARGS)
+    actions = _actions(300, n)
+    reference = _run(numpy, actions, seed=5)
+    _assert_identical(reference, _run(compiled, actions, seed=5))
+    obs = np.array([r[0] for r in reference])
+    assert (np.abs(obs[..., 2]) == MAX_VEL1).any() and (np.abs(obs[..., 3]) == MAX_VEL2).any()
+    assert np.array([r[3] for r in reference]).sum() >= n  # truncations, then autoresets
+
+
+@pytest.mark.parametrize(
+    "actions",
+    [np.array([0, 1, 3] * 5), np.array([-1] + [0] * 14), np.zeros(15, dtype=np.int32) + 5,
+     np.zeros(14, dtype=np.int64), np.zeros(15)],
+)  # fmt: skip
+def test_bad_actions_get_the_same_error_and_write_nothing(monkeypatch, actions) -> None:
+    envs = _numpy_and_compiled(monkeypatch, 15)
+    messages = []
+    for env in envs:
+        env.reset(seed=0)
+        env.step(np.full(15, 2))
+        before = env.batch.state.copy()
+        with pytest.raises(ValueError) as error:
+            env.step(actions)
+        messages.append(str(error.value))
+        assert env.batch.state.tobytes() == before.tobytes()  # no control written
+    assert messages[0] == messages[1]
