@@ -7,6 +7,9 @@ import json
 import pytest
 
 from acrobot_mj.cli import main
+from acrobot_mj.train import config as config_module
+from acrobot_mj.train.config import LOCKSTEP_GROUP_FROM
+from acrobot_mj.train.presets import PRESETS
 
 
 def test_train_and_evaluate_report_preset(tmp_path, capsys) -> None:
@@ -114,26 +117,30 @@ def test_corrupt_checkpoint_gives_a_clear_error(tmp_path, capsys) -> None:
     assert "truncated or corrupt" in capsys.readouterr().err
 
 
-def test_report_seeds_run_in_lockstep_and_evaluate(tmp_path, capsys) -> None:
+@pytest.mark.parametrize(("group_from", "lockstep"), [(LOCKSTEP_GROUP_FROM, None), (3, 3)])
+def test_report_seeds_run_in_lockstep_from_a_group_size(
+    tmp_path, monkeypatch, group_from, lockstep
+):
+    # Tabular SARSA's seeds go in lockstep by default only in groups of LOCKSTEP_GROUP_FROM or
+    # more (smaller ones are faster one per process): three seeds one by one, unless the
+    # threshold is three.
+    monkeypatch.setattr(config_module, "LOCKSTEP_GROUP_FROM", group_from)
     out = tmp_path / "many"
-    main(
-        [
-            "train",
-            "--preset",
-            "report",
-            "--episodes",
-            "2",
-            "--max-episode-steps",
-            "50",
-            "--seeds",
-            "3",
-            "--out",
-            str(out),
-        ]
-    )
+    tiny = ["--preset", "report", "--episodes", "2", "--max-episode-steps", "50"]
+    main(["train", *tiny, "--seeds", "3", "--out", str(out)])
     record = json.loads((out / "seed_1" / "run.json").read_text())
-    assert record["lockstep"] == 3 and record["episode_lengths"] == [50, 50]
+    assert record.get("lockstep") == lockstep and record["episode_lengths"] == [50, 50]
     assert main(["evaluate", str(out / "seed_1"), "--episodes", "1"]) == 0
+    main(["train", *tiny, "--seeds", "3", "--lockstep", "--out", str(tmp_path / "asked")])
+    record = json.loads((tmp_path / "asked" / "seed_1" / "run.json").read_text())
+    assert record["lockstep"] == 3  # asked for, whatever the group's size
+
+
+def test_the_lockstep_default_follows_the_group_size() -> None:
+    report, book = PRESETS["report"], PRESETS["book"].replace(kernel="numba")
+    assert not report.lockstep_pays(LOCKSTEP_GROUP_FROM - 1)
+    assert report.lockstep_pays(LOCKSTEP_GROUP_FROM)
+    assert book.lockstep and not book.lockstep_pays(1000)  # Sarsa(lambda): only when asked
 
 
 def test_curves_of_several_seed_runs(tmp_path, capsys) -> None:

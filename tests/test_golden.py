@@ -51,7 +51,7 @@ def test_report_preset_three_seeds_in_lockstep_are_unchanged(tmp_path) -> None:
     # Frame skip 4, where the report's SARSA reaches the goal: at frame skip 1 every episode of
     # its 200 runs 1000 steps, which any learner that never succeeds would reproduce.
     config = PRESETS["report"].replace(frame_skip=4, episodes=50)
-    train_seeds(config, [0, 1, 2], tmp_path)
+    train_seeds(config, [0, 1, 2], tmp_path, lockstep=True)
     for seed, golden in enumerate(GOLDEN["report_fs4_seeds3"]):
         _same_run(json.loads((tmp_path / f"seed_{seed}" / "run.json").read_text()), golden)
 

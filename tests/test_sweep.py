@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
+from acrobot_mj.train import config as config_module
+from acrobot_mj.train.config import LOCKSTEP_GROUP_FROM
 from acrobot_mj.train.sweep import run_sweep
 from acrobot_mj.train.sweep_spec import load_sweep, parse_sweep
 
@@ -95,6 +97,18 @@ def test_local_sweep_resumes_and_records_failures(tmp_path, figures) -> None:
     assert all(p.stat().st_mtime_ns == t for p, t in stamps.items() if p != victim)
     for name in ("summary.json", "summary.md", "summary.png"):
         assert (tmp_path / name).exists()
+
+
+@pytest.mark.parametrize(("group_from", "lockstep"), [(LOCKSTEP_GROUP_FROM, None), (2, 2)])
+def test_a_grid_points_seeds_go_in_lockstep_from_a_group_size(
+    tmp_path, monkeypatch, group_from, lockstep
+) -> None:
+    # Two seeds a point: one by one at the default threshold, together when it is two.
+    monkeypatch.setattr(config_module, "LOCKSTEP_GROUP_FROM", group_from)
+    summary = run_sweep(parse_sweep(TINY), tmp_path)
+    runs = sorted((tmp_path / "trials").glob("*/run.json"))
+    assert len(runs) == 8 and all(row["runs"] == 2 for row in summary["points"])
+    assert {json.loads(p.read_text()).get("lockstep") for p in runs} == {lockstep}
 
 
 def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch) -> None:

@@ -331,6 +331,35 @@ def test_lockstep_learners_equal_single_learners(config, tmp_path) -> None:
         assert sum(sum(r["episode_successes"]) for r in lockstep) > 20  # terminal updates ran
 
 
+def test_seeds_stopped_in_lockstep_resume_one_by_one(tmp_path) -> None:
+    # Runs started in lockstep (the default for small groups before) resume one by one (the
+    # default now), and the reverse, to the runs trained whole either way.
+    from acrobot_mj.train.seeds import train_seeds
+
+    config = PRESETS["report"].replace(episodes=6, max_episode_steps=150, frame_skip=4)
+    seeds, short = [0, 2], config.replace(episodes=3)
+    whole = train_seeds(config, seeds, tmp_path / "whole", lockstep=False, protocol=None)
+    for first, then in [(True, False), (False, True)]:
+        out = tmp_path / f"from_{first}"
+        train_seeds(short, seeds, out, lockstep=first, protocol=None)
+        resumed = train_seeds(config, seeds, out, resume=True, lockstep=then, protocol=None)
+        assert (
+            resumed["decisions"] == whole["decisions"]
+            and resumed["successes"] == whole["successes"]
+        )
+        for s in seeds:
+            a, b = (
+                json.loads((d / f"seed_{s}" / "run.json").read_text())
+                for d in (out, tmp_path / "whole")
+            )
+            for key in RECORD_KEYS:
+                assert a[key] == b[key], key
+            np.testing.assert_array_equal(
+                load_checkpoint(out / f"seed_{s}" / CHECKPOINT_FILE)[1]["q"],
+                load_checkpoint(tmp_path / "whole" / f"seed_{s}" / CHECKPOINT_FILE)[1]["q"],
+            )
+
+
 def test_lockstep_refuses_sarsa_lambda() -> None:
     from acrobot_mj.train.lockstep import train_lockstep
 

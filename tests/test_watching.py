@@ -189,7 +189,9 @@ def _on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
 
 
 def test_a_terminal_gets_one_bar_over_every_learner(tmp_path) -> None:
-    code, shown = _on_a_terminal(["train", *TINY, "--seeds", "3", "--out", "s"], tmp_path)
+    code, shown = _on_a_terminal(
+        ["train", *TINY, "--seeds", "3", "--lockstep", "--out", "s"], tmp_path
+    )
     assert code == 0, shown
     # Lockstep: one bar of all three learners' 90 episodes, not learner 0's 30.
     assert "lockstep sarsa x3: 100%|" in shown and "90/90" in shown, shown

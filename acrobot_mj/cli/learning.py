@@ -54,7 +54,7 @@ def add_train(commands: Commands) -> None:
         "--seeds",
         type=positive_int,
         help="train K seeds and write summary.json; tabular SARSA runs them in "
-        "lockstep on one batched vector env, Sarsa(lambda) one per process",
+        "lockstep on one batched vector env from 25 a process, else one per process",
     )
     p.add_argument(
         "--jobs",
@@ -67,7 +67,7 @@ def add_train(commands: Commands) -> None:
         action=argparse.BooleanOptionalAction,
         help="with --seeds or --population: train the seeds (or a run's learners) together on "
         "one vector env (Sarsa(lambda) needs --kernel numba; the same runs); default: the "
-        "seeds of tabular SARSA, a population's learners one by one",
+        "seeds of tabular SARSA from 25 a process, a population's learners one by one",
     )
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")

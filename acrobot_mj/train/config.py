@@ -27,6 +27,11 @@ from acrobot_mj.agents.sarsa_lambda import KERNELS, TRACES
 from acrobot_mj.envs.env import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
 
+#: Learners of one lockstep group from which their algorithm's lockstep is the default (tabular
+#: SARSA): in smaller groups the learners that finish an episode wait for the group's slowest,
+#: and one process per seed is faster (measured: docs/learning.md).
+LOCKSTEP_GROUP_FROM = 25
+
 
 def _always(doc: str, default: Any) -> Any:
     return field(default=default, metadata={"doc": doc})
@@ -154,9 +159,15 @@ class TrainConfig:
 
     @property
     def lockstep_by_default(self) -> bool:
-        """Whether seeds train in lockstep unless told otherwise: they can, and for this
-        algorithm that is the faster way (tabular SARSA)."""
+        """Whether seeds train in lockstep unless told otherwise, in groups large enough
+        (:meth:`lockstep_pays`): they can, and for this algorithm that is the faster way
+        (tabular SARSA)."""
         return self.lockstep and agent_spec(self.algorithm).lockstep_default
+
+    def lockstep_pays(self, group: int) -> bool:
+        """Whether ``group`` learners of this config train in lockstep unless told otherwise:
+        :attr:`lockstep_by_default`, and at least :data:`LOCKSTEP_GROUP_FROM` of them."""
+        return self.lockstep_by_default and group >= LOCKSTEP_GROUP_FROM
 
     @property
     def learner_decisions(self) -> int:

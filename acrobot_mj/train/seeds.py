@@ -1,8 +1,9 @@
 """Several seeds of one config: one run directory per seed, a summary across them, and their
 learning curves together. Tabular SARSA trains the seeds together on one vector env
-(:mod:`.lockstep`, identical records), and so does compiled Sarsa(lambda) when asked
-(``lockstep=True``: slower than processes here); with ``jobs`` processes, one lockstep group of
-seeds each. The others run one seed per process."""
+(:mod:`.lockstep`, identical records) once there are enough of them (at least
+:data:`~acrobot_mj.train.config.LOCKSTEP_GROUP_FROM` per process), and so does compiled
+Sarsa(lambda) when asked (``lockstep=True``: slower than processes here); with ``jobs``
+processes, one lockstep group of seeds each. The others run one seed per process."""
 
 from __future__ import annotations
 
@@ -86,7 +87,8 @@ def train_seeds(
     ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1, read from their
     episode logs as the workers write them); ``tensorboard``: each seed's scalars in
     ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True), one run
-    per seed (False), or the algorithm's faster way (None: lockstep for tabular SARSA)."""
+    per seed (False), or the algorithm's faster way (None: lockstep for tabular SARSA in groups
+    of at least :data:`~acrobot_mj.train.config.LOCKSTEP_GROUP_FROM` seeds per process)."""
     if tensorboard is not None:
         summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
@@ -94,7 +96,8 @@ def train_seeds(
         if not resume and not overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
-        together = config.lockstep_by_default if lockstep is None else lockstep
+        group = -(-len(seeds) // min(jobs, len(seeds)))  # the largest lockstep group
+        together = config.lockstep_pays(group) if lockstep is None else lockstep
         if together:
             check_lockstep(config)
         runs = _train_all(config, seeds, out, jobs, resume, progress, tensorboard, together,
@@ -106,15 +109,20 @@ def train_seeds(
         return _summarize_into(out, config, seeds, records, evaluations)
 
 
-def _train_group(config, seeds, out, resume, board) -> list[dict[str, Any]]:
-    """In a worker: one lockstep group of seeds."""
+def _train_group(config, seeds, out, resume, board, protocol=None) -> list[Run]:
+    """In a worker: one lockstep group of seeds, then (``protocol``) each one's held-out
+    evaluation, in that worker."""
     dirs = [seed_dir(Path(out), s) for s in seeds]
-    return train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
+    records = train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
+    return [
+        (record, None if protocol is None else evaluate_run(path, protocol))
+        for record, path in zip(records, dirs, strict=True)
+    ]
 
 
 def _train_all(config, seeds, out, jobs, resume, progress, board, together, protocol) -> list[Run]:
     """Every seed's ``(record, evaluation)``: evaluated where it was trained, except in
-    lockstep (evaluation None)."""
+    lockstep in this process (evaluation None: evaluated afterwards)."""
     jobs = min(jobs, len(seeds))
     if together and jobs == 1:
         records = train_lockstep(
@@ -132,7 +140,8 @@ def _train_all(config, seeds, out, jobs, resume, progress, board, together, prot
             ]
     if together:  # one lockstep group per process, seeds dealt out in turn
         groups = [seeds[j::jobs] for j in range(jobs)]
-        function, calls = _train_group, [(config, g, str(out), resume, board) for g in groups]
+        function = _train_group
+        calls = [(config, g, str(out), resume, board, protocol) for g in groups]
         label = f"lockstep {label}"
     else:
         boards = [None if board is None else str(seed_dir(Path(board), s)) for s in seeds]
@@ -157,7 +166,7 @@ def _train_all(config, seeds, out, jobs, resume, progress, board, together, prot
     finally:
         bar.close()
     if together:
-        finished = [(record, None) for group in finished for record in group]
+        finished = [run for group in finished for run in group]
     by_seed = {record["seed"]: (record, evaluation) for record, evaluation in finished}
     return [by_seed[s] for s in seeds]
 

@@ -78,13 +78,15 @@ def run_sweep(
 
 
 def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) -> None:
-    # Tabular SARSA: one lockstep run per grid point (its seeds together on one vector env),
-    # those with checkpoints resumed together, the others started together.
+    # Tabular SARSA: one lockstep run per grid point with enough seeds (together on one vector
+    # env), those with checkpoints resumed together, the others started together.
     groups: dict[tuple[str, bool], list[Trial]] = {}
     for trial in todo:
         if trial.config.lockstep_by_default:
             saved = (trial_dir(out, trial) / CHECKPOINT_FILE).exists()
             groups.setdefault((trial.point_name, saved), []).append(trial)
+    groups = {key: g for key, g in groups.items() if g[0].config.lockstep_pays(len(g))}
+    together = {id(t) for group in groups.values() for t in group}
     for (_, saved), group in groups.items():
         dirs = [trial_dir(out, t) for t in group]
         try:
@@ -97,7 +99,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) ->
         for t in group:  # train_lockstep wrote each run.json; an earlier failure is over
             (trial_dir(out, t) / ERROR_FILE).unlink(missing_ok=True)
         bar.advance(len(group))
-    rest = [t for t in todo if not t.config.lockstep_by_default]
+    rest = [t for t in todo if id(t) not in together]
     calls = [(t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in rest]
     if jobs == 1:  # in this process, one after the other
         for call in calls:
