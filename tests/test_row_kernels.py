@@ -78,13 +78,21 @@ def _numpy_and_compiled(monkeypatch, n: int, **kwargs) -> tuple[AcrobotVectorEnv
     return numpy, compiled
 
 
+def _same_bytes(a: list[list[np.ndarray]], b: list[list[np.ndarray]]) -> None:
+    _assert_identical(a, b)  # shapes and values, then the bits (-0.0 is not 0.0 here)
+    for step_a, step_b in zip(a, b, strict=True):
+        assert [np.asarray(x).tobytes() for x in step_a] == [
+            np.asarray(y).tobytes() for y in step_b
+        ]
+
+
 @pytest.mark.parametrize("n", [FEW + 1, THREADED_FROM])  # one thread, and the batch's threads
 def test_the_vector_env_steps_alike_with_and_without_the_kernels(monkeypatch, n) -> None:
     # Through autoresets, velocity limits (set_state puts sub-envs at them) and angle wrapping.
     numpy, compiled = _numpy_and_compiled(monkeypatch, n, **KWARGS)
     actions = _actions(300, n)
     reference = _run(numpy, actions, seed=5)
-    _assert_identical(reference, _run(compiled, actions, seed=5))
+    _same_bytes(reference, _run(compiled, actions, seed=5))
     obs = np.array([r[0] for r in reference])
     assert (np.abs(obs[..., 2]) == MAX_VEL1).any() and (np.abs(obs[..., 3]) == MAX_VEL2).any()
     assert np.array([r[3] for r in reference]).sum() >= n  # truncations, then autoresets
@@ -107,3 +115,42 @@ def test_bad_actions_get_the_same_error_and_write_nothing(monkeypatch, actions) 
         messages.append(str(error.value))
         assert env.batch.state.tobytes() == before.tobytes()  # no control written
     assert messages[0] == messages[1]
+
+
+def test_the_analytic_backend_takes_its_torques_alike(monkeypatch) -> None:
+    # The analytic backend shares the torque kernel (its own step limits the velocities).
+    pytest.importorskip("acrobot_mj.envs.analytic_kernel")
+    numpy, compiled = _numpy_and_compiled_analytic(monkeypatch, FEW + 4)
+    actions = _actions(200, FEW + 4)
+    for env in (numpy, compiled):
+        env.reset(seed=3)
+    for a in actions:
+        for x, y in zip(numpy.step(a)[:4], compiled.step(a)[:4], strict=True):
+            assert x.tobytes() == y.tobytes()
+    assert numpy.physics.snapshot().tobytes() == compiled.physics.snapshot().tobytes()
+
+
+def _numpy_and_compiled_analytic(monkeypatch, n: int) -> tuple[AcrobotVectorEnv, ...]:
+    compiled = AcrobotVectorEnv(num_envs=n, backend="analytic")
+    monkeypatch.setattr(batch_physics, "COMPILED", False)
+    numpy = AcrobotVectorEnv(num_envs=n, backend="analytic")
+    assert compiled.physics.kernels is kernels and numpy.physics.kernels is None
+    return numpy, compiled
+
+
+def test_a_numba_that_fails_to_load_leaves_numpys_calls(monkeypatch) -> None:
+    # Installed but broken (built for another numpy, say): the env still works, unchanged.
+    import builtins
+
+    real = builtins.__import__
+
+    def broken(name, *args, **kwargs):
+        if name == "acrobot_mj.envs" and "row_kernels" in (args[2] or ()):
+            raise ImportError("numba: built for another numpy")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", broken)
+    env = AcrobotVectorEnv(num_envs=FEW + 3)
+    assert env.physics.kernels is None
+    env.reset(seed=0)
+    assert env.step(np.ones(FEW + 3, dtype=np.int64))[0].shape == (FEW + 3, 4)

@@ -360,6 +360,13 @@ def test_seeds_stopped_in_lockstep_resume_one_by_one(tmp_path) -> None:
             )
 
 
+def test_seeds_need_at_least_one(tmp_path) -> None:
+    from acrobot_mj.train.seeds import train_seeds
+
+    with pytest.raises(ValueError, match="at least one seed"):
+        train_seeds(PRESETS["report"], [], tmp_path)
+
+
 def test_lockstep_refuses_sarsa_lambda() -> None:
     from acrobot_mj.train.lockstep import train_lockstep
 

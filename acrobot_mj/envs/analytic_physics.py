@@ -25,6 +25,7 @@ from mujoco import MjData, MjModel
 
 from acrobot_mj.checks import check_int
 from acrobot_mj.control.identification import lumped
+from acrobot_mj.envs import batch_physics
 from acrobot_mj.envs.batch_physics import FEW, checked_observation
 from acrobot_mj.envs.env import HUGE, MAX_ANGLE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
@@ -170,7 +171,7 @@ class AnalyticPhysics:
         self._set_threads = kernel.set_threads
         self._observe = row_kernels.observe_rows
         #: The compiled passes the vector env shares (the discrete actions' torques).
-        self.kernels = row_kernels if num_envs > FEW else None
+        self.kernels = row_kernels if num_envs > FEW and batch_physics.COMPILED else None
 
     @property
     def nthread(self) -> int:

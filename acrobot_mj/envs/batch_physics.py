@@ -37,7 +37,8 @@ THREADED_FROM = 256
 #: comparisons cost less than a numpy call); larger ones in numpy. The numbers are the same.
 FEW = 8
 #: Whether batches of more than :data:`FEW` simulations use the compiled row kernels where numba
-#: is installed (the tests turn it off to compare them with numpy's calls).
+#: is installed, read when a batch is built (both backends; off, numpy's calls: the tests
+#: compare the two).
 COMPILED = True
 _PI, _MIN_PI = math.pi, -math.pi
 #: Weights of ``|q1|, |q2|, |dq1|, |dq2|`` in the observation's quick test: powers of two, so
@@ -56,12 +57,14 @@ def batch_threads(num_envs: int, nthread: int | None) -> int:
 
 def row_kernels(num_envs: int) -> ModuleType | None:
     """:mod:`~acrobot_mj.envs.row_kernels` for a batch of ``num_envs`` simulations, or None:
-    for at most :data:`FEW` (Python's tests cost less), without numba, or with
-    :data:`COMPILED` off."""
+    for at most :data:`FEW` (Python's tests cost less), without numba (or with one that fails
+    to load), or with :data:`COMPILED` off."""
     if num_envs <= FEW or not COMPILED or importlib.util.find_spec("numba") is None:
         return None
-    from acrobot_mj.envs import row_kernels as kernels
-
+    try:
+        from acrobot_mj.envs import row_kernels as kernels
+    except (ImportError, RuntimeError):  # a numba that does not load (built for another numpy)
+        return None  # numpy's calls: the same numbers
     return kernels
 
 

@@ -3,12 +3,14 @@ extra; imported only when a batch of more than :data:`~acrobot_mj.envs.batch_phy
 acrobots is built, or by the analytic backend).
 
 Each replaces a few numpy calls of the same rule: the velocity limits after a physics step
-(``np.clip``'s numbers, NaN kept), the observation (``wrap_angle``'s numbers, the same tests as
+(``np.clip``'s numbers, NaN kept; the MuJoCo backend's: the analytic one limits inside its
+step), the observation (``wrap_angle``'s numbers, the same tests as
 :func:`~acrobot_mj.envs.batch_physics.checked_observation`) and the discrete actions' torques
 (:func:`~acrobot_mj.envs.spaces.action_torques`' test, written only when every action is
-valid). One call costs about a microsecond at any batch size up to thousands of rows, where the
-numpy calls cost microseconds each (measured: docs/speed.md); the numbers are the same bit for
-bit (``tests/test_row_kernels.py``).
+valid). A call costs about a microsecond up to a few hundred rows and grows with the rows beyond
+(the observation 14 us at 4096), where each numpy call costs a microsecond or more and there are
+several (measured: docs/speed.md); the numbers are the same bit for bit
+(``tests/test_row_kernels.py``).
 """
 
 from __future__ import annotations

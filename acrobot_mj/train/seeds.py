@@ -89,6 +89,8 @@ def train_seeds(
     ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True), one run
     per seed (False), or the algorithm's faster way (None: lockstep for tabular SARSA in groups
     of at least :data:`~acrobot_mj.train.config.LOCKSTEP_GROUP_FROM` seeds per process)."""
+    if not seeds:
+        raise ValueError("train_seeds needs at least one seed")
     if tensorboard is not None:
         summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
@@ -96,7 +98,7 @@ def train_seeds(
         if not resume and not overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
-        group = -(-len(seeds) // min(jobs, len(seeds)))  # the largest lockstep group
+        group = len(seeds) // min(jobs, len(seeds))  # the smallest lockstep group
         together = config.lockstep_pays(group) if lockstep is None else lockstep
         if together:
             check_lockstep(config)

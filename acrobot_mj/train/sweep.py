@@ -12,6 +12,7 @@ process owns the sweep directory at a time (:mod:`.lock`).
 from __future__ import annotations
 
 import sys
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -78,14 +79,14 @@ def run_sweep(
 
 
 def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) -> None:
-    # Tabular SARSA: one lockstep run per grid point with enough seeds (together on one vector
-    # env), those with checkpoints resumed together, the others started together.
+    # Tabular SARSA: one lockstep run per grid point with enough seeds left to train (together
+    # on one vector env), those with checkpoints resumed together, the others started together.
+    left = Counter(t.point_name for t in todo)
     groups: dict[tuple[str, bool], list[Trial]] = {}
     for trial in todo:
-        if trial.config.lockstep_by_default:
+        if trial.config.lockstep_pays(left[trial.point_name]):
             saved = (trial_dir(out, trial) / CHECKPOINT_FILE).exists()
             groups.setdefault((trial.point_name, saved), []).append(trial)
-    groups = {key: g for key, g in groups.items() if g[0].config.lockstep_pays(len(g))}
     together = {id(t) for group in groups.values() for t in group}
     for (_, saved), group in groups.items():
         dirs = [trial_dir(out, t) for t in group]
