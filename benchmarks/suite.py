@@ -28,7 +28,6 @@ from typing import Any
 
 import gymnasium as gym
 import mujoco
-import numpy as np
 
 import acrobot_mj
 from acrobot_mj.agents.registry import make_agent
@@ -69,25 +68,11 @@ def raw_mj_step(steps: int) -> Rate:
     return measure
 
 
-def vector_steps(env: gym.vector.VectorEnv, steps: int) -> Rate:
-    """Steps of all sub-envs per second under random actions (autoresets included)."""
-    actions = np.random.default_rng(0).integers(0, 3, (steps, env.num_envs))
-
-    def measure(k: int) -> float:
-        env.reset(seed=k)
-        start = time.perf_counter()
-        for a in actions:
-            env.step(a)
-        return env.num_envs * steps / (time.perf_counter() - start)
-
-    return measure
-
-
 def vector_vs_sync(sizes: tuple[int, ...], env_steps: int, repeats: int) -> dict[int, dict]:
     """Per N: the vector env's and ``SyncVectorEnv``'s rates over the same single envs
     (``gymnasium.make_vec``, default and ``"sync"``), measured alternately A B A B ``repeats``
     times in short runs of about ``env_steps`` sub-env steps (load hits both alike), medians."""
-    table = {}
+    table, vector_steps = {}, sibling("scaling").vector_steps
     for n in sizes:
         steps = max(50, env_steps // n)
         ours = vector_steps(gym.make_vec(acrobot_mj.ENV_ID, num_envs=n), steps)
@@ -250,7 +235,7 @@ def run(
     for size, row in versus_sync.items():
         ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
     sizes = [1, 64, 1024] if quick else [1, 4, 16, 64, 256, 1024, 4096]
-    scaling = sibling("scaling").scaling_table(sizes, steps, rounds)
+    scaling = scale.scaling_table(sizes, steps, rounds)
     for size in (size for size in sizes if size >= 256):  # the target: >= 0.9 of the batch
         row = scaling[size]
         ratios[f"vector_env_vs_batch_N{size}"] = row["vector_env"] / row["batch_ceiling"]

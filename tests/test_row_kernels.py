@@ -98,6 +98,8 @@ def test_the_vector_env_steps_alike_with_and_without_the_kernels(monkeypatch, n)
     assert np.array([r[3] for r in reference]).sum() >= n  # truncations, then autoresets
 
 
+# The first two reach the kernel (int64 of the batch's shape) and are refused there; the others
+# (another dtype, shape or kind) take numpy's path with the kernels present.
 @pytest.mark.parametrize(
     "actions",
     [np.array([0, 1, 3] * 5), np.array([-1] + [0] * 14), np.zeros(15, dtype=np.int32) + 5,
@@ -120,7 +122,7 @@ def test_bad_actions_get_the_same_error_and_write_nothing(monkeypatch, actions) 
 def test_the_analytic_backend_takes_its_torques_alike(monkeypatch) -> None:
     # The analytic backend shares the torque kernel (its own step limits the velocities).
     pytest.importorskip("acrobot_mj.envs.analytic_kernel")
-    numpy, compiled = _numpy_and_compiled_analytic(monkeypatch, FEW + 4)
+    numpy, compiled = _numpy_and_compiled(monkeypatch, FEW + 4, backend="analytic")
     actions = _actions(200, FEW + 4)
     for env in (numpy, compiled):
         env.reset(seed=3)
@@ -128,14 +130,6 @@ def test_the_analytic_backend_takes_its_torques_alike(monkeypatch) -> None:
         for x, y in zip(numpy.step(a)[:4], compiled.step(a)[:4], strict=True):
             assert x.tobytes() == y.tobytes()
     assert numpy.physics.snapshot().tobytes() == compiled.physics.snapshot().tobytes()
-
-
-def _numpy_and_compiled_analytic(monkeypatch, n: int) -> tuple[AcrobotVectorEnv, ...]:
-    compiled = AcrobotVectorEnv(num_envs=n, backend="analytic")
-    monkeypatch.setattr(batch_physics, "COMPILED", False)
-    numpy = AcrobotVectorEnv(num_envs=n, backend="analytic")
-    assert compiled.physics.kernels is kernels and numpy.physics.kernels is None
-    return numpy, compiled
 
 
 def test_a_numba_that_fails_to_load_leaves_numpys_calls(monkeypatch) -> None:

@@ -171,7 +171,7 @@ class AnalyticPhysics:
         self._set_threads = kernel.set_threads
         self._observe = row_kernels.observe_rows
         #: The compiled passes the vector env shares (the discrete actions' torques).
-        self.kernels = row_kernels if num_envs > FEW and batch_physics.COMPILED else None
+        self.kernels = batch_physics.row_kernels(num_envs)
 
     @property
     def nthread(self) -> int:

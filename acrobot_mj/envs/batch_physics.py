@@ -11,8 +11,8 @@ computed by the same C code whatever thread runs it, so the thread count changes
 Between steps, batches of more than :data:`FEW` simulations limit velocities and build their
 observations in compiled passes (:mod:`~acrobot_mj.envs.row_kernels`) when numba is installed
 (the ``fast`` extra), else in numpy's calls: the same numbers either way. The time between
-``Batch.step`` calls counts twice: the batch's threads slow down when the calling thread is
-busy for longer between calls (measured: docs/speed.md).
+``Batch.step`` calls counts more than it measures alone: after a step the caches are cold, and
+the same Python runs 1.6 to 2.3 times slower (measured: docs/speed.md).
 """
 
 from __future__ import annotations

@@ -27,7 +27,8 @@ OBS_HIGH = (math.pi, math.pi, MAX_VEL1, MAX_VEL2)
 #: Integer types whose values index TORQUES directly (the env's fast path).
 INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
 TORQUE_OF = dict(enumerate(TORQUES))
-_TORQUE_ARRAY = np.array(TORQUES)
+#: :data:`TORQUES` as an array, indexed by actions.
+TORQUE_ARRAY = np.array(TORQUES)
 #: Batches of actions up to this size are range-tested in Python (cheaper than numpy's calls).
 _FEW = 8
 
@@ -90,7 +91,7 @@ def action_torques(actions: Any, continuous: bool, num_envs: int) -> np.ndarray:
     if num_envs <= _FEW and a.dtype.kind in "iu" and a.shape == (num_envs,):
         values = a.tolist()  # a few: Python's min and max cost less than numpy's tests
         if min(values) >= 0 and max(values) <= 2:
-            return _TORQUE_ARRAY[a]
+            return TORQUE_ARRAY[a]
     if a.dtype.kind not in "iu" or a.shape != (num_envs,):
         raise ValueError(
             f"actions must be integers of shape ({num_envs},), got {a.dtype} {a.shape}"
@@ -101,4 +102,4 @@ def action_torques(actions: Any, continuous: bool, num_envs: int) -> np.ndarray:
             f"actions outside Discrete(3) at sub-envs "
             f"{np.flatnonzero(bad).tolist()}: {a[bad].tolist()}"
         )
-    return _TORQUE_ARRAY[a]
+    return TORQUE_ARRAY[a]

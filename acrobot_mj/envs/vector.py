@@ -28,12 +28,11 @@ from acrobot_mj.envs.analytic_physics import AnalyticPhysics
 from acrobot_mj.envs.batch_physics import BatchPhysics
 from acrobot_mj.envs.env import AcrobotEnv
 from acrobot_mj.envs.resets import reset_noise
-from acrobot_mj.envs.spaces import TORQUES, action_torques
+from acrobot_mj.envs.spaces import TORQUE_ARRAY, action_torques
 from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
 
 _FLOAT, _BOOL, _INT = np.dtype(np.float64), np.dtype(bool), np.dtype(np.int64)
-_TORQUES = np.array(TORQUES)
 #: The physics a vector env can step on: MuJoCo's batch (the default and the reference), or the
 #: lumped analytic model compiled with numba.
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
@@ -263,7 +262,7 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
             and actions.dtype == _INT
             and actions.shape == self.action_space.shape
             and not self._continuous
-            and kernels.discrete_torques(actions, _TORQUES, self._ctrl) < 0
+            and kernels.discrete_torques(actions, TORQUE_ARRAY, self._ctrl) < 0
         ):
             return  # written
         self._ctrl[:, 0] = action_torques(actions, self._continuous, self.num_envs)
