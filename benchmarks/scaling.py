@@ -26,6 +26,10 @@ from acrobot_mj.envs.spaces import TORQUES
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 
 Rate = Callable[[int], float]  # round -> steps per second
+#: Rounds of the full bench's table: a measurement is short (about 0.1 s at N >= 256), and the
+#: ceiling moves by 10 to 20 % between measurements on a loaded 2-core machine, so 15 A B C turns
+#: (about 6 s a size) give medians that three turns do not.
+ROUNDS = 15
 
 
 def batch_ceiling(n: int, steps: int) -> Rate:

@@ -235,7 +235,8 @@ def run(
     for size, row in versus_sync.items():
         ratios[f"vector_env_vs_sync_vector_env_N{size}"] = row["ratio"]
     sizes = [1, 64, 1024] if quick else [1, 4, 16, 64, 256, 1024, 4096]
-    scaling = scale.scaling_table(sizes, steps, rounds)
+    scaling_rounds = rounds if quick else max(rounds, scale.ROUNDS)
+    scaling = scale.scaling_table(sizes, steps, scaling_rounds)
     for size in (size for size in sizes if size >= 256):  # the target: >= 0.9 of the batch
         row = scaling[size]
         ratios[f"vector_env_vs_batch_N{size}"] = row["vector_env"] / row["batch_ceiling"]
@@ -250,6 +251,7 @@ def run(
         },
         "quick": quick,
         "rounds": rounds,
+        "scaling_rounds": scaling_rounds,
         "rates_steps_per_second": rates,
         "ratios": ratios,
         "targets": {

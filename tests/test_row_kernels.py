@@ -10,6 +10,7 @@ from acrobot_mj.envs import batch_physics
 from acrobot_mj.envs.batch_physics import FEW, THREADED_FROM, checked_observation
 from acrobot_mj.envs.env import HUGE, MAX_ANGLE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, TORQUES
+from acrobot_mj.envs.tasks import ARRAY, get_task
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from tests.test_vector import KWARGS, _actions, _assert_identical, _run
 
@@ -86,16 +87,67 @@ def _same_bytes(a: list[list[np.ndarray]], b: list[list[np.ndarray]]) -> None:
         ]
 
 
+# The height goal low enough that random actions reach it within 60 steps (terminations), and
+# the balance task (no termination, wrapped angle errors).
+TASK_OPTIONS = [{}, {"goal_height": -1.5}, {"task": "balance", "tolerance": 2.0}]
+
+
 @pytest.mark.parametrize("n", [FEW + 1, THREADED_FROM])  # one thread, and the batch's threads
-def test_the_vector_env_steps_alike_with_and_without_the_kernels(monkeypatch, n) -> None:
-    # Through autoresets, velocity limits (set_state puts sub-envs at them) and angle wrapping.
-    numpy, compiled = _numpy_and_compiled(monkeypatch, n, **KWARGS)
+@pytest.mark.parametrize("options", TASK_OPTIONS)
+def test_the_vector_env_steps_alike_with_and_without_the_kernels(monkeypatch, n, options) -> None:
+    # Through autoresets, velocity limits (set_state puts sub-envs at them) and angle wrapping,
+    # with the task's compiled outcome against outcome(ARRAY).
+    numpy, compiled = _numpy_and_compiled(monkeypatch, n, **KWARGS, **options)
+    assert "compiled_outcome" in compiled._outcome.__qualname__  # the task's compiled rule
+    assert "compiled_outcome" not in numpy._outcome.__qualname__
     actions = _actions(300, n)
     reference = _run(numpy, actions, seed=5)
     _same_bytes(reference, _run(compiled, actions, seed=5))
     obs = np.array([r[0] for r in reference])
     assert (np.abs(obs[..., 2]) == MAX_VEL1).any() and (np.abs(obs[..., 3]) == MAX_VEL2).any()
     assert np.array([r[3] for r in reference]).sum() >= n  # truncations, then autoresets
+    if "goal_height" in options:
+        assert np.array([r[2] for r in reference]).sum() >= n  # terminations too
+
+
+@pytest.mark.parametrize(
+    "name, options",
+    [("height_goal", {}), ("height_goal", {"goal_height": -0.3, "goal_reward": 7.5,
+     "step_reward": -0.25}), ("balance", {}), ("balance", {"tolerance": 1.0})],
+)  # fmt: skip
+def test_the_compiled_outcomes_are_the_array_rule_bit_for_bit(name, options) -> None:
+    task = get_task(name)((1.0, 1.0), **options)
+    rng = np.random.default_rng(7)
+    states = rng.uniform(-9.0, 9.0, (4, 3000))  # angles beyond +-pi: wrapped errors
+    states[0, :6] = [np.pi, -np.pi, np.pi / 2, -np.pi / 2, 3 * np.pi, np.nextafter(np.pi, 0)]
+    states[1, :6] = [0.0, -0.0, np.pi, -np.pi, np.nan, np.inf]  # NaN and inf: as numpy's
+    states[:2, 6] = [np.pi / 2, 0.0]  # upright: balanced
+    rows = np.zeros((3000, 7))  # strided columns, as the batch's views
+    rows[:, 1:5] = states.T
+    columns = tuple(rows[:, k] for k in range(1, 5))
+    with np.errstate(invalid="ignore"):
+        expected = task.outcome(ARRAY)(*columns)
+    got = task.compiled_outcome()(*columns)
+    for x, y in zip(got[:2], expected[:2], strict=True):
+        assert np.broadcast_to(x, (3000,)).tobytes() == np.broadcast_to(y, (3000,)).tobytes()
+    assert got[2].keys() == expected[2].keys()
+    for key in expected[2]:
+        assert got[2][key].tobytes() == expected[2][key].tobytes(), key
+    assert 0 < np.count_nonzero(expected[2]["is_success"]) < 3000  # both outcomes occur
+
+
+def test_rows_outcome_falls_back_to_the_array_rule(monkeypatch) -> None:
+    task = get_task("height_goal")((1.0, 1.0))
+    assert "compiled_outcome" in task.rows_outcome(True).__qualname__
+    assert "compiled_outcome" not in task.rows_outcome(False).__qualname__
+    monkeypatch.setattr(type(task), "compiled_outcome", lambda self: None)  # a task without one
+    assert "compiled_outcome" not in task.rows_outcome(True).__qualname__
+
+    def broken(self):
+        raise ImportError("numba: built for another numpy")
+
+    monkeypatch.setattr(type(task), "compiled_outcome", broken)
+    assert "compiled_outcome" not in task.rows_outcome(True).__qualname__
 
 
 # The first two reach the kernel (int64 of the batch's shape) and are refused there; the others

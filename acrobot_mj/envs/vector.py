@@ -29,7 +29,6 @@ from acrobot_mj.envs.batch_physics import BatchPhysics
 from acrobot_mj.envs.env import AcrobotEnv
 from acrobot_mj.envs.resets import reset_noise
 from acrobot_mj.envs.spaces import TORQUE_ARRAY, action_torques
-from acrobot_mj.envs.tasks import ARRAY
 from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
 
 _FLOAT, _BOOL, _INT = np.dtype(np.float64), np.dtype(bool), np.dtype(np.int64)
@@ -160,7 +159,8 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
         self._qpos, self._qvel = physics.qpos, physics.qvel
         self._ctrl = physics.ctrl
-        self._outcome = self.task.outcome(ARRAY)
+        # The task's compiled rule where the physics has compiled kernels: the same numbers.
+        self._outcome = self.task.rows_outcome(physics.kernels is not None)
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.tasks.base import Outcome, Score, Task, constant_of
 from acrobot_mj.physics.angles import wrap_angle
@@ -98,6 +100,20 @@ class Balance(Task):
             reward = (one + sin(q1)) * (one + cos(q2)) / four
             error = maximum(absolute(wrap_angle(q1 - up)), absolute(wrap_angle(q2)))
             balanced = error < tolerance
+            info = {"upright_error": error, "is_balanced": balanced, "is_success": balanced}
+            return reward, False, info
+
+        return outcome
+
+    def compiled_outcome(self) -> Outcome:
+        from acrobot_mj.envs.tasks.compiled import balance_rows  # numba: on first use
+
+        tolerance, up = self.tolerance, math.pi / 2
+
+        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
+            n = len(q1)
+            reward, error, balanced = np.empty(n), np.empty(n), np.empty(n, dtype=bool)
+            balance_rows(q1, q2, tolerance, up, reward, error, balanced)
             info = {"upright_error": error, "is_balanced": balanced, "is_success": balanced}
             return reward, False, info
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.tasks.base import Outcome, Score, Task, constant_of
 
@@ -97,6 +99,19 @@ class HeightGoal(Task):
             tip = l1 * sin(q1) + l2 * sin(q1 + q2)
             reached = tip > height
             reward = where(reached, goal_reward, step_reward)
+            return reward, reached, {"tip_height": tip, "is_success": reached}
+
+        return outcome
+
+    def compiled_outcome(self) -> Outcome:
+        from acrobot_mj.envs.tasks.compiled import height_goal_rows  # numba: on first use
+
+        constants = (self.l1, self.l2, self.goal_height, self.goal_reward, self.step_reward)
+
+        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
+            n = len(q1)
+            reward, reached, tip = np.empty(n), np.empty(n, dtype=bool), np.empty(n)
+            height_goal_rows(q1, q2, *constants, reward, reached, tip)
             return reward, reached, {"tip_height": tip, "is_success": reached}
 
         return outcome
