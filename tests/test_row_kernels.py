@@ -150,6 +150,33 @@ def test_rows_outcome_falls_back_to_the_array_rule(monkeypatch) -> None:
     assert "compiled_outcome" not in task.rows_outcome(True).__qualname__
 
 
+def test_a_subclass_with_its_own_rule_is_not_given_its_parents_compiled_one() -> None:
+    # A user's variant of the height goal that rewards the tip's height: the built-in compiled
+    # height goal would give it -1 and +100 instead, silently.
+    height_goal = get_task("height_goal")
+
+    class Variant(height_goal):
+        def outcome(self, xp):
+            rule = super().outcome(xp)
+
+            def outcome(q1, q2, dq1, dq2):
+                _, reached, info = rule(q1, q2, dq1, dq2)
+                return info["tip_height"], reached, info
+
+            return outcome
+
+    class Recompiled(Variant):  # one that compiles its rule again is given it
+        def compiled_outcome(self):
+            return height_goal.compiled_outcome(self)
+
+    assert "compiled_outcome" not in Variant((1.0, 1.0)).rows_outcome(True).__qualname__
+    assert "compiled_outcome" in Recompiled((1.0, 1.0)).rows_outcome(True).__qualname__
+    env = AcrobotVectorEnv(num_envs=FEW + 1, task=Variant)
+    env.reset(seed=0)
+    _, reward, _, _, info = env.step(np.ones(FEW + 1, dtype=np.int64))
+    assert reward.tobytes() == info["tip_height"].tobytes()  # the variant's rule, not -1
+
+
 # The first two reach the kernel (int64 of the batch's shape) and are refused there; the others
 # (another dtype, shape or kind) take numpy's path with the kernels present.
 @pytest.mark.parametrize(

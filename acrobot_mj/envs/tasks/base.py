@@ -159,8 +159,12 @@ class Task(ABC):
 
     def rows_outcome(self, compiled: bool) -> Outcome:
         """The step rule over arrays of one row per sub-env: :meth:`compiled_outcome` where
-        ``compiled`` and the task has one (and numba loads), else ``outcome(ARRAY)``."""
-        if compiled:
+        ``compiled`` and the task has one (and numba loads), else ``outcome(ARRAY)``.
+
+        A compiled rule is used only where it was written beside the ``outcome`` it copies: a
+        subclass that overrides ``outcome`` without a ``compiled_outcome`` of its own gets its
+        own rule, not its parent's compiled one."""
+        if compiled and _defined_in(type(self), "compiled_outcome", "outcome"):
             try:
                 fast = self.compiled_outcome()
             except (ImportError, RuntimeError):  # a numba that does not load
@@ -177,3 +181,10 @@ class Task(ABC):
     def reference(cls, frame_skip: int) -> tuple[float, str] | None:
         """A reference score and its label for plots (e.g. the best known), or None."""
         return None
+
+
+def _defined_in(cls: type, name: str, below: str) -> bool:
+    """Whether ``cls`` takes ``name`` from the class that defines ``below``, or from a subclass
+    of it (an override of ``below`` further down leaves ``name`` behind)."""
+    owner = next(k for k in cls.__mro__ if name in k.__dict__)
+    return issubclass(owner, next(k for k in cls.__mro__ if below in k.__dict__))
