@@ -133,21 +133,25 @@ def test_the_compiled_outcomes_are_the_array_rule_bit_for_bit(name, options) -> 
     assert got[2].keys() == expected[2].keys()
     for key in expected[2]:
         assert got[2][key].tobytes() == expected[2][key].tobytes(), key
+    # New arrays, none shared: the vector env hands them on without copies.
+    arrays = [got[0], got[1], *got[2].values()]
+    assert all(a.shape == (3000,) and a.flags.owndata for a in arrays)
+    assert not any(np.shares_memory(a, b) for i, a in enumerate(arrays) for b in arrays[:i])
     assert 0 < np.count_nonzero(expected[2]["is_success"]) < 3000  # both outcomes occur
 
 
 def test_rows_outcome_falls_back_to_the_array_rule(monkeypatch) -> None:
     task = get_task("height_goal")((1.0, 1.0))
-    assert "compiled_outcome" in task.rows_outcome(True).__qualname__
-    assert "compiled_outcome" not in task.rows_outcome(False).__qualname__
+    assert "compiled_outcome" in task.rows_outcome(True)[0].__qualname__
+    assert "compiled_outcome" not in task.rows_outcome(False)[0].__qualname__
     monkeypatch.setattr(type(task), "compiled_outcome", lambda self: None)  # a task without one
-    assert "compiled_outcome" not in task.rows_outcome(True).__qualname__
+    assert "compiled_outcome" not in task.rows_outcome(True)[0].__qualname__
 
     def broken(self):
         raise ImportError("numba: built for another numpy")
 
     monkeypatch.setattr(type(task), "compiled_outcome", broken)
-    assert "compiled_outcome" not in task.rows_outcome(True).__qualname__
+    assert "compiled_outcome" not in task.rows_outcome(True)[0].__qualname__
 
 
 def test_a_subclass_with_its_own_rule_is_not_given_its_parents_compiled_one() -> None:
@@ -169,8 +173,8 @@ def test_a_subclass_with_its_own_rule_is_not_given_its_parents_compiled_one() ->
         def compiled_outcome(self):
             return height_goal.compiled_outcome(self)
 
-    assert "compiled_outcome" not in Variant((1.0, 1.0)).rows_outcome(True).__qualname__
-    assert "compiled_outcome" in Recompiled((1.0, 1.0)).rows_outcome(True).__qualname__
+    assert "compiled_outcome" not in Variant((1.0, 1.0)).rows_outcome(True)[0].__qualname__
+    assert "compiled_outcome" in Recompiled((1.0, 1.0)).rows_outcome(True)[0].__qualname__
     env = AcrobotVectorEnv(num_envs=FEW + 1, task=Variant)
     env.reset(seed=0)
     _, reward, _, _, info = env.step(np.ones(FEW + 1, dtype=np.int64))

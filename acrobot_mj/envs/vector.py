@@ -159,12 +159,13 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
         self._qpos, self._qvel = physics.qpos, physics.qvel
         self._ctrl = physics.ctrl
-        # The task's compiled rule where the physics has compiled kernels: the same numbers.
-        self._outcome = self.task.rows_outcome(physics.kernels is not None)
+        # The task's compiled rule where the physics has compiled kernels: the same numbers,
+        # in new arrays of its own (``_fresh``: handed on without copies).
+        self._outcome, self._fresh = self.task.rows_outcome(physics.kernels is not None)
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl", "_outcome"):
+        for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl", "_outcome", "_fresh"):
             state.pop(key)
         # Every simulation's whole state row (MuJoCo's: time, qpos, qvel, ctrl, warm start, ...).
         state["batch_state"] = self._physics.snapshot()
@@ -277,6 +278,8 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         # none can be before the oldest episode reaches it.
         limit = self._steps - self.max_episode_steps
         truncated = self._began <= limit if limit >= self._first else self._none.copy()
+        if resetting is None and self._fresh:  # the task's compiled rule: new arrays already
+            return reward, terminated, truncated
         success, rows = info["is_success"], (self.num_envs,)
         if terminated is False:  # a task that never terminates (the balance task)
             terminated = self._none

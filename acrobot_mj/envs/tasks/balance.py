@@ -112,10 +112,11 @@ class Balance(Task):
 
         def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
             n = len(q1)
-            reward, error, balanced = np.empty(n), np.empty(n), np.empty(n, dtype=bool)
-            balance_rows(q1, q2, tolerance, up, reward, error, balanced)
-            info = {"upright_error": error, "is_balanced": balanced, "is_success": balanced}
-            return reward, False, info
+            reward, error = np.empty(n), np.empty(n)
+            balanced, success = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+            balance_rows(q1, q2, tolerance, up, reward, error, balanced, success)
+            info = {"upright_error": error, "is_balanced": balanced, "is_success": success}
+            return reward, np.zeros(n, dtype=bool), info  # never terminates
 
         return outcome
 

@@ -154,12 +154,17 @@ class Task(ABC):
     def compiled_outcome(self) -> Outcome | None:
         """The rule of ``outcome(ARRAY)`` compiled (numba), the same numbers bit for bit, for
         large batches; None (the default) where the task has none. Built-in tasks have one
-        (:mod:`~acrobot_mj.envs.tasks.compiled`); a new task needs none."""
+        (:mod:`~acrobot_mj.envs.tasks.compiled`); a new task needs none.
+
+        Its rule returns new arrays of one entry per row, none shared with another (``terminated``
+        an array too, and ``info["is_success"]`` apart from ``terminated``), which the vector
+        env hands on as they are."""
         return None
 
-    def rows_outcome(self, compiled: bool) -> Outcome:
-        """The step rule over arrays of one row per sub-env: :meth:`compiled_outcome` where
-        ``compiled`` and the task has one (and numba loads), else ``outcome(ARRAY)``.
+    def rows_outcome(self, compiled: bool) -> tuple[Outcome, bool]:
+        """The step rule over arrays of one row per sub-env, and whether it is the compiled one:
+        :meth:`compiled_outcome` where ``compiled`` and the task has one (and numba loads), else
+        ``outcome(ARRAY)``.
 
         A compiled rule is used only where it was written beside the ``outcome`` it copies: a
         subclass that overrides ``outcome`` without a ``compiled_outcome`` of its own gets its
@@ -170,8 +175,8 @@ class Task(ABC):
             except (ImportError, RuntimeError):  # a numba that does not load
                 fast = None
             if fast is not None:
-                return fast
-        return self.outcome(ARRAY)
+                return fast, True
+        return self.outcome(ARRAY), False
 
     @abstractmethod
     def caption(self, info: dict[str, Any]) -> str:

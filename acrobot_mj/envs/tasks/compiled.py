@@ -24,26 +24,29 @@ except ImportError as error:  # pragma: no cover  (the fast extra is missing)
 
 @njit(cache=True)
 def height_goal_rows(  # pragma: no cover  (compiled)
-    q1, q2, l1, l2, height, goal_reward, step_reward, reward, reached, tip
+    q1, q2, l1, l2, height, goal_reward, step_reward, reward, reached, success, tip
 ):
     """The height goal's rule: ``tip = l1 sin q1 + l2 sin(q1 + q2)`` [m], ``reached = tip >
-    height`` and the reward, written into ``reward``, ``reached`` and ``tip`` row by row."""
+    height`` (also the success) and the reward, written into ``reward``, ``reached``,
+    ``success`` and ``tip`` row by row."""
     for i in range(q1.shape[0]):
         h = l1 * math.sin(q1[i]) + l2 * math.sin(q1[i] + q2[i])
         tip[i] = h
-        reached[i] = h > height
+        reached[i] = success[i] = h > height
         reward[i] = goal_reward if h > height else step_reward
 
 
 @njit(cache=True)
-def balance_rows(q1, q2, tolerance, up, reward, error, balanced):  # pragma: no cover  (compiled)
+def balance_rows(  # pragma: no cover  (compiled)
+    q1, q2, tolerance, up, reward, error, balanced, success
+):
     """The balance task's rule: ``reward = (1 + sin q1)(1 + cos q2) / 4``, the larger wrapped
-    angle error from upright [rad] (``np.maximum``'s: NaN wins) and ``error < tolerance``,
-    written into ``reward``, ``error`` and ``balanced`` row by row."""
+    angle error from upright [rad] (``np.maximum``'s: NaN wins) and ``error < tolerance`` (also
+    the success), written into ``reward``, ``error``, ``balanced`` and ``success`` row by row."""
     for i in range(q1.shape[0]):
         a, b = q1[i], q2[i]
         reward[i] = (1.0 + math.sin(a)) * (1.0 + math.cos(b)) / 4.0
         e1, e2 = abs(wrap_jit(a - up)), abs(wrap_jit(b))
         e = e1 if (e1 >= e2 or e1 != e1) else e2
         error[i] = e
-        balanced[i] = e < tolerance
+        balanced[i] = success[i] = e < tolerance

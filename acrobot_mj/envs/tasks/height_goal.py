@@ -110,9 +110,10 @@ class HeightGoal(Task):
 
         def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
             n = len(q1)
-            reward, reached, tip = np.empty(n), np.empty(n, dtype=bool), np.empty(n)
-            height_goal_rows(q1, q2, *constants, reward, reached, tip)
-            return reward, reached, {"tip_height": tip, "is_success": reached}
+            reward, tip = np.empty(n), np.empty(n)
+            reached, success = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+            height_goal_rows(q1, q2, *constants, reward, reached, success, tip)
+            return reward, reached, {"tip_height": tip, "is_success": success}
 
         return outcome
 
