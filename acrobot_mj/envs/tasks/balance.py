@@ -109,6 +109,8 @@ class Balance(Task):
         from acrobot_mj.envs.tasks.compiled import balance_rows  # numba: on first use
 
         tolerance, up = self.tolerance, math.pi / 2
+        if type(tolerance) is not float:  # a subclass's own number (an array?): its rule
+            return None
 
         def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
             n = len(q1)

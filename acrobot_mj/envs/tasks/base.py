@@ -167,9 +167,10 @@ class Task(ABC):
         ``outcome(ARRAY)``.
 
         A compiled rule is used only where it was written beside the ``outcome`` it copies: a
-        subclass that overrides ``outcome`` without a ``compiled_outcome`` of its own gets its
-        own rule, not its parent's compiled one."""
-        if compiled and _defined_in(type(self), "compiled_outcome", "outcome"):
+        subclass (or an instance) that overrides ``outcome`` without a ``compiled_outcome`` of
+        its own gets its own rule, not its parent's compiled one."""
+        own = "outcome" not in vars(self) and callable(self.compiled_outcome)
+        if compiled and own and _defined_in(type(self), "compiled_outcome", "outcome"):
             try:
                 fast = self.compiled_outcome()
             except (ImportError, RuntimeError):  # a numba that does not load
