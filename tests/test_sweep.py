@@ -9,7 +9,9 @@ import pytest
 
 from acrobot_mj.cli import main
 from acrobot_mj.train import config as config_module
+from acrobot_mj.train.checkpoint import load_checkpoint
 from acrobot_mj.train.config import LOCKSTEP_GROUP_FROM
+from acrobot_mj.train.rundir import CHECKPOINT_FILE
 from acrobot_mj.train.sweep import run_sweep
 from acrobot_mj.train.sweep_spec import load_sweep, parse_sweep
 
@@ -109,6 +111,55 @@ def test_a_grid_points_seeds_go_in_lockstep_from_a_group_size(
     runs = sorted((tmp_path / "trials").glob("*/run.json"))
     assert len(runs) == 8 and all(row["runs"] == 2 for row in summary["points"])
     assert {json.loads(p.read_text()).get("lockstep") for p in runs} == {lockstep}
+
+
+BOOK_NUMBA = """
+preset = "book"
+kernel = "numba"
+episodes = 3
+max_episode_steps = 400
+seeds = [0, 1]
+[grid]
+lam = [0.9, 0.95]
+"""
+
+
+def _trial_records(out) -> dict:
+    keys = ("episode_lengths", "episode_returns", "greedy_from_rest", "lockstep")
+    runs = sorted((out / "trials").glob("*/run.json"))
+    return {p.parent.name: {k: json.loads(p.read_text()).get(k) for k in keys} for p in runs}
+
+
+def test_lockstep_asked_of_a_sweep_gives_the_same_records(tmp_path) -> None:
+    pytest.importorskip("numba", reason="lockstep Sarsa(lambda) is compiled (the fast extra)")
+    spec = parse_sweep(BOOK_NUMBA)
+    run_sweep(spec, tmp_path / "together", lockstep=True)
+    run_sweep(spec, tmp_path / "apart", jobs=1)  # the default for Sarsa(lambda): one by one
+    together, apart = _trial_records(tmp_path / "together"), _trial_records(tmp_path / "apart")
+    assert len(together) == 4 and together.keys() == apart.keys()
+    for name, record in together.items():
+        assert record["lockstep"] == 2 and apart[name]["lockstep"] is None  # each point's seeds
+        assert {**record, "lockstep": None} == apart[name], name
+        weights = [
+            load_checkpoint(tmp_path / way / "trials" / name / CHECKPOINT_FILE)[1]["w"]
+            for way in ("together", "apart")
+        ]
+        np.testing.assert_array_equal(*weights)  # bit for bit
+
+
+def test_a_lockstep_sweep_refuses_what_cannot_go_in_lockstep(tmp_path, capsys) -> None:
+    numpy_point = BOOK_NUMBA.replace("lam = [0.9, 0.95]", 'kernel = ["numba", "numpy"]')
+    numpy_point = numpy_point.replace('kernel = "numba"\n', "")
+    with pytest.raises(ValueError, match=r"grid point kernel=numpy: lockstep training needs"):
+        run_sweep(parse_sweep(numpy_point), tmp_path / "a", lockstep=True)
+    with pytest.raises(ValueError, match="lockstep sweeps run on the local backend"):
+        run_sweep(parse_sweep(BOOK_NUMBA), tmp_path / "b", backend="ray", lockstep=True)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()  # nothing written
+    sweep = tmp_path / "numpy.toml"
+    sweep.write_text(numpy_point)
+    with pytest.raises(SystemExit) as stop:  # the CLI: one line, exit 2
+        main(["sweep", str(sweep), "--lockstep", "--out", str(tmp_path / "c")])
+    assert stop.value.code == 2 and "grid point kernel=numpy" in capsys.readouterr().err
 
 
 def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch) -> None:

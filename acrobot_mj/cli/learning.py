@@ -239,6 +239,13 @@ def add_sweep(commands: Commands) -> None:
     p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
+    p.add_argument(
+        "--lockstep",
+        action=argparse.BooleanOptionalAction,
+        help="local: each grid point's seeds together on one vector env, in this process "
+        "(Sarsa(lambda) needs kernel numba; the same records); default: tabular SARSA's points "
+        "with 25 seeds left or more",
+    )
     add_progress(p)
     p.set_defaults(func=sweep_command)
 
@@ -254,6 +261,7 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
         jobs=args.jobs,
         ray_num_cpus=args.num_cpus,
         progress=show_progress(args),
+        lockstep=args.lockstep,
     )
     print(summary_table(summary), end="")
     print(

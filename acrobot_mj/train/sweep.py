@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.lockstep import check_lockstep, train_lockstep
 from acrobot_mj.train.progress import Progress
 from acrobot_mj.train.rundir import CHECKPOINT_FILE
 from acrobot_mj.train.sweep_spec import SweepSpec, Trial
@@ -44,11 +44,17 @@ def run_sweep(
     jobs: int | None = None,
     ray_num_cpus: int | None = None,
     progress: bool = False,
+    lockstep: bool | None = None,
 ) -> dict[str, Any]:
     """Run the trials that have not finished, then summarise all of them (``progress``: a bar
-    over the trials on stderr)."""
+    over the trials on stderr). ``lockstep``: each grid point's seeds left to train together on
+    one vector env, in this process (True: every point, refused where a point has no lockstep
+    form and with Ray; the same records), one trial per process (False), or the algorithm's
+    faster way (None: tabular SARSA's points with at least 25 seeds left)."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if lockstep:
+        _check_lockstep(spec, backend)
     out = Path(out)
     with RunLock(out, "sweep"):
         todo = []
@@ -62,7 +68,7 @@ def run_sweep(
         bar = Progress(len(todo), f"sweep {out.name}", progress, unit="trials")
         try:
             if backend == "local":
-                _run_local(todo, out, jobs, bar)
+                _run_local(todo, out, jobs, bar, lockstep)
             else:
                 _run_ray(todo, out, address, ray_num_cpus, bar)
         except KeyboardInterrupt as interrupt:
@@ -78,13 +84,27 @@ def run_sweep(
     return summary
 
 
-def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress) -> None:
-    # Tabular SARSA: one lockstep run per grid point with enough seeds left to train (together
-    # on one vector env), those with checkpoints resumed together, the others started together.
+def _check_lockstep(spec: SweepSpec, backend: str) -> None:
+    """Refuse a lockstep sweep on Ray, or with a grid point that has no lockstep form."""
+    if backend != "local":
+        raise ValueError("lockstep sweeps run on the local backend (Ray runs one task a trial)")
+    for trial in spec.trials():
+        try:
+            check_lockstep(trial.config)
+        except ValueError as error:
+            raise ValueError(f"grid point {trial.point_name}: {error}") from None
+
+
+def _run_local(
+    todo: list[Trial], out: Path, jobs: int | None, bar: Progress, lockstep: bool | None
+) -> None:
+    # One lockstep run per grid point whose seeds go together (lockstep, or by default tabular
+    # SARSA's with enough seeds left to train), those with checkpoints resumed together, the
+    # others started together.
     left = Counter(t.point_name for t in todo)
     groups: dict[tuple[str, bool], list[Trial]] = {}
     for trial in todo:
-        if trial.config.lockstep_pays(left[trial.point_name]):
+        if trial.config.lockstep_pays(left[trial.point_name]) if lockstep is None else lockstep:
             saved = (trial_dir(out, trial) / CHECKPOINT_FILE).exists()
             groups.setdefault((trial.point_name, saved), []).append(trial)
     together = {id(t) for group in groups.values() for t in group}
