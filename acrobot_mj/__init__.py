@@ -1,7 +1,7 @@
 """acrobot-mj: the Acrobot swing-up on MuJoCo.
 
 ``import acrobot_mj`` registers every task's Gymnasium environment (``acrobot_mj/Acrobot-v0``:
-:class:`acrobot_mj.envs.env.AcrobotEnv` with the height goal, truncated at 1000 actions).
+:class:`acrobot_mj.envs.acrobot.AcrobotEnv` with the height goal, truncated at 1000 actions).
 
 The packages, bottom up (each imports only those below it): :mod:`.physics` (parameters,
 dynamics, integrators; no simulator), :mod:`.control` (model-based references), :mod:`.envs`
@@ -30,7 +30,7 @@ __all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "TASKS", "AcrobotEnv", "AcrobotParams"
 def __getattr__(name: str):
     # AcrobotEnv on first use, so `import acrobot_mj` stays light for the analytic model.
     if name == "AcrobotEnv":
-        from acrobot_mj.envs.env import AcrobotEnv
+        from acrobot_mj.envs.acrobot import AcrobotEnv
 
         return AcrobotEnv
     raise AttributeError(f"module 'acrobot_mj' has no attribute {name!r}")

@@ -1,27 +1,38 @@
-"""Learning agents, one algorithm per module, with the features they learn over.
-
-Every agent follows :class:`~acrobot_mj.agents.protocol.Agent`: ``begin_episode(obs)``, then
-``learn(reward, obs, terminated, truncated)`` after every step, ``greedy_action(obs, stream)``,
-``state_dict()`` / ``load_state_dict()`` (plain numpy arrays, for checkpoints) and its own
-random stream ``agent.stream``. :mod:`.registry` builds them from a training config;
-:mod:`.actors` runs them in the episode loop.
+"""Learning agents, one algorithm per module, with the features they learn over: tabular SARSA
+(:mod:`.sarsa`, the report's) and Sarsa(lambda) (:mod:`.sarsa_lambda`, the book's), over the
+report's grid or tile coding (:mod:`.features`). Every agent follows
+:class:`~acrobot_mj.agents.base.Agent`; the registry (:data:`AGENTS`) builds them from a config.
 """
 
-from acrobot_mj.agents.protocol import Agent, AgentSpec, FeatureSpec
-from acrobot_mj.agents.random_stream import RandomStream
-from acrobot_mj.agents.registry import AGENTS, FEATURES, make_agent, make_features
-from acrobot_mj.agents.sarsa import Sarsa
-from acrobot_mj.agents.sarsa_lambda import SarsaLambda
+from acrobot_mj.agents.base import (
+    AGENTS,
+    Agent,
+    AgentSpec,
+    DivergenceError,
+    agent_spec,
+    register_agent,
+)
+from acrobot_mj.agents.features import FEATURES
+from acrobot_mj.agents.sarsa import Sarsa, SarsaConfig, SarsaGroup
+from acrobot_mj.agents.sarsa_lambda import SarsaLambda, SarsaLambdaConfig
+from acrobot_mj.agents.stream import RandomStream
 
 __all__ = [
-    "AGENTS",
-    "FEATURES",
-    "Agent",
-    "AgentSpec",
-    "FeatureSpec",
-    "RandomStream",
-    "Sarsa",
-    "SarsaLambda",
-    "make_agent",
-    "make_features",
-]
+    "AGENTS", "FEATURES", "Agent", "AgentSpec", "DivergenceError", "RandomStream", "Sarsa",
+    "SarsaConfig", "SarsaGroup", "SarsaLambda", "SarsaLambdaConfig", "agent_spec",
+    "register_agent",
+]  # fmt: skip
+
+register_agent(AgentSpec(
+    "sarsa", "one-step tabular SARSA (the report), in lockstep for many seeds", SarsaConfig,
+    ("grid",),
+    build=lambda grid, c, seed, n: Sarsa(grid, n, c.alpha, c.gamma, c.epsilon, seed=seed),
+    group=lambda grid, c, seeds: SarsaGroup(grid, c, seeds),
+))  # fmt: skip
+register_agent(AgentSpec(
+    "sarsa_lambda", "linear Sarsa(lambda) with eligibility traces (Sutton and Barto)",
+    SarsaLambdaConfig, ("grid", "tiles"),
+    build=lambda features, c, seed, n: SarsaLambda(
+        features, n, c.alpha, c.gamma, c.lam, c.epsilon, c.traces, c.trace_cutoff, seed=seed
+    ),
+))  # fmt: skip

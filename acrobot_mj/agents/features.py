@@ -1,8 +1,8 @@
 """State features for the learners: the report's state grid and Sutton's tile coding.
 
 Both map an observation ``(q1, q2, dq1, dq2)`` [rad, rad/s] to the indices of its active binary
-features, so one linear learner serves both: the grid has one active feature (a table), tile
-coding has one per tiling.
+features (the grid has one, a table; tile coding one per tiling), so one linear learner serves
+both. Their ranges come from the observation space an agent is given, not from an env.
 """
 
 from __future__ import annotations
@@ -15,25 +15,39 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents.protocol import FeatureSpec
-from acrobot_mj.envs.spaces import OBS_HIGH, OBS_LOW
+from acrobot_mj.checks import check_bool, check_float, check_int
+from acrobot_mj.compiled import compiled, jitable
 
 
-def _centres(low: float, high: float, n: int) -> tuple[float, ...]:
-    if n == 1:
-        return ((low + high) / 2,)
-    return tuple(low + (high - low) * i / (n - 1) for i in range(n))
+@jitable
+def grid_cell(q1, q2, v1, v2, consts) -> int:
+    """The report's grid cell of one state: each variable to its nearest centre (halves to even,
+    as Python's ``round``), row-major over (q1, q2, dq1, dq2); ``consts = (low_angle, cells per
+    rad, angle cells, low_velocity, cells per rad/s, velocity cells)``."""
+    low_a, per_a, n_a, low_v, per_v, n_v = consts
+    top_a, top_v = int(n_a) - 1, int(n_v) - 1
+    i1, i2 = round((q1 - low_a) * per_a), round((q2 - low_a) * per_a)
+    i3, i4 = round((v1 - low_v) * per_v), round((v2 - low_v) * per_v)
+    i1 = 0 if i1 < 0 else top_a if i1 > top_a else i1
+    i2 = 0 if i2 < 0 else top_a if i2 > top_a else i2
+    i3 = 0 if i3 < 0 else top_v if i3 > top_v else i3
+    i4 = 0 if i4 < 0 else top_v if i4 > top_v else i4
+    return ((i1 * (top_a + 1) + i2) * (top_v + 1) + i3) * (top_v + 1) + i4
+
+
+@jitable
+def grid_rows(obs, consts, out) -> None:
+    """:func:`grid_cell` of every row of ``obs`` ``(N, 4)`` into ``out``."""
+    for i in range(obs.shape[0]):
+        out[i] = grid_cell(obs[i, 0], obs[i, 1], obs[i, 2], obs[i, 3], consts)
 
 
 @dataclass(frozen=True)
 class StateGrid:
-    """Nearest-centre discretisation, one cell index per state (the report's table).
-
-    The report's grid (the default) has angle centres ``-pi/2, -pi/4, 0, pi/4, pi/2`` rad and
-    velocity centres ``-pi/4, 0, pi/4`` rad/s: 5 x 5 x 3 x 3 = 225 cells. Each variable goes to
-    its nearest centre, so values beyond the outer centres fall in the outer cells (the report's
-    rule; it makes every speed above pi/8 rad/s look alike).
-    """
+    """Nearest-centre discretisation, one cell per state (the report's table): angle centres
+    ``-pi/2, -pi/4, 0, pi/4, pi/2`` rad and velocity centres ``-pi/4, 0, pi/4`` rad/s by
+    default, 5 x 5 x 3 x 3 = 225 cells. Values beyond the outer centres fall in the outer cells
+    (the report's rule; every speed above pi/8 rad/s looks alike)."""
 
     angle_bins: int = 5
     velocity_bins: int = 3
@@ -49,24 +63,23 @@ class StateGrid:
             low, high = getattr(self, name)
             if not (math.isfinite(low) and math.isfinite(high) and low < high):
                 raise ValueError(f"{name} must be (low, high) with low < high, got {(low, high)}")
-        # (low, cells per unit, cells) for the angles, then for the velocities: for index().
         (low_a, high_a), (low_v, high_v) = self.angle_range, self.velocity_range
         n_a, n_v = self.angle_bins, self.velocity_bins
-        consts = (
-            low_a,
-            (n_a - 1) / (high_a - low_a),
-            n_a,
-            low_v,
-            (n_v - 1) / (high_v - low_v),
-            n_v,
-        )
+        consts = (low_a, (n_a - 1) / (high_a - low_a), float(n_a),
+                  low_v, (n_v - 1) / (high_v - low_v), float(n_v))  # fmt: skip
         object.__setattr__(self, "_consts", consts)
 
     @property
     def centres(self) -> tuple[tuple[float, ...], ...]:
         """Cell centres per variable (q1, q2, dq1, dq2)."""
-        a = _centres(*self.angle_range, self.angle_bins)
-        v = _centres(*self.velocity_range, self.velocity_bins)
+
+        def centres(low: float, high: float, n: int) -> tuple[float, ...]:
+            return ((low + high) / 2,) if n == 1 else tuple(
+                low + (high - low) * i / (n - 1) for i in range(n)
+            )
+
+        a, v = centres(*self.angle_range, self.angle_bins), centres(*self.velocity_range,
+                                                                     self.velocity_bins)  # fmt: skip
         return (a, a, v, v)
 
     @property
@@ -78,54 +91,57 @@ class StateGrid:
         return 1
 
     def index(self, obs: Sequence[float]) -> int:
-        """Cell index of ``obs`` in ``[0, num_features)``, row-major over (q1, q2, dq1, dq2)."""
-        # Unrolled over the four variables, in Python floats: the training loop's hot path.
+        """Cell index of ``obs`` in ``[0, num_features)`` (:func:`grid_cell`)."""
         q1, q2, v1, v2 = obs.tolist() if isinstance(obs, np.ndarray) else obs
-        low_a, per_a, n_a, low_v, per_v, n_v = self._consts
-        top_a, top_v = n_a - 1, n_v - 1
-        i1, i2 = round((q1 - low_a) * per_a), round((q2 - low_a) * per_a)
-        i3, i4 = round((v1 - low_v) * per_v), round((v2 - low_v) * per_v)
-        i1 = 0 if i1 < 0 else top_a if i1 > top_a else i1
-        i2 = 0 if i2 < 0 else top_a if i2 > top_a else i2
-        i3 = 0 if i3 < 0 else top_v if i3 > top_v else i3
-        i4 = 0 if i4 < 0 else top_v if i4 > top_v else i4
-        return ((i1 * n_a + i2) * n_v + i3) * n_v + i4
+        return grid_cell(q1, q2, v1, v2, self._consts)
 
     def indices(self, obs: np.ndarray) -> np.ndarray:
-        """:meth:`index` of each row of ``obs`` ``(n, 4)``, as int64 ``(n,)``: the same numbers
-        (numpy's round, like Python's, rounds halves to even)."""
-        low_a, per_a, n_a, low_v, per_v, n_v = self._consts
-        obs = np.asarray(obs, dtype=np.float64)
-        cells = np.empty(obs.shape, dtype=np.int64)
-        cells[:, :2] = np.clip(np.round((obs[:, :2] - low_a) * per_a), 0, n_a - 1)
-        cells[:, 2:] = np.clip(np.round((obs[:, 2:] - low_v) * per_v), 0, n_v - 1)
-        return ((cells[:, 0] * n_a + cells[:, 1]) * n_v + cells[:, 2]) * n_v + cells[:, 3]
+        """:meth:`index` of each row of ``obs`` ``(n, 4)``, int64 ``(n,)``, compiled."""
+        out = np.empty(len(obs), dtype=np.int64)
+        compiled(grid_rows)(np.asarray(obs, dtype=np.float64), self._consts, out)
+        return out
 
     def active(self, obs: Sequence[float]) -> np.ndarray:
         """Active feature indices, shape ``(1,)``."""
         return np.array([self.index(obs)])
 
 
+@jitable
+def tile_active(obs, low, scale, offset, extent, wrap, stride, base, out) -> None:
+    """The active tile of every tiling into ``out`` (see :class:`TileCoder`)."""
+    n_tilings, n_vars = offset.shape
+    for k in range(n_tilings):
+        index = base[k]
+        for j in range(n_vars):
+            c = math.floor((obs[j] - low[j]) * scale[j] + offset[k, j])
+            if wrap[j]:
+                c %= extent[j]
+            elif c < 0:
+                c = 0
+            elif c > extent[j] - 1:
+                c = extent[j] - 1
+            index += c * stride[k, j]
+        out[k] = index
+
+
 class TileCoder:
     """Tile coding in the style of Sutton's tiles3, with dense indices (no hashing).
 
-    ``groups`` lists ``(variables, n_tilings)``: each tiling covers the chosen subset of the
-    variables ``(q1, q2, dq1, dq2)`` with ``tiles[j]`` tiles across ``[low_j, high_j]``. Tiling
-    ``k`` of a group is displaced by ``k * (1, 3, 5, 7)[j] / n_tilings`` of a tile width along
-    variable ``j`` (tiles3's asymmetric displacement), so the tilings are deterministic. Angles
-    wrap around the circle (tiles3's ``tileswrap``); velocities get one extra tile so the displaced
-    tilings still cover the range, and values beyond it fall in the edge tiles.
-
-    Every state activates exactly one tile per tiling; indices are dense in
-    ``[0, num_features)``, each tiling owning its own block.
+    ``groups`` lists ``(variables, n_tilings)``: each tiling covers a subset of the variables
+    with ``tiles[j]`` tiles across ``[low_j, high_j]``; tiling ``k`` of a group is displaced by
+    ``k * (1, 3, 5, 7)[j] / n_tilings`` of a tile along variable ``j`` (tiles3's asymmetric
+    displacement). Variables marked ``wrap`` (the angles) wrap around (tiles3's ``tileswrap``);
+    the others get one extra tile so that the displaced tilings cover the range, and values
+    beyond it fall in the edge tiles. One tile per tiling is active; each tiling owns a block of
+    ``[0, num_features)``.
     """
 
     def __init__(
         self,
         groups: Sequence[tuple[Sequence[int], int]],
-        tiles: Sequence[int] = (6, 6, 7, 7),
-        low: Sequence[float] = OBS_LOW,
-        high: Sequence[float] = OBS_HIGH,
+        tiles: Sequence[int],
+        low: Sequence[float],
+        high: Sequence[float],
         wrap: Sequence[bool] = (True, True, False, False),
     ) -> None:
         n_vars = len(tiles)
@@ -140,21 +156,15 @@ class TileCoder:
         self.groups = [(tuple(int(v) for v in variables), int(n)) for variables, n in groups]
         self.tiles, self.wrap = tuple(int(t) for t in tiles), tuple(bool(w) for w in wrap)
         self.low, self.high = np.asarray(low, float), np.asarray(high, float)
-        # Coordinates per variable: n tiles when wrapping, n + 1 otherwise.
         extent = [t if w else t + 1 for t, w in zip(self.tiles, self.wrap, strict=True)]
-
-        offsets, strides, sizes, bases = [], [], [], []
-        base = 0
+        offsets, strides, bases, base = [], [], [], 0
         for variables, n_tilings in self.groups:
-            if (
-                not variables
-                or len(set(variables)) != len(variables)
-                or not all(0 <= v < n_vars for v in variables)
+            if not variables or len(set(variables)) != len(variables) or not all(
+                0 <= v < n_vars for v in variables
             ):
                 raise ValueError(f"bad variable subset {variables} for {n_vars} variables")
             if n_tilings < 1:
                 raise ValueError(f"n_tilings must be >= 1, got {n_tilings} for {variables}")
-            size = math.prod(extent[v] for v in variables)
             stride, step = np.zeros(n_vars, dtype=np.int64), 1
             for v in reversed(variables):  # row-major within the tiling
                 stride[v], step = step, step * extent[v]
@@ -165,78 +175,81 @@ class TileCoder:
                 offsets.append(offset)
                 strides.append(stride)
                 bases.append(base)
-                base += size
-            sizes.append(size)
-        self._offset = np.array(offsets)  # (n_tilings, n_vars), in tile widths
-        self._stride = np.array(strides)  # (n_tilings, n_vars), 0 for variables not covered
-        self._base = np.array(bases, dtype=np.int64)  # (n_tilings,)
-        self._scale = np.array(self.tiles) / (self.high - self.low)
-        self._extent = np.array(extent)
-        self._wrap_mask = np.array(self.wrap)
-        self.num_features = base
-        self.num_active = len(bases)
-
-    def tables(self) -> tuple[np.ndarray, ...]:
-        """What :meth:`active` computes from, for compiled kernels: ``(low, scale, offset,
-        extent, wrap, stride, base)`` (see :func:`acrobot_mj.agents.kernels.tile_active`)."""
-        return (self.low, self._scale, self._offset, self._extent, self._wrap_mask,
-                self._stride, self._base)  # fmt: skip
+                base += step
+        self.num_features, self.num_active = base, len(bases)
+        self.tables = (self.low, np.array(self.tiles) / (self.high - self.low), np.array(offsets),
+                       np.array(extent), np.array(self.wrap), np.array(strides),
+                       np.array(bases, dtype=np.int64))  # fmt: skip
 
     def active(self, obs: Sequence[float]) -> np.ndarray:
-        """Indices of the active tile of every tiling, shape ``(num_active,)``, int64."""
-        scaled = (np.asarray(obs, dtype=float) - self.low) * self._scale
-        coords = np.floor(scaled + self._offset).astype(np.int64)
-        coords = np.where(
-            self._wrap_mask, coords % self._extent, np.clip(coords, 0, self._extent - 1)
-        )
-        return self._base + (coords * self._stride).sum(axis=1)
+        """Indices of the active tile of every tiling, int64 ``(num_active,)``."""
+        out = np.empty(self.num_active, dtype=np.int64)
+        compiled(tile_active)(np.asarray(obs, dtype=np.float64), *self.tables, out)
+        return out
 
     def __repr__(self) -> str:
-        return (
-            f"TileCoder({self.num_active} tilings, {self.num_features} features, "
-            f"tiles={self.tiles}, groups={self.groups})"
-        )
+        return (f"TileCoder({self.num_active} tilings, {self.num_features} features, "
+                f"tiles={self.tiles}, groups={self.groups})")  # fmt: skip
 
 
 def book_tile_coder(
-    tilings: int = 12, subset_tilings: bool = True, angle_tiles: int = 6, velocity_tiles: int = 7
+    space: Any,
+    tilings: int = 12,
+    subset_tilings: bool = True,
+    angle_tiles: int = 6,
+    velocity_tiles: int = 7,
 ) -> TileCoder:
-    """Sutton and Barto's acrobot tile coding: 48 tilings in all.
-
-    ``tilings`` (12) over all four variables with angles in ``angle_tiles`` (6) and velocities in
-    ``velocity_tiles`` (7) intervals, and, with ``subset_tilings``, 3 tilings for each of the four
-    sets of three variables, 2 for each of the six pairs and 3 for each single variable.
-    """
+    """Sutton and Barto's acrobot tile coding over the observation ``space``'s bounds: 48
+    tilings, ``tilings`` (12) over all four variables with ``angle_tiles`` (6) and
+    ``velocity_tiles`` (7) intervals and, with ``subset_tilings``, 3 for each set of three
+    variables, 2 for each pair and 3 for each single variable."""
     groups: list[tuple[tuple[int, ...], int]] = [((0, 1, 2, 3), tilings)]
     if subset_tilings:
         for size, n in ((3, 3), (2, 2), (1, 3)):
             groups += [(subset, n) for subset in itertools.combinations(range(4), size)]
     tiles = (angle_tiles, angle_tiles, velocity_tiles, velocity_tiles)
-    return TileCoder(groups, tiles=tiles)
+    return TileCoder(groups, tiles, space.low, space.high)
 
 
-def _grid(config: Any) -> StateGrid:
-    v = config.velocity_centre_max
-    return StateGrid(config.angle_bins, config.velocity_bins, velocity_range=(-v, v))
+@dataclass(frozen=True)
+class GridConfig:
+    """The report's grid: cells per angle (centres -pi/2..pi/2), per velocity, and the
+    outermost velocity centre [rad/s]."""
+
+    angle_bins: int = 5
+    velocity_bins: int = 3
+    velocity_centre_max: float = math.pi / 4
+
+    def __post_init__(self) -> None:
+        check_int("angle_bins", self.angle_bins, 1)
+        check_int("velocity_bins", self.velocity_bins, 1)
+        if not check_float("velocity_centre_max", self.velocity_centre_max) > 0:
+            raise ValueError("config velocity_centre_max must be > 0")
+
+    def build(self, space: Any) -> StateGrid:
+        v = self.velocity_centre_max
+        return StateGrid(self.angle_bins, self.velocity_bins, velocity_range=(-v, v))
 
 
-def _tiles(config: Any) -> TileCoder:
-    return book_tile_coder(
-        config.tilings, config.subset_tilings, config.angle_tiles, config.velocity_tiles
-    )
+@dataclass(frozen=True)
+class TilesConfig:
+    """Sutton and Barto's tile coding: tilings over all four variables, the book's 36 tilings
+    over subsets of them, tiles across the circle per angle and across each velocity's range."""
+
+    tilings: int = 12
+    subset_tilings: bool = True
+    angle_tiles: int = 6
+    velocity_tiles: int = 7
+
+    def __post_init__(self) -> None:
+        for name in ("tilings", "angle_tiles", "velocity_tiles"):
+            check_int(name, getattr(self, name), 1)
+        check_bool("subset_tilings", self.subset_tilings)
+
+    def build(self, space: Any) -> TileCoder:
+        return book_tile_coder(space, self.tilings, self.subset_tilings, self.angle_tiles,
+                               self.velocity_tiles)  # fmt: skip
 
 
-FEATURE_SPECS = (
-    FeatureSpec(
-        "grid",
-        "the report's nearest-centre table",
-        ("angle_bins", "velocity_bins", "velocity_centre_max"),
-        _grid,
-    ),
-    FeatureSpec(
-        "tiles",
-        "Sutton and Barto's tile coding",
-        ("tilings", "subset_tilings", "angle_tiles", "velocity_tiles"),
-        _tiles,
-    ),
-)
+#: The kinds of features, by name: their typed configs (with the defaults) and docs.
+FEATURES: dict[str, type] = {"grid": GridConfig, "tiles": TilesConfig}

@@ -1,4 +1,4 @@
-"""Tabular SARSA exactly as the report's pseudocode (Sutton and Barto, section 6.4).
+"""Tabular SARSA exactly as the report's pseudocode (Sutton and Barto, section 6.4)::
 
     Initialise Q(s, a) = 0
     Repeat for each episode:
@@ -10,31 +10,83 @@
             s, a = s', a'
         until s is terminal
 
-Details the report leaves open, fixed here: epsilon-greedy picks a uniformly random action (any
-of the three) with probability epsilon (one draw per decision when epsilon > 0), else a greedy
-one with ties broken at random; at the goal (a terminal state, whose values are 0) the target is
-the reward alone, with no bootstrap; at a truncation (the 1000-step limit, not a terminal state)
-the update still bootstraps from ``Q(s', a')``.
+Details the report leaves open: epsilon-greedy picks any of the three actions uniformly with
+probability epsilon (one draw per decision when epsilon > 0), else a greedy one with ties broken
+at random; at the goal (terminal, its values 0) the target is the reward alone; at a truncation
+(the time limit, not terminal) the update still bootstraps from ``Q(s', a')``.
+
+The decision is written once (:func:`sarsa_step`, compiled) and serves one learner
+(:class:`Sarsa`) and K learners trained in lockstep on a vector env (:class:`SarsaGroup`, learner
+``k`` exactly the single learner with seed ``seeds[k]``: the same draws, values and checkpoints).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from acrobot_mj.agents.features import StateGrid
-from acrobot_mj.agents.lockstep_sarsa import LockstepSarsa
-from acrobot_mj.agents.protocol import AgentSpec
-from acrobot_mj.agents.random_stream import RandomStream, checked_values
+from acrobot_mj.agents.stream import BLOCK, RandomStream, checked_values, policy
+from acrobot_mj.checks import check_float
+from acrobot_mj.compiled import compiled, jitable
+
+
+@dataclass(frozen=True)
+class SarsaConfig:
+    """Tabular SARSA's hyperparameters (the report's): step size, discount, exploration."""
+
+    alpha: float = 0.5
+    gamma: float = 1.0
+    epsilon: float = 0.001
+
+    def __post_init__(self) -> None:
+        check_float("alpha", self.alpha, 0.0, 1.0)
+        if self.alpha == 0.0:
+            raise ValueError("alpha must be in (0, 1], got 0")
+        check_float("gamma", self.gamma, 0.0, 1.0)
+        check_float("epsilon", self.epsilon, 0.0, 1.0)
+
+
+@jitable
+def sarsa_step(q, s, a, reward, s2, terminated, config, block, position) -> tuple:
+    """One decision of a learner with table ``q`` ``(S, A)`` that took ``a`` in ``s``: ``a'``
+    epsilon-greedy at ``s2`` (-1 at the goal), then ``Q(s, a)`` toward ``r + gamma Q(s', a')``;
+    ``config = (alpha, gamma, epsilon)``; returns ``(a', next position of the stream)``."""
+    alpha, gamma, epsilon = config
+    a2, target = -1, reward  # the goal is terminal: its values are zero, no bootstrap
+    if not terminated:
+        a2, position = policy(q[s2], epsilon, block, position)
+        target = reward + gamma * q[s2, a2]
+    q[s, a] += alpha * (target - q[s, a])  # the TD error, then the step toward the target
+    return a2, position
+
+
+@jitable
+def group_step(q, ids, s, a, rewards, s2, terminated, config, blocks, positions) -> None:
+    """:func:`sarsa_step` of learners ``ids`` (their rows of ``q`` ``(K, S, A)``, ``s``, ``a``,
+    ``blocks`` and ``positions``; the step's ``rewards``, ``s2``, ``terminated``); the next
+    actions are written into ``a``."""
+    for j in range(ids.shape[0]):
+        i = ids[j]
+        a[i], positions[i] = sarsa_step(q[i], s[i], a[i], rewards[j], s2[j], terminated[j],
+                                        config, blocks[i], positions[i])  # fmt: skip
+        s[i] = s2[j]
+
+
+@jitable
+def group_begin(q, ids, s, a, epsilon, blocks, positions) -> None:
+    """The first action of learners ``ids`` at their states ``s``, into ``a``."""
+    for j in range(ids.shape[0]):
+        i = ids[j]
+        a[i], positions[i] = policy(q[i, s[i]], epsilon, blocks[i], positions[i])
 
 
 class Sarsa:
-    """One-step tabular SARSA over a :class:`~acrobot_mj.agents.features.StateGrid`.
-
-    alpha: step size; gamma: discount; epsilon: exploration probability; seed: of the agent's own
-    random stream (exploration and tie-breaking).
-    """
+    """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``): ``alpha`` step
+    size, ``gamma`` discount, ``epsilon`` exploration, ``seed`` of its own random stream."""
 
     def __init__(
         self,
@@ -45,50 +97,37 @@ class Sarsa:
         epsilon: float = 0.001,
         seed: int | np.random.SeedSequence | None = None,
     ) -> None:
-        if not 0.0 < alpha <= 1.0:
-            raise ValueError(f"alpha must be in (0, 1], got {alpha}")
-        if not 0.0 <= gamma <= 1.0:
-            raise ValueError(f"gamma must be in [0, 1], got {gamma}")
-        if not 0.0 <= epsilon <= 1.0:
-            raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
         self.grid, self.n_actions = grid, n_actions
-        self.alpha, self.gamma, self.epsilon = alpha, gamma, epsilon
+        self.config = SarsaConfig(alpha, gamma, epsilon)
         self.stream = RandomStream(seed)
-        # A list of rows: element access is several times faster than numpy's on this hot path.
-        self._q = [[0.0] * n_actions for _ in range(grid.num_features)]
+        self._q = np.zeros((grid.num_features, n_actions))
         self._s = self._a = -1
+        self._step = compiled(sarsa_step)
+        self._rates = (float(alpha), float(gamma), float(epsilon))
 
     @property
     def q(self) -> np.ndarray:
         """The action values, shape ``(num_states, n_actions)`` (a copy)."""
-        return np.array(self._q)
-
-    def _policy(self, s: int) -> int:
-        """Epsilon-greedy in Q(s, .) with the agent's own stream."""
-        stream = self.stream
-        if self.epsilon > 0.0 and stream.random() < self.epsilon:
-            return stream.below(self.n_actions)
-        return stream.argmax(self._q[s])
+        return self._q.copy()
 
     def begin_episode(self, obs: Any) -> int:
         self._s = self.grid.index(obs)
-        self._a = self._policy(self._s)
+        self.stream.reserve(2)
+        self._a, self.stream.position = compiled(policy)(
+            self._q[self._s], self._rates[2], self.stream.block, self.stream.position
+        )
         return self._a
 
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
-        """Update Q(s, a) from ``(r, s')``; return a' (``None`` once the episode is over)."""
+        """Update Q(s, a) from ``(r, s')``; return a' (None once the episode is over)."""
         if self._s < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
-        row = self._q[self._s]
-        if terminated:
-            target = reward  # the terminal state's values are zero: no bootstrap
-            s2 = a2 = -1
-        else:
-            s2 = self.grid.index(obs)
-            a2 = self._policy(s2)
-            target = reward + self.gamma * self._q[s2][a2]
-        # TD error, then the step toward the target.
-        row[self._a] += self.alpha * (target - row[self._a])
+        s2 = -1 if terminated else self.grid.index(obs)
+        stream = self.stream
+        stream.reserve(2)
+        a2, stream.position = self._step(self._q, self._s, self._a, float(reward), s2,
+                                         bool(terminated), self._rates, stream.block,
+                                         stream.position)  # fmt: skip
         if terminated or truncated:
             self._s = self._a = -1
             return None
@@ -103,16 +142,80 @@ class Sarsa:
         return {"q": self.q, **self.stream.state_dict(prefix="stream.")}
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
-        q = checked_values(state, "q", (self.grid.num_features, self.n_actions))
+        q = checked_values(state, "q", self._q.shape)
         self.stream.load_state_dict(state, prefix="stream.")
-        self._q = q.tolist()
+        self._q = q
 
 
-SPEC = AgentSpec(
-    name="sarsa",
-    doc="one-step tabular SARSA (the report), with lockstep training of many seeds",
-    uses=("alpha", "gamma", "epsilon"),
-    features=("grid",),
-    build=lambda grid, c, seed, n: Sarsa(grid, n, c.alpha, c.gamma, c.epsilon, seed=seed),
-    lockstep=lambda grid, c, seeds: LockstepSarsa(grid, seeds, 3, c.alpha, c.gamma, c.epsilon),
-)
+class SarsaGroup:
+    """``len(seeds)`` independent tabular SARSA learners over one grid, stepped together (the
+    report's learner, lockstep on a vector env): learner ``k`` is :class:`Sarsa` with seed
+    ``seeds[k]``. Methods take ``ids``, the learners concerned (sorted, no repeats), and their
+    rows of observations, rewards and flags."""
+
+    def __init__(self, grid: StateGrid, config: SarsaConfig, seeds: Sequence[int], n_actions=3):
+        self.grid, self.config, k = grid, config, len(seeds)
+        self.q = np.zeros((k, grid.num_features, n_actions))
+        self.streams = [RandomStream(int(seed)) for seed in seeds]
+        # The streams' blocks side by side (each at most a block and one draw long).
+        self.blocks = np.zeros((k, BLOCK + 2))
+        self.lengths, self.positions = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
+        self.s, self.a = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
+        self._rates = (config.alpha, config.gamma, config.epsilon)
+
+    def _reserve(self, ids: np.ndarray) -> None:
+        """Two unread draws for each of learners ``ids`` (as :meth:`RandomStream.reserve`)."""
+        for i in ids[self.lengths[ids] - self.positions[ids] < 2].tolist():
+            stream = self._stream(i)
+            stream.reserve(2)
+            self._store(i, stream)
+
+    def _stream(self, i: int) -> RandomStream:
+        """Learner ``i``'s stream, its block and position as the group has them."""
+        stream = self.streams[i]
+        stream.block = self.blocks[i, : self.lengths[i]].copy()
+        stream.position = int(self.positions[i])
+        return stream
+
+    def _store(self, i: int, stream: RandomStream) -> None:
+        if len(stream.block) > self.blocks.shape[1]:
+            raise ValueError("random state has a block longer than the stream's")
+        self.blocks[i, : len(stream.block)] = stream.block
+        self.lengths[i], self.positions[i] = len(stream.block), stream.position
+
+    def begin_episodes(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        self.s[ids] = self.grid.indices(obs)
+        self._reserve(ids)
+        compiled(group_begin)(self.q, ids, self.s, self.a, self.config.epsilon, self.blocks,
+                              self.positions)  # fmt: skip
+        return self.a[ids]
+
+    def learn(
+        self,
+        ids: np.ndarray,
+        rewards: np.ndarray,
+        obs: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+    ) -> np.ndarray:
+        """One SARSA update per learner in ``ids``; their next actions (-1 where the episode
+        ended)."""
+        s2 = self.grid.indices(obs)
+        s2[terminated] = -1
+        self._reserve(ids)
+        compiled(group_step)(self.q, ids, self.s, self.a, np.asarray(rewards, dtype=np.float64),
+                             s2, np.asarray(terminated, dtype=bool), self._rates, self.blocks,
+                             self.positions)  # fmt: skip
+        return np.where(terminated | truncated, -1, self.a[ids])
+
+    def state_dict(self, k: int) -> dict[str, np.ndarray]:
+        """Learner ``k``'s state in :class:`Sarsa`'s format."""
+        return {"q": self.q[k].copy(), **self._stream(k).state_dict(prefix="stream.")}
+
+    def load_state(self, k: int, state: dict[str, np.ndarray]) -> None:
+        """Give learner ``k`` a state in :class:`Sarsa`'s format (from its checkpoint)."""
+        q = checked_values(state, "q", self.q.shape[1:])
+        stream = self.streams[k]
+        stream.load_state_dict(state, prefix="stream.")
+        self._store(k, stream)
+        self.q[k] = q

@@ -1,6 +1,6 @@
 """Command line: ``acrobot-mj train | evaluate | render | validate | balance | bench | sweep |
 curves | demo | params``. A thin layer: each command parses its arguments and calls library
-functions (:mod:`.learning`, :mod:`.tools`, :mod:`.control`)."""
+functions (:mod:`.learning`, :mod:`.tools`)."""
 
 from __future__ import annotations
 
@@ -11,11 +11,12 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from acrobot_mj.cli import control, learning, tools
+from acrobot_mj.cli import learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.lock import RunDirectoryBusy
-from acrobot_mj.train.plan_config import PLANNERS
+from acrobot_mj.train.plan import PlanConfig
+from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.version import __version__
 
 COMMANDS = (
@@ -23,7 +24,7 @@ COMMANDS = (
     learning.add_evaluate,
     tools.add_render,
     tools.add_validate,
-    control.add_balance,
+    tools.add_balance,
     learning.add_sweep,
     learning.add_curves,
     tools.add_bench,
@@ -70,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise  # the whole traceback, for bug reports
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
-        resumable = args.command == "train" and args.preset not in PLANNERS
+        resumable = args.command == "train" and not isinstance(PRESETS[args.preset], PlanConfig)
         hint = "; continue with --resume" if resumable else ""
         code = 143 if isinstance(interrupt, Terminated) else 130  # 128 + the signal's number
         parser.exit(code, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")

@@ -4,170 +4,181 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.cli.common import Commands, add_progress, positive_int, seed, show_progress
-from acrobot_mj.cli.planning import (
-    add_plan_options,
-    check_no_plan_options,
-    evaluate_plan_command,
-    train_plan_command,
-)
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves, figure_format
-from acrobot_mj.train.config import FIELD_NAMES, TrainConfig, parse_value
+from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.heldout import DEFAULT, Protocol
-from acrobot_mj.train.plan_config import BALANCE_NOISE, PLANNERS, is_plan_run
+from acrobot_mj.train.learners import DEFAULT
+from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import recent_score
-from acrobot_mj.train.rundir import EVAL_FILE, RUN_FILE, SUMMARY_FILE
+from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, recent_score
 from acrobot_mj.train.seeds import train_seeds
-from acrobot_mj.train.sweep import run_sweep
-from acrobot_mj.train.sweep_spec import load_sweep
-from acrobot_mj.train.sweep_summary import summary_table
+from acrobot_mj.train.sweep import load_sweep, run_sweep, summary_table
 from acrobot_mj.train.trainer import train
 
-
-def config_of(args: argparse.Namespace) -> TrainConfig:
-    """The preset with every ``--<field>`` given on the command line applied."""
-    overrides = {
-        name: parse_value(name, getattr(args, name))
-        for name in FIELD_NAMES
-        if getattr(args, name) is not None
-    }
-    return PRESETS[args.preset].replace(**overrides)
+#: The balance preset's options: flag, PlanConfig field, help.
+PLAN_OPTIONS = (
+    ("--reserve", "reserve", "nominal torque bound of the plan [N m] (default 0.8)"),
+    ("--hold", "hold", "seconds of balance after the swing-up (default 60)"),
+    ("--data-noise", "data_noise", "start noise of the data episodes (default 1.0)"),
+    ("--horizons", "horizons", "start horizons of the search, START:STOP:STEP physics steps"),
+    ("--targets", "targets", "upright poses the search tries, indices 0-5, e.g. 1,4 (all)"),
+)
 
 
 def add_train(commands: Commands) -> None:
     p = commands.add_parser(
         "train",
         help="train a learner, write run.json, checkpoint and learning curve",
-        description="Train the report's or the book's learner. Every config field can be "
-        "overridden with --FIELD VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
+        description="Train a preset's learner. Every setting can be overridden with --FIELD "
+        "VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
     )
-    p.add_argument("--preset", choices=sorted([*PRESETS, *PLANNERS]), default="report")
+    p.add_argument("--preset", choices=sorted(PRESETS), default="report")
     p.add_argument("--seed", type=seed, default=0, help="seed (the first one with --seeds)")
-    p.add_argument(
-        "--seeds",
-        type=positive_int,
-        help="train K seeds and write summary.json; tabular SARSA runs them in "
-        "lockstep on one batched vector env from 25 a process, else one per process",
-    )
-    p.add_argument(
-        "--jobs",
-        type=positive_int,
-        default=1,
-        help="processes for --seeds (one seed at a time each, or a lockstep group each)",
-    )
-    p.add_argument(
-        "--lockstep",
-        action=argparse.BooleanOptionalAction,
-        help="with --seeds or --population: train the seeds (or a run's learners) together on "
-        "one vector env (Sarsa(lambda) needs --kernel numba; the same runs); default: the "
-        "seeds of tabular SARSA from 25 a process, a population's learners one by one",
-    )
+    p.add_argument("--seeds", type=positive_int,
+                   help="train K seeds and write summary.json; tabular SARSA runs them in "
+                   "lockstep on one batched vector env from 25 a process, else one per process")  # fmt: skip
+    p.add_argument("--jobs", type=positive_int, default=1,
+                   help="processes for --seeds (one seed at a time each, or a lockstep group)")  # fmt: skip
+    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
+                   help="with --seeds: train the seeds together on one vector env (tabular "
+                   "SARSA; the same runs); default: from 25 seeds a process")  # fmt: skip
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     add_progress(p)
-    p.add_argument(
-        "--tensorboard",
-        metavar="DIR",
-        help="write each training episode's length, return and success to DIR for "
-        "TensorBoard (needs the tensorboard extra)",
-    )
-    group = p.add_argument_group("config overrides (defaults: the preset's)")
-    for f in fields(TrainConfig):
-        group.add_argument(
-            f"--{f.name.replace('_', '-')}", dest=f.name, metavar="VALUE", help=f.metadata["doc"]
-        )
-    add_plan_options(p)
+    p.add_argument("--tensorboard", metavar="DIR",
+                   help="write each training episode's length, return and success to DIR for "
+                   "TensorBoard (needs the tensorboard extra)")  # fmt: skip
+    group = p.add_argument_group("settings (defaults: the preset's)")
+    for name in field_names():
+        group.add_argument(f"--{name.replace('_', '-')}", dest=name, metavar="VALUE")
+    for name in RETIRED:
+        group.add_argument(f"--{name.replace('_', '-')}", dest=name, help=argparse.SUPPRESS)
+    plan = p.add_argument_group("balance preset (identify, plan, TVLQR)")
+    for flag, dest, text in PLAN_OPTIONS:
+        plan.add_argument(flag, dest=f"plan_{dest}", metavar="VALUE", help=text)
+    plan.add_argument("--discrete", dest="plan_discrete", action="store_true",
+                      help="{-1, 0, +1} N m torques (sigma-delta) instead of continuous ones")  # fmt: skip
     p.set_defaults(func=train_command)
 
 
+def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig:
+    """The preset with the settings given on the command line."""
+    given = [name for name in field_names() if getattr(args, name) is not None]
+    for name in RETIRED:
+        if getattr(args, name) is not None:
+            raise ValueError(f"--{name.replace('_', '-')} was removed: {RETIRED[name]}")
+    plan = [flag for flag, dest, _ in PLAN_OPTIONS if getattr(args, f"plan_{dest}") is not None]
+    plan += ["--discrete"] if args.plan_discrete else []
+    preset = PRESETS[args.preset]
+    if isinstance(preset, TrainConfig):
+        if plan:
+            raise ValueError(f"{', '.join(plan)}: only the balance preset takes these")
+        return preset.replace(**{name: parse_value(name, getattr(args, name)) for name in given})
+    refused = [name for name in given if name != "identify_decisions"]
+    if refused:
+        flags = ", ".join(f"--{name.replace('_', '-')}" for name in refused)
+        raise ValueError(f"{flags}: not a setting of the balance preset (a planner, not a "
+                         "tabular or tile-coded learner)")  # fmt: skip
+    overrides: dict[str, Any] = {"discrete": True} if args.plan_discrete else {}
+    if args.identify_decisions is not None:
+        overrides["identify_decisions"] = _number(args.identify_decisions, int, "--identify-decisions")
+    for flag, dest, _ in PLAN_OPTIONS:
+        text = getattr(args, f"plan_{dest}")
+        if text is not None and dest in ("horizons", "targets"):
+            parts = text.split(":" if dest == "horizons" else ",")
+            overrides[dest] = tuple(_number(v, int, flag) for v in parts)
+        elif text is not None:
+            overrides[dest] = _number(text, float, flag)
+    return preset.replace(**overrides)
+
+
+def _number(text: str, kind: type, flag: str) -> Any:
+    try:
+        return kind(text)
+    except ValueError:
+        raise ValueError(f"{flag} needs {kind.__name__} values, got {text!r}") from None
+
+
 def train_command(args: argparse.Namespace) -> dict[str, Any]:
-    progress = show_progress(args)
-    if args.preset in PLANNERS:
-        return train_plan_command(args, progress)
-    check_no_plan_options(args)
-    config = config_of(args)
+    config, progress = config_of(args), show_progress(args)
+    if isinstance(config, PlanConfig):
+        if args.seeds is not None or args.resume or args.jobs != 1:
+            raise ValueError("the balance preset trains one seed per command (no --seeds, "
+                             "--jobs or --resume: a run takes minutes and has nothing to "
+                             "resume)")  # fmt: skip
+        out = Path(args.out or f"runs/balance__seed{args.seed}")
+        record = train(config, args.seed, out, progress=progress, overwrite=args.force)
+        print(f"trained -> {out}: " + plan_words(record))
+        return record
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
-    if args.seeds is None and args.lockstep is not None and config.population == 1:
-        raise ValueError(
-            "--lockstep trains several seeds or a population's learners together: it needs "
-            "--seeds or --population"
-        )
+    if args.seeds is None and args.lockstep is not None:
+        raise ValueError("--lockstep trains several seeds together: it needs --seeds (a "
+                         "population's learners train one by one: faster here)")  # fmt: skip
     if args.seeds is not None:
         return _train_seeds(args, config, progress)
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
-    record = train(
-        config,
-        args.seed,
-        out,
-        resume=args.resume,
-        progress=progress,
-        overwrite=args.force,
-        tensorboard=args.tensorboard,
-        lockstep=args.lockstep,
-    )
+    record = train(config, args.seed, out, resume=args.resume, progress=progress,
+                   overwrite=args.force, tensorboard=args.tensorboard)  # fmt: skip
     task = get_task(config.task)
     pop = record.get("population")
     kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
-    print(
-        f"trained {record['episodes_done']} episodes ({record['steps']} decisions, "
-        f"{record['wall_seconds']:.1f} s) -> {out}: {sum(record['episode_successes'])} "
-        f"{task.success_text}; last 20 episodes{kept} median {recent_score(record):g} "
-        f"{task.score.unit}; greedy from rest: {_greedy_words(record['greedy_from_rest'], task)}"
-    )
-    return record
-
-
-def _greedy_words(greedy: dict[str, Any], task: Any) -> str:
-    """``goal in 89 decisions`` (for the height goal), with the return where it is the score."""
+    greedy = record["greedy_from_rest"]
     label = task.success_label.lower()
     words = f"{label if greedy['success'] else 'no ' + label} in {greedy['length']} decisions"
     if task.score.quantity == "return":
         words += f", return {greedy['return']:g} {task.score.unit}"
-    return words
+    print(
+        f"trained {record['episodes_done']} episodes ({record['steps']} decisions, "
+        f"{record['wall_seconds']:.1f} s) -> {out}: {sum(record['episode_successes'])} "
+        f"{task.success_text}; last 20 episodes{kept} median {recent_score(record):g} "
+        f"{task.score.unit}; greedy from rest: {words}"
+    )
+    return record
 
 
 def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) -> dict:
     out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}")
     seeds = list(range(args.seed, args.seed + args.seeds))
-    summary = train_seeds(
-        config,
-        seeds,
-        out,
-        jobs=args.jobs,
-        resume=args.resume,
-        progress=progress,
-        overwrite=args.force,
-        tensorboard=args.tensorboard,
-        lockstep=args.lockstep,
-    )
-    score = get_task(config.task).score
+    summary = train_seeds(config, seeds, out, jobs=args.jobs, resume=args.resume,
+                          progress=progress, overwrite=args.force, tensorboard=args.tensorboard,
+                          lockstep=args.lockstep)  # fmt: skip
+    task = get_task(config.task)
+    score = task.score
     g, s = summary[f"greedy_from_rest_{score.quantity}"], summary["successes"]
     print(
         f"{len(seeds)} seeds -> {out}: successes per run median {s['median']:g} "
         f"(min {s['min']:g}, max {s['max']:g}); greedy {score.unit} from rest median "
         f"{g['median']:g} (IQR {g['q25']:g}-{g['q75']:g}), "
-        f"{summary['greedy_from_rest_successes']}/{len(seeds)} {get_task(config.task).success_text}"
+        f"{summary['greedy_from_rest_successes']}/{len(seeds)} {task.success_text}"
     )
     held = summary["held_out"]
     m, n = held[f"median_{score.quantity}"], held["protocol"]["episodes"]
-    words = (
-        f"held out ({n} starts): per-seed median {score.unit}, median over seeds {m['median']:g} "
-        f"(IQR {m['q25']:g}-{m['q75']:g})"
-    )
+    words = (f"held out ({n} starts): per-seed median {score.unit}, median over seeds "
+             f"{m['median']:g} (IQR {m['q25']:g}-{m['q75']:g})")  # fmt: skip
     if "median_ratio" in held:
         words += f", {held['median_ratio']['median']:.3g} x the per-start minima"
     distinct = held["distinct_outcomes"]["held_out"]
     print(words + f"; {distinct} distinct greedy behaviours in {len(seeds)} seeds")
     return summary
+
+
+def plan_words(record: dict[str, Any]) -> str:
+    """One line on a balance run: the model, the plan, the result from rest."""
+    model, plan, rest = record["model"], record["plan"], record["greedy_from_rest"]
+    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
+    return (
+        f"model from {model['data_decisions']} random-torque decisions (RMS error "
+        f"{model['rms']:.2g}); plan {plan['seconds']:g} s to upright; from rest: {held} after "
+        f"{rest['swing_up_seconds']:g} s, largest error {rest['max_error_during_hold'] or 0:.2g} "
+        f"rad; {record['wall_seconds']:.0f} s"
+    )
 
 
 def add_evaluate(commands: Commands) -> None:
@@ -179,48 +190,45 @@ def add_evaluate(commands: Commands) -> None:
         "every episode's start state and actions, so any simulator can replay it.",
     )
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
-    p.add_argument("--episodes", type=positive_int, default=DEFAULT.episodes)
-    p.add_argument(
-        "--start-noise",
-        type=float,
-        metavar="S",
-        help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a balance-preset "
-        f"run {BALANCE_NOISE:g})",
-    )
-    p.add_argument("--seed", type=seed, default=DEFAULT.seed, help="seed of the held-out starts")
-    p.add_argument(
-        "--minima",
-        action="store_true",
-        help="compute the per-start minimum-time references (a beam search, about 4 s per "
-        "start) where none are stored for this protocol and env",
-    )
+    p.add_argument("--episodes", type=positive_int, help=f"default {DEFAULT.episodes}")
+    p.add_argument("--start-noise", type=float, metavar="S",
+                   help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a "
+                   "balance-preset run 0.01)")  # fmt: skip
+    p.add_argument("--seed", type=seed, help="seed of the held-out starts (default 0)")
+    p.add_argument("--minima", action="store_true",
+                   help="compute the per-start minimum-time references (a beam search, about 4 "
+                   "s per start) where none are stored for this protocol and env")  # fmt: skip
     p.set_defaults(func=evaluate_command)
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
-    if is_plan_run(args.run_dir):
-        return evaluate_plan_command(args)
-    noise = DEFAULT.start_noise if args.start_noise is None else args.start_noise
-    protocol = Protocol(args.episodes, noise, args.seed)
+    given = {"episodes": args.episodes, "start_noise": args.start_noise, "seed": args.seed}
+    protocol = {k: v for k, v in given.items() if v is not None}
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
     print(evaluation_words(record) + f"; wrote {Path(args.run_dir) / EVAL_FILE}")
     return record
 
 
 def evaluation_words(record: dict[str, Any]) -> str:
-    """One line on an evaluation record: held-out scores, against the minima, and from rest."""
+    """One line on an evaluation record: held-out scores (and the task's measures), against
+    the minima, and from rest."""
+    summary, rest = record["summary"], record["rest"]
+    if "balanced" in summary:  # the balance task's measures
+        hold, noise = summary["hold_seconds"], record["protocol"]["start_noise"]
+        return (f"{summary['episodes']} held-out starts (U(-{noise:g}, {noise:g})): "
+                f"{summary['balanced']} ended balanced, hold median {hold['median']:g} s (min "
+                f"{hold['min']:g} s); from rest: "
+                + ("balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"))  # fmt: skip
     task = get_task(record["config"]["task"])
     quantity, unit = task.score.quantity, task.score.unit
-    summary, rest = record["summary"], record["rest"]
     values = summary[quantity]
-    words = (
-        f"{summary['episodes']} held-out starts: {summary['successes']} {task.success_text}, "
-        f"{quantity} median {values['median']:g} {unit} (IQR {values['q25']:g}-{values['q75']:g})"
-    )
+    words = (f"{summary['episodes']} held-out starts: {summary['successes']} {task.success_text}, "
+             f"{quantity} median {values['median']:g} {unit} (IQR {values['q25']:g}-"
+             f"{values['q75']:g})")  # fmt: skip
     if "minima" in record:
         ratio = record["minima"]["ratio"]
-        words += f", {ratio['median']:.3g} x the per-start minima (IQR {ratio['q25']:.3g}-"
-        words += f"{ratio['q75']:.3g})"
+        words += (f", {ratio['median']:.3g} x the per-start minima (IQR {ratio['q25']:.3g}-"
+                  f"{ratio['q75']:.3g})")  # fmt: skip
     words += f"; from rest {rest[quantity]:g} {unit}"
     return words + ("" if rest["success"] else " (no goal)")
 
@@ -239,13 +247,10 @@ def add_sweep(commands: Commands) -> None:
     p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
-    p.add_argument(
-        "--lockstep",
-        action=argparse.BooleanOptionalAction,
-        help="local: each grid point's seeds together on one vector env, in this process "
-        "(Sarsa(lambda) needs kernel numba; the same records); default: tabular SARSA's points "
-        "with 25 seeds left or more",
-    )
+    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
+                   help="local: each grid point's seeds together on one vector env, in this "
+                   "process (tabular SARSA; the same records); default: points with 25 seeds "
+                   "left or more")  # fmt: skip
     add_progress(p)
     p.set_defaults(func=sweep_command)
 
@@ -253,40 +258,25 @@ def add_sweep(commands: Commands) -> None:
 def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
     spec = load_sweep(args.sweep_file)
     out = Path(args.out or f"runs/sweep__{Path(args.sweep_file).stem}")
-    summary = run_sweep(
-        spec,
-        out,
-        backend=args.backend,
-        address=args.address,
-        jobs=args.jobs,
-        ray_num_cpus=args.num_cpus,
-        progress=show_progress(args),
-        lockstep=args.lockstep,
-    )
+    summary = run_sweep(spec, out, backend=args.backend, address=args.address, jobs=args.jobs,
+                        ray_num_cpus=args.num_cpus, progress=show_progress(args),
+                        lockstep=args.lockstep)  # fmt: skip
     print(summary_table(summary), end="")
-    print(
-        f"{summary['trials']} trials -> {out}/trials; wrote summary.json, summary.md, summary.png"
-    )
+    print(f"{summary['trials']} trials -> {out}/trials; wrote summary.json, summary.md, "
+          "summary.png")  # fmt: skip
     return summary
 
 
 def add_curves(commands: Commands) -> None:
     p = commands.add_parser("curves", help="learning curves of several runs, one figure")
-    p.add_argument(
-        "run_dirs",
-        nargs="+",
-        help="directories written by train: of --seeds (their median and band) or one run's "
-        "(a population's learner_K among them)",
-    )
-    p.add_argument(
-        "--out", required=True, help="the figure file: .png, .svg or .pdf (by its suffix)"
-    )
+    p.add_argument("run_dirs", nargs="+",
+                   help="directories written by train: of --seeds (their median and band) or "
+                   "one run's (a population's learner_K among them)")  # fmt: skip
+    p.add_argument("--out", required=True, help="the figure: .png, .svg or .pdf (by its suffix)")
     p.add_argument("--title", default="Learning curves")
-    p.add_argument(
-        "--minimum",
-        action="store_true",
-        help="draw the task's reference (the best known minimum: 63 decisions at frame_skip 4)",
-    )
+    p.add_argument("--minimum", action="store_true",
+                   help="draw the task's reference (the best known minimum: 63 decisions at "
+                   "frame_skip 4)")  # fmt: skip
     p.set_defaults(func=curves_command)
 
 
@@ -302,10 +292,8 @@ def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
     if run_file.is_file():
         record = json.loads(run_file.read_text())
         return TrainConfig.from_dict(record["config"]), [record]
-    raise FileNotFoundError(
-        f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give directories written by "
-        "acrobot-mj train"
-    )
+    raise FileNotFoundError(f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give "
+                            "directories written by acrobot-mj train")  # fmt: skip
 
 
 def curves_command(args: argparse.Namespace) -> None:
@@ -317,12 +305,6 @@ def curves_command(args: argparse.Namespace) -> None:
         groups[Path(folder).name] = [score.values(record) for record in records]
     task = get_task(config.task)
     reference = task.reference(config.frame_skip) if args.minimum else None
-    compare_curves(
-        args.out,
-        groups,
-        args.title,
-        [reference] if reference else [],
-        task.score.label,
-        task.score.log_scale,
-    )
+    compare_curves(args.out, groups, args.title, [reference] if reference else [],
+                   task.score.label, task.score.log_scale)  # fmt: skip
     print(f"wrote {args.out}")

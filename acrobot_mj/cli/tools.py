@@ -1,4 +1,4 @@
-"""``acrobot-mj render | validate | bench | demo | params``: parsers and handlers."""
+"""``acrobot-mj render | validate | balance | bench | demo | params``: parsers and handlers."""
 
 from __future__ import annotations
 
@@ -18,13 +18,12 @@ from acrobot_mj.cli.common import (
     show_progress,
     write_record,
 )
-from acrobot_mj.control.baselines import POLICY_NAMES, make_policy
-from acrobot_mj.envs.episode import PolicyActor, run_episode
+from acrobot_mj.control.policies import POLICY_NAMES, make_policy
+from acrobot_mj.envs.rollout import PolicyActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics.params import describe
-from acrobot_mj.report.video import render_policy
+from acrobot_mj.report.video import RenderSettings, render_policy
 from acrobot_mj.train.evaluate import render_run
-from acrobot_mj.train.plan_config import is_plan_run
 from acrobot_mj.train.records import History
 from acrobot_mj.version import versions
 
@@ -58,27 +57,14 @@ def add_render(commands: Commands) -> None:
 def render_command(args: argparse.Namespace) -> dict[str, Any]:
     if (args.run_dir is None) == (args.policy is None):
         raise ValueError("give either a run directory or --policy, not both or neither")
-    common = {
-        "seed": args.seed,
-        "width": args.width,
-        "height": args.height,
-        "camera": args.camera,
-        "strip": args.strip,
-        "captions": args.captions,
-        "progress": show_progress(args),
-    }
-    if args.run_dir is not None and is_plan_run(args.run_dir):
-        from acrobot_mj.train.plan_eval import render_plan  # the balance preset's runs
-
-        record = render_plan(args.run_dir, args.out, max_steps=args.steps, **common)
-    elif args.run_dir is not None:
-        record = render_run(args.run_dir, args.out, max_steps=args.steps, **common)
+    settings = RenderSettings(args.width, args.height, args.camera, args.captions, args.strip,
+                              args.steps, args.seed, show_progress(args))  # fmt: skip
+    if args.run_dir is not None:
+        record = render_run(args.run_dir, args.out, settings)
     else:
-        record = render_policy(
-            args.policy, args.out, steps=args.steps, frame_skip=args.frame_skip, **common
-        )
+        record = render_policy(args.policy, args.out, settings, args.frame_skip)
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
-    if "balanced" in record:  # a balance-preset run
+    if "balanced" in record:  # the balance task
         outcome = "stays balanced" if record["balanced"] else "does not stay balanced"
     print(
         f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
@@ -174,7 +160,8 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
         keep(obs, info)
 
     policy = PolicyActor(make_policy(args.policy, args.seed))
-    episode = run_episode(env, policy, args.seed, None, args.steps, keep, keep_step)
+    episode = run_episode(env, policy, args.seed, max_steps=args.steps, on_reset=keep,
+                          on_step=keep_step)  # fmt: skip
     dt = env.unwrapped.dt
     print(
         f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
@@ -220,3 +207,56 @@ def add_params(commands: Commands) -> None:
 def params_command(args: argparse.Namespace) -> None:
     """Print the physical parameters with units and sources."""
     print(describe())
+
+
+def add_balance(commands: Commands) -> None:
+    p = commands.add_parser(
+        "balance",
+        help="swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
+        description="Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
+        "re-checked against the dynamics; optimised with CasADi otherwise) with TVLQR, then "
+        "balance with the saturated LQR; write balance.json (every step's torque and state) "
+        "and a video.",
+    )
+    p.add_argument("--discrete", action="store_true", help="torques {-1, 0, +1} (sigma-delta)")
+    p.add_argument(
+        "--reserve",
+        type=float,
+        default=0.8,
+        metavar="U",
+        help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest is the "
+        "feedback's (default 0.8; 1 is the minimum-time trajectory, with none)",
+    )
+    p.add_argument("--hold", type=float, default=60.0, help="seconds to balance after it")
+    p.add_argument("--out", default="runs/balance", help="folder for balance.json and the video")
+    p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
+    p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True)
+    p.add_argument("--width", type=positive_int, default=480)
+    p.add_argument("--height", type=positive_int, default=480)
+    add_progress(p)
+    p.set_defaults(func=balance_command)
+
+
+def balance_command(args: argparse.Namespace) -> dict[str, Any]:
+    from acrobot_mj.report.balance import run_balance  # MuJoCo and maybe CasADi: on demand
+
+    out = Path(args.out)
+    record = run_balance(
+        out, args.discrete, args.reserve, args.hold, args.optimise, args.video,
+        (args.width, args.height), show_progress(args),
+    )  # fmt: skip
+    trajectory = record["trajectory"]
+    kind = "{-1, 0, +1}" if args.discrete else "continuous"
+    held = (
+        f"balanced for {record['hold_seconds']:.1f} s (largest error "
+        f"{record['max_error_during_hold']:.2g} rad)"
+        if record["balanced"]
+        else f"NOT balanced: held {record['hold_seconds']:.1f} s of {args.hold:g}"
+    )
+    print(
+        f"swing-up in {record['swing_up_seconds']:.2f} s along the {trajectory['source']} "
+        f"trajectory ({trajectory['steps']} steps, |u| <= {trajectory['u_max']:g} N m), "
+        f"{kind} torques; {held} -> {out / 'balance.json'}"
+        + (f", {record['video']}" if record["video"] else "")
+    )
+    return record

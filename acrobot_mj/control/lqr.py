@@ -1,5 +1,5 @@
-"""Balancing at upright: infinite-horizon discrete LQR, its saturated form and basin, and the
-bound no controller with |tau| <= 1 N m can beat (all on the analytic model)."""
+"""Balancing at upright: the exact linearisation of the env's step, infinite-horizon discrete
+LQR, its saturated form and basin, and the bound no controller with |tau| <= 1 N m can beat."""
 
 from __future__ import annotations
 
@@ -8,22 +8,66 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acrobot_mj.control.model import UPRIGHT, P, discrete_model, state_error, step
-from acrobot_mj.physics import dynamics
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics import dynamics, integrators
+from acrobot_mj.physics.dynamics import UPRIGHT
+from acrobot_mj.physics.params import REPORT, AcrobotParams
+from acrobot_mj.physics.xp import wrap_angle
+
+
+def state_error(x: np.ndarray, reference: np.ndarray = UPRIGHT) -> np.ndarray:
+    """``x - reference`` [rad, rad/s], shape ``(..., 4)``, the angle differences wrapped to
+    ``[-pi, pi)`` (a state one turn away is the same state)."""
+    error = np.asarray(x, dtype=float) - reference
+    error[..., :2] = wrap_angle(error[..., :2])
+    return error
+
+
+def step_jacobians(
+    x: np.ndarray, u: float = 0.0, method: str = "semi_implicit_euler", p: AcrobotParams = REPORT
+) -> tuple[np.ndarray, np.ndarray]:
+    """Exact Jacobians ``A`` ``(4, 4)`` and ``B`` ``(4, 1)`` of one physics step of ``method``
+    at state ``x`` and torque ``u`` [N m] (limits inactive), from the analytic continuous
+    Jacobian (no finite differences)."""
+    x, h = np.asarray(x, dtype=float), p.dt
+    if method == "semi_implicit_euler":
+        a_c, b_c = dynamics.linearize(x[:2], x[2:], u, p)
+        eye = np.eye(2)
+        aq, av, bu = a_c[2:, :2], a_c[2:, 2:], b_c[2:]
+        a = np.block([[eye + h * h * aq, h * (eye + h * av)], [h * aq, eye + h * av]])
+        return a, np.vstack([h * h * bu, h * bu])
+    if method != "rk4":
+        raise ValueError(f"method must be 'semi_implicit_euler' or 'rk4', got {method!r}")
+    # The chain rule through the four stages, each stage's Jacobian at its own state.
+    j_sum, g_sum = np.zeros((4, 4)), np.zeros((4, 1))
+    j, g, slope = np.zeros((4, 4)), np.zeros((4, 1)), np.zeros(4)
+    for weight, fraction in ((1, 0.0), (2, 0.5), (2, 0.5), (1, 1.0)):
+        stage = x + fraction * h * slope
+        a_c, b_c = dynamics.linearize(stage[:2], stage[2:], u, p)
+        j = a_c @ (np.eye(4) + fraction * h * j)
+        g = a_c @ (fraction * h * g) + b_c
+        slope = integrators.state_derivative(stage, u, p)
+        j_sum, g_sum = j_sum + weight * j, g_sum + weight * g
+    return np.eye(4) + h / 6 * j_sum, h / 6 * g_sum
+
+
+def discrete_model(
+    x0: np.ndarray = UPRIGHT, frame_skip: int = 1, p: AcrobotParams = REPORT
+) -> tuple[np.ndarray, np.ndarray]:
+    """Exact Jacobians of the env's decision (semi-implicit Euler, ``frame_skip`` steps, the
+    torque held) at ``x0`` with zero torque."""
+    a, b = step_jacobians(x0, 0.0, p=p)
+    a_k, b_k = np.eye(4), np.zeros((4, 1))
+    for _ in range(frame_skip):
+        a_k, b_k = a @ a_k, a @ b_k + b
+    return a_k, b_k
 
 
 def dlqr(
-    a: np.ndarray,
-    b: np.ndarray,
-    q: np.ndarray,
-    r: np.ndarray,
-    iterations: int = 10_000,
-    tol: float = 1e-12,
+    a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, tol: float = 1e-12
 ) -> tuple[np.ndarray, np.ndarray]:
     """Infinite-horizon discrete LQR by Riccati iteration: gain K (``u = -K x``) and cost P."""
     cost = q.copy()
-    for _ in range(iterations):
+    for _ in range(10_000):
         gain = np.linalg.solve(r + b.T @ cost @ b, b.T @ cost @ a)
         new = q + a.T @ cost @ (a - b @ gain)
         if np.max(np.abs(new - cost)) <= tol * max(1.0, np.max(np.abs(new))):
@@ -34,13 +78,13 @@ def dlqr(
 
 @dataclass
 class LQR:
-    """Saturated LQR balancing at upright: ``tau = clip(-K (x - x*), -1, 1)`` N m, angles of
-    ``x - x*`` wrapped. Designed on the env's discrete model (0.05 s, semi-implicit Euler)."""
+    """Saturated LQR at upright, ``tau = clip(-K (x - x*), -1, 1)`` N m (angles of ``x - x*``
+    wrapped), designed on the env's discrete model of ``p`` (the report's acrobot, or an
+    identified one)."""
 
     q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0)
     r: float = 1.0
-    #: The model it is designed on (the report's acrobot, or an identified one).
-    p: AcrobotParams = P
+    p: AcrobotParams = REPORT
     gain: np.ndarray = field(init=False)
     #: The Riccati solution: the infinite-horizon cost-to-go ``x' S x`` of the error.
     cost: np.ndarray = field(init=False)
@@ -50,9 +94,8 @@ class LQR:
         self.gain, self.cost = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        error = state_error(x)
         limit = self.p.max_torque
-        return np.clip(-(error @ self.gain.T)[..., 0], -limit, limit)
+        return np.clip(-(state_error(x) @ self.gain.T)[..., 0], -limit, limit)
 
 
 def balances(
@@ -61,19 +104,19 @@ def balances(
     seconds: float = 20.0,
     tolerance: float = 1e-3,
 ) -> np.ndarray:
-    """For each start ``(n, 4)``: does ``controller`` bring it to within ``tolerance`` of
-    upright (all four coordinates, angles wrapped) and keep it there at the end?"""
+    """For each start ``(n, 4)``: does ``controller`` bring it within ``tolerance`` of upright
+    (all four coordinates, angles wrapped) and keep it there at the end?"""
     x = np.array(starts, dtype=float)
-    for _ in range(round(seconds / P.dt)):
-        x = step(x, controller(x))
+    for _ in range(round(seconds / REPORT.dt)):
+        x = integrators.step_states(x, controller(x))
     return np.all(np.abs(state_error(x)) < tolerance, axis=1)
 
 
 def q1_basin(
     controller: Callable[[np.ndarray], np.ndarray], upper: float = 0.5, resolution: float = 1e-4
 ) -> tuple[float, float]:
-    """Largest pure q1 offsets (below and above upright, at rest) from which ``controller``
-    balances, by bisection; assumes the basin along q1 is an interval around 0."""
+    """The largest pure q1 offsets (below and above upright, at rest) from which ``controller``
+    balances, by bisection (assuming the basin along q1 is an interval)."""
     limits = []
     for sign in (-1.0, 1.0):
         good, bad = 0.0, upper
@@ -85,17 +128,14 @@ def q1_basin(
     return limits[0], limits[1]
 
 
-def unstable_mode_bound(p: AcrobotParams = P) -> dict[str, float]:
-    """The largest pure q1 offset from upright any controller with ``|tau| <= max_torque``
-    can recover from, in the linearisation.
-
-    Each unstable mode ``z = w x`` (``w`` a left eigenvector, eigenvalue ``lambda > 0``) obeys
-    ``dz/dt = lambda z + (w B) tau``; once ``|z| > |w B| max_torque / lambda`` no admissible
-    torque can stop it growing. For ``x = (d, 0, 0, 0)`` that caps ``|d|`` at
-    ``min_i |w_i B| max_torque / (lambda_i |w_i1|)``.
-    """
+def unstable_mode_bound(p: AcrobotParams = REPORT) -> dict[str, float]:
+    """The largest pure q1 offset from upright that any controller with ``|tau| <= max_torque``
+    recovers from, in the linearisation: each unstable mode ``z = w x`` (``w`` a left
+    eigenvector, eigenvalue ``lambda > 0``) obeys ``dz/dt = lambda z + (w B) tau``, so past
+    ``|z| = |w B| max_torque / lambda`` no torque stops it; for ``x = (d, 0, 0, 0)`` that caps
+    ``|d|`` at ``min_i |w_i B| max_torque / (lambda_i |w_i1|)``. Keyed by the eigenvalue."""
     a, b = dynamics.linearize(UPRIGHT[:2], UPRIGHT[2:], 0.0, p)
-    values, left = np.linalg.eig(a.T)  # columns: left eigenvectors of A
+    values, left = np.linalg.eig(a.T)
     bounds = {}
     for k in np.flatnonzero(values.real > 1e-9):
         w = left[:, k].real

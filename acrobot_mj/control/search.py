@@ -6,9 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acrobot_mj.control.model import HANGING, step, tip_height
-from acrobot_mj.physics import dynamics
-from acrobot_mj.physics.angles import wrap_angle
+from acrobot_mj.physics import dynamics, integrators
+from acrobot_mj.physics.dynamics import HANGING, tip_height
+from acrobot_mj.physics.params import REPORT
+from acrobot_mj.physics.xp import wrap_angle
 
 
 @dataclass
@@ -48,7 +49,9 @@ def min_time_search(
     for depth in range(1, max_decisions + 1):
         n = len(beam)
         expanded += 3 * n
-        children = step(np.repeat(beam, 3, axis=0), np.tile(torques, n), frame_skip, method)
+        children = integrators.step_states(
+            np.repeat(beam, 3, axis=0), np.tile(torques, n), REPORT, frame_skip, method
+        )
         parent, choice = np.repeat(np.arange(n), 3), np.tile(np.arange(3), n)
         reached = np.flatnonzero(tip_height(children) > goal_height)
         if reached.size:
@@ -64,8 +67,10 @@ def min_time_search(
             np.floor(key / np.asarray(cell)).astype(np.int64), axis=0, return_index=True
         )
         if first.size > width:
+            # The most energetic, kept in cell order: argpartition's own order differs between
+            # numpy versions, and the order decides which state the next merge keeps.
             energy = dynamics.total_energy(children[first, :2], children[first, 2:])
-            first = first[np.argpartition(-energy, width)[:width]]
+            first = first[np.sort(np.argpartition(-energy, width)[:width])]
         beam = children[first]
         parents.append(parent[first])
         choices.append(choice[first])

@@ -16,9 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.model import HANGING, P, state_error, step
+from acrobot_mj.control.lqr import state_error
 from acrobot_mj.files import write_json
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 
 #: Largest difference [rad, rad/s] between a stored state and the model's step of the one
 #: before: 1e-9 is ~1e5 times the rounding of one step, and any modelling difference (another
@@ -39,7 +41,7 @@ class Trajectory:
     dt: float
     method: str
     u_max: float
-    params: AcrobotParams = P
+    params: AcrobotParams = REPORT
 
     @property
     def steps(self) -> int:
@@ -51,7 +53,7 @@ class Trajectory:
 
     def residual(self) -> float:
         """Largest gap between each stored state and the model's step of the one before."""
-        nxt = step(self.states[:-1], self.torques, method=self.method, p=self.params)
+        nxt = integrators.step_states(self.states[:-1], self.torques, self.params, method=self.method)
         return float(np.abs(nxt - self.states[1:]).max())
 
     def check(self, tolerance: float = TOLERANCE) -> Trajectory:
@@ -78,7 +80,7 @@ class Trajectory:
         return self
 
     def to_dict(self) -> dict[str, Any]:
-        model = {} if self.params == P else {"params": asdict(self.params)}
+        model = {} if self.params == REPORT else {"params": asdict(self.params)}
         return {
             "format": FORMAT,
             **model,
@@ -108,7 +110,7 @@ class Trajectory:
                 float(data["dt"]),
                 str(data["method"]),
                 float(data["u_max"]),
-                AcrobotParams(**data["params"]) if "params" in data else P,
+                AcrobotParams(**data["params"]) if "params" in data else REPORT,
             )
             return trajectory.check()
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:

@@ -2,7 +2,7 @@
 upright, and sigma-delta modulation for the learning task's torques {-1, 0, +1} N m.
 
 TVLQR: the discrete Riccati recursion backwards along the trajectory, on the exact Jacobians of
-the env's physics step at each ``(x_k, u_k)`` (:func:`acrobot_mj.control.model.step_jacobians`:
+the env's physics step at each ``(x_k, u_k)`` (:func:`acrobot_mj.control.lqr.step_jacobians`:
 the analytic continuous Jacobian through the integrator; no finite differences), starting from
 the infinite-horizon LQR's cost at upright, so the two feedbacks join without a seam.
 """
@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from acrobot_mj.control.lqr import LQR
-from acrobot_mj.control.model import state_error, step_jacobians
+from acrobot_mj.control.lqr import LQR, state_error, step_jacobians
 from acrobot_mj.control.trajectory import Trajectory
 
 

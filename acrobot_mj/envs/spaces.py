@@ -1,41 +1,38 @@
-"""The action and observation spaces every acrobot task shares, and actions turned into torques.
-
-Actions are ``Discrete(3)`` (torques -1, 0, +1 N m) or, continuous, ``Box(-1, 1, (1,))`` N m;
-anything outside the space raises an error that names it (nothing is clipped). Observations are
-``(q1, q2, dq1, dq2)`` with angles wrapped into [-pi, pi) and velocities within the task's limits.
-"""
+"""What every acrobot task shares: the action and observation spaces, actions turned into
+torques, and the reset options, each validated: anything outside the space or unknown raises
+an error that names it (nothing is clipped)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.checks import check_float
+from acrobot_mj.compiled import compiled, jitable
+from acrobot_mj.physics.params import REPORT
 
-_REPORT = AcrobotParams()
-#: Velocity limits [rad/s] (the report, after Sutton and Barto), applied after every physics step.
-MAX_VEL1 = _REPORT.max_vel1
-MAX_VEL2 = _REPORT.max_vel2
+#: Velocity limits [rad/s] (the report's, after Sutton and Barto), applied after every step.
+MAX_VEL1, MAX_VEL2 = REPORT.max_vel
 #: Torque [N m] of each discrete action.
 TORQUES = (-1.0, 0.0, 1.0)
-#: Ranges of the observation's variables: angles on the circle, velocities to their limits.
-OBS_LOW = (-math.pi, -math.pi, -MAX_VEL1, -MAX_VEL2)
-OBS_HIGH = (math.pi, math.pi, MAX_VEL1, MAX_VEL2)
+TORQUE_ARRAY = np.array(TORQUES)
 #: Integer types whose values index TORQUES directly (the env's fast path).
 INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
 TORQUE_OF = dict(enumerate(TORQUES))
-#: :data:`TORQUES` as an array, indexed by actions.
-TORQUE_ARRAY = np.array(TORQUES)
-#: Batches of actions up to this size are range-tested in Python (cheaper than numpy's calls).
-_FEW = 8
+#: Reset options of the single env: ``start_noise`` (this episode's) or ``state`` (an exact start
+#: ``(q1, q2, dq1, dq2)`` [rad, rad/s], as evaluation records store them); the vector env takes
+#: the first.
+RESET_OPTIONS = ("start_noise", "state")
 
 
 def observation_space() -> spaces.Box:
-    """``Box((4,), float64)`` over :data:`OBS_LOW` .. :data:`OBS_HIGH`."""
-    return spaces.Box(np.array(OBS_LOW), np.array(OBS_HIGH), dtype=np.float64)
+    """``(q1, q2, dq1, dq2)``: angles on the circle [-pi, pi), velocities to their limits."""
+    high = np.array([math.pi, math.pi, MAX_VEL1, MAX_VEL2])
+    return spaces.Box(-high, high, dtype=np.float64)
 
 
 def action_space(continuous: bool) -> spaces.Space:
@@ -57,49 +54,82 @@ def action_torque(action: Any, continuous: bool) -> float:
         if not -1.0 <= torque <= 1.0:  # also refuses NaN
             raise ValueError(f"action {torque} N m is outside the torque range [-1, 1] N m")
         return torque
-    if action.__class__ in INT_TYPES:
-        torque = TORQUE_OF.get(action)
+    if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu":
+        action = action.item()
+    if isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+        torque = TORQUE_OF.get(int(action))
         if torque is not None:
             return torque
         raise ValueError(
             f"action {action} is outside Discrete(3): use 0 (-1 N m), 1 (0 N m) or 2 (+1 N m)"
         )
-    if isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
-        return action_torque(int(action), False)  # e.g. np.longlong or an IntEnum member
-    if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu":
-        return action_torque(action.item(), False)
     raise TypeError(
         f"action must be an integer 0, 1 or 2, got {action!r} ({type(action).__name__})"
     )
 
 
-def action_torques(actions: Any, continuous: bool, num_envs: int) -> np.ndarray:
-    """Per-sub-env torques [N m] of a batch of actions; anything outside the space raises."""
-    a = np.asarray(actions)
+@jitable
+def discrete_torques(actions, torques, ctrl) -> int:
+    """``ctrl[i, 0] = torques[actions[i]]`` for every row and -1, or, if any action is outside
+    ``0 .. len(torques) - 1``, the first such row, with nothing written."""
+    for i in range(actions.shape[0]):
+        if not (0 <= actions[i] < torques.shape[0]):
+            return i
+    for i in range(actions.shape[0]):
+        ctrl[i, 0] = torques[actions[i]]
+    return -1
+
+
+def write_torques(actions: Any, continuous: bool, ctrl: np.ndarray) -> None:
+    """Write the torques [N m] of a batch of actions into the controls ``ctrl`` ``(N, 1)``;
+    anything outside the space raises, and nothing is written."""
+    n, a = len(ctrl), np.asarray(actions)
     if continuous:
-        if a.dtype.kind not in "fiu" or a.shape != (num_envs, 1):
-            raise ValueError(
-                f"actions must be a float array of shape ({num_envs}, 1), got {a.dtype} {a.shape}"
-            )
-        a = a[:, 0].astype(np.float64)
-        inside = (a >= -1.0) & (a <= 1.0)  # False for NaN too
-        if np.count_nonzero(inside) < num_envs:  # faster than all() on small batches
-            raise ValueError(
-                f"torques outside [-1, 1] N m at sub-envs {np.flatnonzero(~inside).tolist()}"
-            )
-        return a
-    if num_envs <= _FEW and a.dtype.kind in "iu" and a.shape == (num_envs,):
-        values = a.tolist()  # a few: Python's min and max cost less than numpy's tests
-        if min(values) >= 0 and max(values) <= 2:
-            return TORQUE_ARRAY[a]
-    if a.dtype.kind not in "iu" or a.shape != (num_envs,):
+        if a.dtype.kind not in "fiu" or a.shape != (n, 1):
+            raise ValueError(f"actions must be a float array of shape ({n}, 1), got {a.dtype} "
+                             f"{a.shape}")  # fmt: skip
+        inside = (a[:, 0] >= -1.0) & (a[:, 0] <= 1.0)  # False for NaN too
+        if not inside.all():
+            raise ValueError(f"torques outside [-1, 1] N m at sub-envs "
+                             f"{np.flatnonzero(~inside).tolist()}")  # fmt: skip
+        ctrl[:, 0] = a[:, 0]
+        return
+    if a.dtype.kind not in "iu" or a.shape != (n,):
+        raise ValueError(f"actions must be integers of shape ({n},), got {a.dtype} {a.shape}")
+    if compiled(discrete_torques)(a.astype(np.int64, copy=False), TORQUE_ARRAY, ctrl) >= 0:
+        bad = (a < 0) | (a > 2)
         raise ValueError(
-            f"actions must be integers of shape ({num_envs},), got {a.dtype} {a.shape}"
+            f"actions outside Discrete(3) at sub-envs {np.flatnonzero(bad).tolist()}: "
+            f"{a[bad].tolist()}"
         )
-    bad = (a < 0) | (a > 2)
-    if np.count_nonzero(bad):  # faster than any() on small batches
+
+
+def reset_noise(options: Any, default: float, known: tuple[str, ...] = ("start_noise",)) -> float:
+    """The start noise of a reset: ``options["start_noise"]`` (validated), else ``default``;
+    a non-dict or an option outside ``known`` raises."""
+    if options is not None and not isinstance(options, Mapping):
+        raise TypeError(f"reset options must be a dict, got {options!r}")
+    unknown = sorted(set(options or ()) - set(known))
+    if unknown:
+        raise ValueError(f"unknown reset options {unknown}; known: {list(known)}")
+    if options and "start_noise" in options:
+        return check_float("start_noise", options["start_noise"], 0.0, 1.0)
+    return default
+
+
+def reset_state(options: Any) -> np.ndarray | None:
+    """The exact start ``options["state"]`` of a reset, as 4 floats (None without); giving
+    ``start_noise`` as well is refused (the state is the whole start)."""
+    if not isinstance(options, Mapping) or options.get("state") is None:
+        return None
+    if "start_noise" in options:
+        raise ValueError("reset options 'state' and 'start_noise' exclude each other; give one")
+    try:
+        state = np.array(options["state"], dtype=np.float64)
+    except (TypeError, ValueError):
+        state = None
+    if state is None or state.shape != (4,):
         raise ValueError(
-            f"actions outside Discrete(3) at sub-envs "
-            f"{np.flatnonzero(bad).tolist()}: {a[bad].tolist()}"
+            f"reset option 'state' must be 4 numbers (q1, q2, dq1, dq2), got {options['state']!r}"
         )
-    return TORQUE_ARRAY[a]
+    return state

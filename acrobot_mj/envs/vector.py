@@ -1,14 +1,8 @@
-"""Many acrobots stepped together in MuJoCo's C batch API (``mujoco.batch``).
-
-:class:`AcrobotVectorEnv` is a ``gymnasium.vector.VectorEnv`` whose sub-environments have
-exactly :class:`~acrobot_mj.envs.env.AcrobotEnv`'s semantics (the task's reward, termination
-and info through the same :meth:`~acrobot_mj.envs.tasks.Task.outcome`, vectorised; velocity
-clipping after every physics step, angle wrapping, ``frame_skip``, integrator, start noise,
-truncation), with the physics of all of them advanced by one ``Batch.step`` call per physics
-step (:class:`~acrobot_mj.envs.batch_physics.BatchPhysics`: one thread for small batches, all
-CPUs for large ones). ``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)`` returns it.
-With ``backend="analytic"`` the same task is stepped by the lumped Lagrangian model compiled
-with numba instead (:class:`~acrobot_mj.envs.analytic_physics.AnalyticPhysics`).
+"""Many acrobots stepped together: a ``gymnasium.vector.VectorEnv`` whose sub-envs have exactly
+:class:`~acrobot_mj.envs.acrobot.AcrobotEnv`'s semantics, the physics of all of them advanced in
+one call per physics step (:mod:`acrobot_mj.envs.batch`) and the task's rule run over the rows,
+compiled (:meth:`~acrobot_mj.envs.tasks.Task.outcomes`).
+``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)`` returns it.
 """
 
 from __future__ import annotations
@@ -24,29 +18,34 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int
-from acrobot_mj.envs.analytic_physics import AnalyticPhysics
-from acrobot_mj.envs.batch_physics import BatchPhysics
-from acrobot_mj.envs.env import AcrobotEnv
-from acrobot_mj.envs.resets import reset_noise
-from acrobot_mj.envs.spaces import TORQUE_ARRAY, action_torques
-from acrobot_mj.envs.vector_attrs import METHODS, PER_ENV, SETTABLE, SHARED, SubEnvAttributes
+from acrobot_mj.envs.acrobot import AcrobotEnv
+from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
+from acrobot_mj.envs.spaces import reset_noise, write_torques
 
-_FLOAT, _BOOL, _INT = np.dtype(np.float64), np.dtype(bool), np.dtype(np.int64)
 #: The physics a vector env can step on: MuJoCo's batch (the default and the reference), or the
 #: lumped analytic model compiled with numba.
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
-__all__ = ["METHODS", "PER_ENV", "SETTABLE", "SHARED", "AcrobotVectorEnv"]
+#: Sub-env attributes with one value per sub-env (get_attr), and those of them set_attr sets.
+PER_ENV = ("state", "np_random", "np_random_seed")
+SETTABLE = ("np_random",)
+#: Sub-env attributes every sub-env of a batch shares (get_attr repeats the one value); fixed
+#: when the env is built, so set_attr refuses them.
+SHARED = ("frame_skip", "integrator", "continuous", "start_noise", "dt", "task", "model",
+          "metadata", "render_mode", "width", "height", "camera", "action_space",
+          "observation_space")  # fmt: skip
+#: Sub-env methods call() runs (with the same arguments for every sub-env).
+METHODS = ("set_state", "render")
 
 
-class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
-    """``num_envs`` acrobots with the single env's task, stepped in one ``mujoco.batch.Batch``.
+class AcrobotVectorEnv(VectorEnv):
+    """``num_envs`` acrobots with the single env's task, stepped together.
 
     Arguments: ``num_envs``; ``max_episode_steps`` (default: the task's, 1000 for the height
     goal: the truncation the single env gets from ``gymnasium.make``); ``autoreset_mode``
-    (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads of the batch:
-    by default one below :data:`~acrobot_mj.envs.batch_physics.THREADED_FROM` sub-envs and all
-    CPUs from there; 0 for all CPUs, or a number, always honoured; the numbers are the same
-    whichever); ``backend`` (below); ``render_envs`` (below); and the single env's ``frame_skip``,
+    (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads: by default
+    one below :data:`~acrobot_mj.envs.batch.THREADED_FROM` sub-envs and all CPUs from there; 0
+    for all CPUs, or a number, always honoured; the numbers do not depend on it); ``backend``
+    (below); ``render_envs`` (below); and the single env's ``frame_skip``,
     ``integrator``, ``task``, ``continuous``, ``model_path``, ``render_mode``, ``width``,
     ``height``, ``camera`` and task options (validated by the single env's rules).
 
@@ -84,13 +83,11 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
 
     Backends (``backend``): ``"mujoco"`` (the default and the reference) steps ``mujoco.batch``;
     ``"analytic"`` steps the lumped manipulator model (parameters derived from the loaded model)
-    in a numba kernel (the ``fast`` extra), on one thread below
-    :data:`~acrobot_mj.envs.analytic_physics.THREADED_FROM` sub-envs and numba's threads from
-    there (``nthread`` as above). Everything else (task, resets, seeding, info, pickling,
-    rendering) is the same code. It refuses what the lumped model cannot represent (``rk4``,
-    damping, armature, a model whose dynamics differ); its trajectories match MuJoCo's to
-    rounding, which the acrobot's chaos amplifies over long episodes (``tests/test_analytic.py``).
-    ``batch`` is the ``mujoco.batch.Batch`` with the MuJoCo backend, None with the analytic one.
+    compiled, on one thread below :data:`~acrobot_mj.envs.batch.ANALYTIC_THREADED_FROM`
+    sub-envs. Everything else (task, resets, seeding, info, pickling, rendering) is the same code.
+    It refuses what the lumped model cannot represent (``rk4``, damping, armature, a model whose
+    dynamics differ); its trajectories match MuJoCo's to rounding, which the acrobot's chaos
+    amplifies over long episodes. ``batch`` is the ``mujoco.batch.Batch`` (None: analytic).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["rgb_array"]}
@@ -157,15 +154,11 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         physics = BACKENDS[self.backend](self.model, self.num_envs, self._nthread)
         self._physics = physics
         self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
-        self._qpos, self._qvel = physics.qpos, physics.qvel
-        self._ctrl = physics.ctrl
-        # The task's compiled rule where the physics has compiled kernels: the same numbers,
-        # in new arrays of its own (``_fresh``: handed on without copies).
-        self._outcome, self._fresh = self.task.rows_outcome(physics.kernels is not None)
+        self._qpos, self._qvel, self._ctrl = physics.qpos, physics.qvel, physics.ctrl
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl", "_outcome", "_fresh"):
+        for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl"):
             state.pop(key)
         # Every simulation's whole state row (MuJoCo's: time, qpos, qvel, ctrl, warm start, ...).
         state["batch_state"] = self._physics.snapshot()
@@ -208,14 +201,14 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)))
         if mask.shape != (self.num_envs,) or mask.dtype != bool:
             raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},)")
-        noise = reset_noise(options, self.task.start_noise, also_known=("reset_mask",))
+        noise = reset_noise(options, self.task.start_noise, known=("reset_mask", "start_noise"))
         if seed is not None:
             for i, s in zip(np.flatnonzero(mask), self._seeds(seed)[mask], strict=True):
                 if s is not None:
                     self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
         obs = self._physics.observe()  # raises on a bad state
-        _, _, info = self._outcome(*self._physics.columns)
+        _, _, info = self.task.outcomes(*self._physics.columns)
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
         return obs, self._masked(info)
 
@@ -236,10 +229,8 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        # The hot path (profiled at N = 1 to 4096): one call per part, numpy's cheapest calls
-        # or the physics' compiled passes.
         physics = self._physics
-        self._act(actions, physics.kernels)
+        write_torques(actions, self._continuous, self._ctrl)  # raises, writing nothing
         physics.step(self._frame_skip)  # with the task's velocity limits after each
         self._steps += 1
         # count_nonzero: a fraction of any()'s cost on small batches
@@ -247,55 +238,20 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
         if resetting is not None:
             self._reset_envs(resetting, self.task.start_noise)
         obs = physics.observe()
-        reward, terminated, info = self._outcome(*physics.columns)
-        reward, terminated, truncated = self._flags(reward, terminated, info, resetting)
-        if self._next_step:
-            self._pending = terminated | truncated
-        return obs, reward, terminated, truncated, self._masked(info)
-
-    def _act(self, actions: Any, kernels: Any) -> None:
-        """Write the actions' torques into the controls; anything outside the action space
-        raises (:func:`~acrobot_mj.envs.spaces.action_torques`), writing nothing. Integer
-        actions of the usual dtype and shape take one compiled pass where ``kernels`` are."""
-        if (
-            kernels is not None
-            and actions.__class__ is np.ndarray
-            and actions.dtype == _INT
-            and actions.shape == self.action_space.shape
-            and not self._continuous
-            and kernels.discrete_torques(actions, TORQUE_ARRAY, self._ctrl) < 0
-        ):
-            return  # written
-        self._ctrl[:, 0] = action_torques(actions, self._continuous, self.num_envs)
-
-    def _flags(
-        self, reward: Any, terminated: Any, info: dict[str, Any], resetting: np.ndarray | None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Reward, terminated and truncated (and ``info["is_success"]``) as fresh arrays of one
-        entry per sub-env, whatever the task returned; sub-envs being reset (``resetting``)
-        report their reset state: reward 0, no flags, no success."""
+        reward, terminated, info = self.task.outcomes(*physics.columns)
         # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates;
         # none can be before the oldest episode reaches it.
         limit = self._steps - self.max_episode_steps
         truncated = self._began <= limit if limit >= self._first else self._none.copy()
-        if resetting is None and self._fresh:  # the task's compiled rule: new arrays already
-            return reward, terminated, truncated
-        success, rows = info["is_success"], (self.num_envs,)
-        if terminated is False:  # a task that never terminates (the balance task)
-            terminated = self._none
-        if (
-            resetting is None
-            and reward.__class__ is terminated.__class__ is success.__class__ is np.ndarray
-            and reward.shape == terminated.shape == success.shape == rows
-            and reward.dtype == _FLOAT
-            and terminated.dtype == success.dtype == _BOOL
-        ):  # the usual case: copies are the same numbers
-            info["is_success"] = success.copy()
-            return reward.copy(), terminated.copy(), truncated
-        going = self._every if resetting is None else ~resetting
-        reward = np.where(going, reward, 0.0)
-        info["is_success"] = success & going
-        return reward, terminated & going, truncated & going
+        if resetting is not None:  # sub-envs being reset report their reset state
+            going = ~resetting
+            reward[resetting] = 0.0
+            terminated &= going
+            truncated &= going
+            info["is_success"] &= going
+        if self._next_step:
+            self._pending = terminated | truncated
+        return obs, reward, terminated, truncated, self._masked(info)
 
     @property
     def physics(self) -> BatchPhysics | AnalyticPhysics:
@@ -323,6 +279,69 @@ class AcrobotVectorEnv(SubEnvAttributes, VectorEnv):
                 name = names[key] = f"_{key}"
             out[name] = every
         return out
+
+    # -- sub-env attributes, as SyncVectorEnv's ------------------------------------------
+
+    @property
+    def np_random(self) -> tuple[np.random.Generator, ...]:
+        """Each sub-env's generator (as ``SyncVectorEnv.np_random``)."""
+        return tuple(self._rngs)
+
+    @property
+    def np_random_seed(self) -> tuple[int, ...]:
+        """Each sub-env's seed, -1 where its generator was set directly."""
+        return tuple(self._rng_seeds)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """One value of attribute ``name`` per sub-env (see AcrobotVectorEnv's docstring)."""
+        if name == "state":
+            return tuple(np.concatenate([self._qpos, self._qvel], axis=1))  # copies
+        if name in PER_ENV:
+            return getattr(self, name)
+        if name in SHARED:
+            return (getattr(self._template, name),) * self.num_envs
+        raise AttributeError(
+            f"AcrobotVectorEnv's sub-envs have no attribute {name!r}; per sub-env: "
+            f"{list(PER_ENV)}, shared by all: {list(SHARED)}, methods (call): {list(METHODS)}"
+        )
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set ``name`` on every sub-env: a list or tuple of one value per sub-env, or one value
+        for all (as ``SyncVectorEnv.set_attr``). Only :data:`SETTABLE` names can be set."""
+        if name in SHARED:
+            raise AttributeError(
+                f"{name!r} is shared by all {self.num_envs} sub-envs of the batch and fixed when "
+                f"it is built: it cannot be set per sub-env; make a new env with it instead"
+            )
+        if name not in SETTABLE:
+            why = "is read-only" if name in PER_ENV else "is no attribute of the sub-envs"
+            hint = "; call('set_state', q, dq) sets the state" if name == "state" else ""
+            raise AttributeError(f"{name!r} {why}; settable: {list(SETTABLE)}{hint}")
+        if not isinstance(values, (list, tuple)):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(
+                "Values must be a list or tuple with length equal to the number of environments. "
+                f"Got `{len(values)}` values for {self.num_envs} environments."
+            )
+        bad = [v for v in values if not isinstance(v, np.random.Generator)]
+        if bad:
+            raise TypeError(f"np_random must be numpy Generators, got {bad[0]!r}")
+        self._rngs, self._rng_seeds = list(values), [-1] * self.num_envs
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Run method ``name`` of every sub-env with the same arguments (``set_state``,
+        ``render``), or return attribute ``name`` (as ``SyncVectorEnv.call``)."""
+        if name == "set_state":
+            self._template.set_state(*args, **kwargs)  # the single env's checks
+            self._qpos[...] = self._template.data.qpos
+            self._qvel[...] = self._template.data.qvel
+            return (None,) * self.num_envs
+        if name == "render":
+            if self.render_mode is None:
+                return (self.render(),) * self.num_envs  # warns, as each single env would
+            return tuple(self._frame(i) for i in range(self.num_envs))
+        return self.get_attr(name)
 
     # -- rendering -------------------------------------------------------------------------
 

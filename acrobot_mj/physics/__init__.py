@@ -1,6 +1,4 @@
-"""The physics of the acrobot, with no simulator: parameters, the equations of motion in
-manipulator form, integrators, angle wrapping and the report's printed equations (errata).
-
-Nothing here imports MuJoCo; the environments (:mod:`acrobot_mj.envs`) are checked against these
-functions (``tests/test_crosscheck.py``).
+"""The physics of the acrobot, with no simulator: parameters (:mod:`.params`), the equations of
+motion (:mod:`.dynamics`), the one discrete step (:mod:`.integrators`), the math namespaces they
+are written over (:mod:`.xp`) and the report's printed equations (:mod:`.errata`).
 """

@@ -11,17 +11,11 @@ from __future__ import annotations
 
 from numpy.typing import ArrayLike, NDArray
 
-from acrobot_mj.physics.dynamics import (
-    DEFAULT_PARAMS,
-    bias_forces,
-    generalized_forces,
-    mass_matrix,
-    solve_2x2,
-)
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.dynamics import bias_forces, generalized_forces, mass_matrix, solve_2x2
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 
 
-def mass_matrix_as_printed(q: ArrayLike, p: AcrobotParams = DEFAULT_PARAMS) -> NDArray:
+def mass_matrix_as_printed(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """The report's matrix ``[[d11, d12], [d12, d12]]`` (eq. 2 as printed), ``(..., 2, 2)``."""
     m = mass_matrix(q, p).copy()
     m[..., 1, 1] = m[..., 0, 1]
@@ -29,7 +23,7 @@ def mass_matrix_as_printed(q: ArrayLike, p: AcrobotParams = DEFAULT_PARAMS) -> N
 
 
 def forward_dynamics_as_printed(
-    q: ArrayLike, dq: ArrayLike, tau: ArrayLike = 0.0, p: AcrobotParams = DEFAULT_PARAMS
+    q: ArrayLike, dq: ArrayLike, tau: ArrayLike = 0.0, p: AcrobotParams = REPORT
 ) -> NDArray:
     """Accelerations [rad/s^2] from equations (1) and (2) exactly as printed, ``(..., 2)``."""
     rhs = generalized_forces(tau) - bias_forces(q, dq, p)

@@ -1,105 +1,161 @@
-"""Fixed-step integrators over :mod:`acrobot_mj.physics.dynamics`.
+"""The acrobot's discrete step, written once: every simulation of the analytic model goes
+through :func:`step` (numpy arrays, CasADi's symbols for trajectory optimisation, numba for the
+vector env's analytic backend and for planning in an identified model).
 
-A state ``x = (q1, q2, dq1, dq2)`` [rad, rad/s] has shape ``(..., 4)``; ``tau`` [N m] has shape
-``(...)`` and is held constant over the step ``dt`` [s].
+One physics step of ``dt`` [s] holds the torque and advances ``(q1, q2, dq1, dq2)`` by
+:data:`METHODS`:
 
-- :func:`explicit_euler_step`: ``q' = q + dt dq``, ``dq' = dq + dt ddq`` (the report's "forward
-  Euler"; it pumps energy into the pendulum).
-- :func:`semi_implicit_euler_step`: ``dq' = dq + dt ddq``, then ``q' = q + dt dq'`` (MuJoCo's
-  ``Euler`` integrator, which the environment uses).
-- :func:`rk4_step`: classical fourth-order Runge-Kutta (MuJoCo's ``RK4``).
+- ``semi_implicit_euler``: ``dq' = dq + dt ddq``, then ``q' = q + dt dq'`` (MuJoCo's ``Euler``,
+  which the environments use);
+- ``rk4``: classical Runge-Kutta, weights 1/6, 1/3, 1/3, 1/6 (MuJoCo's ``RK4``);
+- ``explicit_euler``: ``q' = q + dt dq``, ``dq' = dq + dt ddq`` (the report's "forward Euler",
+  which MuJoCo does not offer; it pumps energy into the pendulum);
+
+then clips the velocities to the task's limits ``max_vel`` [rad/s], as the envs do after every
+``mj_step`` (a NaN is kept, so a diverged state is seen). A decision of ``frame_skip`` steps is
+``substeps=frame_skip``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acrobot_mj.physics.dynamics import DEFAULT_PARAMS, forward_dynamics
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.compiled import compiled, jitable, prange
+from acrobot_mj.physics import xp as FLOATS
+from acrobot_mj.physics.dynamics import accelerations
+from acrobot_mj.physics.params import REPORT, AcrobotParams, Lumped
+from acrobot_mj.physics.xp import ARRAY
 
-Step = Callable[[ArrayLike, ArrayLike, float, AcrobotParams], NDArray]
+#: The integration methods, by the code :func:`step` takes.
+METHODS = ("semi_implicit_euler", "rk4", "explicit_euler")
+#: No velocity limits.
+UNLIMITED = (math.inf, math.inf)
 
 
-def _state(x: ArrayLike) -> NDArray:
+@jitable
+def step(q1, q2, dq1, dq2, tau, theta: Lumped, dt, max_vel, substeps=1, method=0, xp=FLOATS):
+    """``substeps`` physics steps of ``dt`` [s] from ``(q1, q2, dq1, dq2)`` [rad, rad/s] with
+    the elbow torque ``tau`` [N m] held, on the dynamics of ``theta`` (lumped), by method
+    ``METHODS[method]``, each followed by the velocity limits ``max_vel = (|dq1|, |dq2|)``."""
+    for _ in range(substeps):
+        if method == 0:
+            a1, a2 = accelerations(q1, q2, dq1, dq2, tau, theta, xp)
+            dq1, dq2 = dq1 + dt * a1, dq2 + dt * a2
+            q1, q2 = q1 + dt * dq1, q2 + dt * dq2
+        elif method == 1:
+            half = 0.5 * dt
+            k1 = accelerations(q1, q2, dq1, dq2, tau, theta, xp)
+            v1, v2 = dq1 + half * k1[0], dq2 + half * k1[1]
+            k2 = accelerations(q1 + half * dq1, q2 + half * dq2, v1, v2, tau, theta, xp)
+            w1, w2 = dq1 + half * k2[0], dq2 + half * k2[1]
+            k3 = accelerations(q1 + half * v1, q2 + half * v2, w1, w2, tau, theta, xp)
+            u1, u2 = dq1 + dt * k3[0], dq2 + dt * k3[1]
+            k4 = accelerations(q1 + dt * w1, q2 + dt * w2, u1, u2, tau, theta, xp)
+            sixth = dt / 6.0
+            q1 = q1 + sixth * (dq1 + 2.0 * v1 + 2.0 * w1 + u1)
+            q2 = q2 + sixth * (dq2 + 2.0 * v2 + 2.0 * w2 + u2)
+            dq1 = dq1 + sixth * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
+            dq2 = dq2 + sixth * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
+        else:
+            a1, a2 = accelerations(q1, q2, dq1, dq2, tau, theta, xp)
+            q1, q2 = q1 + dt * dq1, q2 + dt * dq2
+            dq1, dq2 = dq1 + dt * a1, dq2 + dt * a2
+        dq1 = xp.clip(dq1, -max_vel[0], max_vel[0])
+        dq2 = xp.clip(dq2, -max_vel[1], max_vel[1])
+    return q1, q2, dq1, dq2
+
+
+@jitable
+def step_rows(state, tau, constants, substeps, method):
+    """:func:`step` of every row ``(q1, q2, dq1, dq2)`` of ``state`` ``(N, 4)``, in place, with
+    torques ``tau`` ``(N,)`` and ``constants = (a, b, c, d, e, dt, |dq1|, |dq2|)`` (arrays:
+    numba's fastest call from Python)."""
+    theta = (constants[0], constants[1], constants[2], constants[3], constants[4])
+    dt, max_vel = constants[5], (constants[6], constants[7])
+    for i in prange(state.shape[0]):
+        new = step(state[i, 0], state[i, 1], state[i, 2], state[i, 3], tau[i], theta, dt,
+                   max_vel, substeps, method)  # fmt: skip
+        state[i, 0], state[i, 1], state[i, 2], state[i, 3] = new
+
+
+@dataclass(frozen=True)
+class Stepping:
+    """A decision besides the dynamics: the physics step ``dt`` [s], ``substeps`` of them per
+    decision, the velocity limits ``max_vel`` [rad/s] and the ``method`` (what a learner that
+    identifies the dynamics is told of the env's step)."""
+
+    dt: float = REPORT.dt
+    substeps: int = 1
+    max_vel: tuple[float, float] = REPORT.max_vel
+    method: str = "semi_implicit_euler"
+
+    def constants(self, theta: Sequence[float]) -> np.ndarray:
+        """What :func:`step_rows` takes for the dynamics ``theta``."""
+        return np.array([*theta, self.dt, *self.max_vel], dtype=np.float64)
+
+    def advance(self, theta: Sequence[float], states: ArrayLike, torques: ArrayLike) -> NDArray:
+        """One decision of every state ``(N, 4)`` under ``torques`` ``(N,)``: new states."""
+        new = np.array(states, dtype=np.float64)
+        tau = np.asarray(torques, dtype=np.float64)
+        code = method_code(self.method)
+        compiled(step_rows)(new, tau, self.constants(theta), self.substeps, code)
+        return new
+
+
+def method_code(method: str) -> int:
+    """The code of integration method ``method`` (one of :data:`METHODS`)."""
+    if method not in METHODS:
+        raise ValueError(f"unknown integrator {method!r}; choose one of {list(METHODS)}")
+    return METHODS.index(method)
+
+
+def _states(x: ArrayLike) -> NDArray:
     x = np.asarray(x, dtype=np.float64)
     if x.shape[-1:] != (4,):
         raise ValueError(f"expected states (q1, q2, dq1, dq2) of shape (..., 4), got {x.shape}")
     return x
 
 
-def state_derivative(x: ArrayLike, tau: ArrayLike = 0.0, p: AcrobotParams = DEFAULT_PARAMS):
-    """``dx/dt = (dq, ddq)`` [rad/s, rad/s^2], shape ``(..., 4)``."""
-    x = _state(x)
-    dq = x[..., 2:]
-    return np.concatenate([dq, forward_dynamics(x[..., :2], dq, tau, p)], -1)
+def step_states(
+    x: ArrayLike,
+    tau: ArrayLike = 0.0,
+    p: AcrobotParams = REPORT,
+    substeps: int = 1,
+    method: str = "semi_implicit_euler",
+    limits: bool = True,
+) -> NDArray:
+    """:func:`step` on states ``x`` of shape ``(..., 4)`` with torques ``tau`` ``(...)`` on the
+    model ``p`` (its ``dt`` and, with ``limits``, its velocity limits); new states ``(..., 4)``."""
+    x = _states(x)
+    max_vel = p.max_vel if limits else UNLIMITED
+    code = method_code(method)
+    tau = np.asarray(tau, dtype=np.float64)
+    new = step(*np.moveaxis(x, -1, 0), tau, p.lumped, p.dt, max_vel, substeps, code, ARRAY)
+    return np.stack(np.broadcast_arrays(*new), -1)
 
 
-def explicit_euler_step(x, tau=0.0, dt: float | None = None, p=DEFAULT_PARAMS) -> NDArray:
-    """One forward (explicit) Euler step of ``dt`` [s] (default ``p.dt``)."""
-    x = _state(x)
-    dt = p.dt if dt is None else dt
-    return x + dt * state_derivative(x, tau, p)
-
-
-def semi_implicit_euler_step(x, tau=0.0, dt: float | None = None, p=DEFAULT_PARAMS) -> NDArray:
-    """One semi-implicit (symplectic) Euler step: velocities first, then positions."""
-    x = _state(x)
-    dt = p.dt if dt is None else dt
-    dq = x[..., 2:] + dt * forward_dynamics(x[..., :2], x[..., 2:], tau, p)
-    return np.concatenate([x[..., :2] + dt * dq, dq], -1)
-
-
-def rk4_step(x, tau=0.0, dt: float | None = None, p=DEFAULT_PARAMS) -> NDArray:
-    """One classical Runge-Kutta step (weights 1/6, 1/3, 1/3, 1/6), ``tau`` held constant."""
-    x = _state(x)
-    dt = p.dt if dt is None else dt
-    k1 = state_derivative(x, tau, p)
-    k2 = state_derivative(x + 0.5 * dt * k1, tau, p)
-    k3 = state_derivative(x + 0.5 * dt * k2, tau, p)
-    k4 = state_derivative(x + dt * k3, tau, p)
-    return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-
-
-STEPS: dict[str, Step] = {
-    "explicit_euler": explicit_euler_step,
-    "semi_implicit_euler": semi_implicit_euler_step,
-    "rk4": rk4_step,
-}
-
-
-def clip_velocity(x: ArrayLike, p: AcrobotParams = DEFAULT_PARAMS) -> NDArray:
-    """Clip ``dq1`` to ``+-p.max_vel1`` and ``dq2`` to ``+-p.max_vel2`` (the task's limits)."""
-    x = _state(x).copy()
-    x[..., 2] = np.clip(x[..., 2], -p.max_vel1, p.max_vel1)
-    x[..., 3] = np.clip(x[..., 3], -p.max_vel2, p.max_vel2)
-    return x
+def state_derivative(x: ArrayLike, tau: ArrayLike = 0.0, p: AcrobotParams = REPORT) -> NDArray:
+    """``dx/dt = (dq, ddq)`` [rad/s, rad/s^2] of states ``(..., 4)``."""
+    x = _states(x)
+    ddq = accelerations(*np.moveaxis(x, -1, 0), np.asarray(tau, dtype=float), p.lumped, ARRAY)
+    return np.concatenate([x[..., 2:], np.stack(np.broadcast_arrays(*ddq), -1)], -1)
 
 
 def simulate(
     x0: ArrayLike,
     torques: ArrayLike,
     method: str = "semi_implicit_euler",
-    dt: float | None = None,
-    p: AcrobotParams = DEFAULT_PARAMS,
-    clip: bool = True,
+    p: AcrobotParams = REPORT,
+    limits: bool = True,
 ) -> NDArray:
-    """Integrate from ``x0`` (``(..., 4)``) under ``torques`` (``(T, ...)``, one per step).
-
-    Velocities are clipped after every step when ``clip`` is true, as the environment does.
-    Returns the states, shape ``(T + 1, ..., 4)``, the first being ``x0``.
-    """
-    if method not in STEPS:
-        raise ValueError(f"unknown integrator {method!r}; choose one of {sorted(STEPS)}")
-    step = STEPS[method]
-    x = _state(x0)
-    torques = np.asarray(torques, dtype=np.float64)
-    states = [x]
-    for tau in torques:
-        x = step(x, tau, dt, p)
-        if clip:
-            x = clip_velocity(x, p)
-        states.append(x)
+    """States from ``x0`` ``(..., 4)`` under ``torques`` ``(T, ...)``, one physics step each:
+    shape ``(T + 1, ..., 4)``, the first being ``x0``."""
+    states = [_states(x0)]
+    for tau in np.asarray(torques, dtype=np.float64):
+        states.append(step_states(states[-1], tau, p, method=method, limits=limits))
     return np.stack(states)

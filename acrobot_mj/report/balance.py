@@ -4,7 +4,8 @@
 at every physics step.
 
 Balanced means within the task's tolerance (0.05 rad in both angles) from the end of the swing-up
-to the end of the run; the hold time is how long that lasted.
+to the end of the run; the hold time is how long that lasted. :func:`robustness` runs it under
+start offsets, model errors and torque noise it was not designed for.
 """
 
 from __future__ import annotations
@@ -19,10 +20,10 @@ import numpy as np
 
 from acrobot_mj.control.trajectory import Trajectory
 from acrobot_mj.control.tvlqr import SigmaDelta, SwingUpController
-from acrobot_mj.envs.episode import run_episode
+from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import write_json
-from acrobot_mj.report.video import record_episode
+from acrobot_mj.report.video import RenderSettings, record_episode
 from acrobot_mj.version import versions
 
 INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
@@ -45,7 +46,9 @@ class BalanceActor:
     """The controller as an actor of the episode loop; it records every physics step's state
     (at full precision, from the env) and the torque MuJoCo applied."""
 
-    def __init__(self, env: gym.Env, controller: SwingUpController, discrete: bool, noise: Any):
+    def __init__(
+        self, env: gym.Env, controller: SwingUpController, discrete: bool, noise: Any = None
+    ) -> None:
         self.env, self.controller = env.unwrapped, controller
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
@@ -103,7 +106,8 @@ def closed_loop(
 ) -> dict[str, Any]:
     """Run the controller on the balance env (``env``, or one made for ``trajectory`` and
     ``hold``); ``record(env, actor)`` runs the episode instead of the plain loop (videos).
-    Returns what :func:`outcome` says, with the per-step ``torques`` and ``states``."""
+    Returns the task's assessment (:meth:`Balance.assess`) with the per-step ``torques`` and
+    ``states``."""
     env = env or balance_env(trajectory, discrete, hold)
     perturb(env, perturbation)
     rng = np.random.default_rng(perturbation.seed)
@@ -120,26 +124,9 @@ def closed_loop(
         run_episode(env, actor, seed=perturbation.seed, on_reset=start)
     else:
         record(env, actor, start)
-    result = outcome(np.array(actor.states), trajectory.steps, env.unwrapped.task, trajectory.dt)
+    task = env.unwrapped.task
+    result = task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
     return {**result, "torques": actor.torques, "states": actor.states}
-
-
-def outcome(states: np.ndarray, swing_up: int, task: Balance, dt: float) -> dict[str, Any]:
-    """The swing-up time, how long the state then stayed balanced by ``task``'s measure, the
-    largest error in that time, and whether it lasted to the end (``dt`` [s] per state)."""
-    _, _, info = task.outcome(np)(*states.T)
-    error, balanced = info["upright_error"], info["is_balanced"]
-    after = error[swing_up:]  # from the end of the swing-up on
-    out = np.flatnonzero(~balanced[swing_up:])
-    inside = after if out.size == 0 else after[: out[0]]  # the steps within tolerance
-    return {
-        "swing_up_seconds": swing_up * dt,
-        "arrival_error": float(after[0]),
-        "hold_seconds": max(len(inside) - 1, 0) * dt,
-        "balanced": out.size == 0,
-        "max_error_during_hold": float(inside.max()) if inside.size else None,
-        "final_error": float(error[-1]),
-    }
 
 
 def load_trajectory(
@@ -190,8 +177,8 @@ def run_balance(
                           height=size[1])  # fmt: skip
 
         def record_video(env: gym.Env, actor: BalanceActor, start: Any) -> None:
-            record_episode(env, actor, out / "swing_up.mp4", seed=0, on_reset=start,
-                           strip=out / "swing_up.png")  # fmt: skip
+            settings = RenderSettings(*size, strip=out / "swing_up.png")
+            record_episode(env, actor, out / "swing_up.mp4", settings, on_reset=start)
     else:
         env = balance_env(trajectory, discrete, hold)
     try:
@@ -217,3 +204,59 @@ def run_balance(
     }
     write_json(out / "balance.json", record)
     return record
+
+
+#: The rows: what is changed, and by how much.
+CASES: tuple[tuple[str, Perturbation], ...] = (
+    ("nominal", Perturbation()),
+    ("q1 + 1e-6 rad at the start", Perturbation(start_offset=(1e-6, 0, 0, 0))),
+    ("q1 + 1e-4 rad at the start", Perturbation(start_offset=(1e-4, 0, 0, 0))),
+    ("q1 + 1e-3 rad at the start", Perturbation(start_offset=(1e-3, 0, 0, 0))),
+    ("q1 + 1e-2 rad at the start", Perturbation(start_offset=(1e-2, 0, 0, 0))),
+    ("link masses + 1 %", Perturbation(mass_scale=1.01)),
+    ("link masses - 1 %", Perturbation(mass_scale=0.99)),
+    ("link inertias + 1 %", Perturbation(inertia_scale=1.01)),
+    ("link inertias - 1 %", Perturbation(inertia_scale=0.99)),
+    ("torque noise, 0.01 N m", Perturbation(torque_noise=0.01)),
+    ("torque noise, 0.05 N m", Perturbation(torque_noise=0.05)),
+)
+
+
+def robustness(
+    trajectories: dict[str, Trajectory], hold: float = 60.0, cases=CASES
+) -> list[dict[str, Any]]:
+    """One row per case, trajectory and torque kind: balanced or not, the hold time and the
+    largest error during the hold."""
+    rows = []
+    for label, perturbation in cases:
+        for name, trajectory in trajectories.items():
+            for discrete in (False, True):
+                result = closed_loop(trajectory, discrete, hold, perturbation)
+                rows.append(
+                    {
+                        "case": label,
+                        "trajectory": name,
+                        "torques": "{-1, 0, +1}" if discrete else "continuous",
+                        **{
+                            k: result[k]
+                            for k in ("balanced", "hold_seconds", "max_error_during_hold")
+                        },
+                    }
+                )
+    return rows
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The rows as a Markdown table."""
+    lines = [
+        "| case | trajectory | torques | balanced | hold [s] | largest error in the hold [rad] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        error = r["max_error_during_hold"]
+        lines.append(
+            f"| {r['case']} | {r['trajectory']} | {r['torques']} | "
+            f"{'yes' if r['balanced'] else 'no'} | {r['hold_seconds']:.1f} | "
+            f"{'-' if error is None else f'{error:.2g}'} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -9,17 +9,17 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.energy import energy_pumping_torque, pumping_energies
+from acrobot_mj.control.policies import energy_pumping_torque, pumping_energies
 from acrobot_mj.control.lqr import LQR, balances, q1_basin, unstable_mode_bound
-from acrobot_mj.control.model import UPRIGHT
 from acrobot_mj.control.search import min_time_search
-from acrobot_mj.envs.episode import PolicyActor, SequenceActor, run_episode
+from acrobot_mj.envs.rollout import PolicyActor, SequenceActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics import dynamics
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.dynamics import UPRIGHT
+from acrobot_mj.physics.params import REPORT
 from acrobot_mj.report.crosscheck import METHODS
 
-P = AcrobotParams()
+P = REPORT
 
 
 def controllers(quick: bool = False) -> dict[str, Any]:
@@ -37,9 +37,8 @@ def controllers(quick: bool = False) -> dict[str, Any]:
         tau = float(energy_pumping_torque(env.unwrapped.state))
         return np.array([tau], dtype=np.float32)
 
-    episode = run_episode(
-        env, PolicyActor(pump), 0, None, 1000, on_reset=record_energy, on_step=record_energy
-    )
+    episode = run_episode(env, PolicyActor(pump), 0, None, max_steps=1000,
+                          on_reset=record_energy, on_step=record_energy)  # fmt: skip
     steps, reached = episode.length, episode.success
     env_drops = int(np.sum(np.diff(energies) < 0))
     fine = {dt: np.diff(pumping_energies(dt)).min() for dt in (1e-2, 1e-3)}

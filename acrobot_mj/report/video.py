@@ -12,6 +12,7 @@ import os
 import queue
 import re
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -21,8 +22,8 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from acrobot_mj.bars import Steps
-from acrobot_mj.control.baselines import make_policy
-from acrobot_mj.envs.episode import Actor, PolicyActor, run_episode
+from acrobot_mj.control.policies import make_policy
+from acrobot_mj.envs.rollout import Actor, PolicyActor, run_episode
 from acrobot_mj.envs.spaces import TORQUES
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import write_atomic, write_json
@@ -212,59 +213,73 @@ def _json_object(path: Path) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
 
+@dataclass(frozen=True)
+class RenderSettings:
+    """How a video is made: frame size [pixels], the model's camera (``side`` or ``wide``),
+    captions (time, torque, the task's words), a strip of 6 frames (a .png path, or None), at
+    most ``max_steps`` actions (None: the whole episode), the env's reset seed, and a bar of
+    the frames on stderr."""
+
+    width: int = 480
+    height: int = 480
+    camera: str = "side"
+    captions: bool = True
+    strip: str | Path | None = None
+    max_steps: int | None = None
+    seed: int = 0
+    progress: bool = False
+
+    def env_kwargs(self) -> dict[str, Any]:
+        return {"width": self.width, "height": self.height, "camera": self.camera}
+
+
 def record_episode(
     env: Any,
     actor: Actor,
     path: str | Path,
-    seed: int | None = None,
-    max_steps: int | None = None,
+    settings: RenderSettings = RenderSettings(),
     reset_options: dict[str, Any] | None = None,
-    captions: bool = True,
-    strip: str | Path | None = None,
-    strip_frames: int = 6,
+    states: list[np.ndarray] | None = None,
     on_reset: Any = None,
-    progress: bool = False,
 ) -> dict[str, Any]:
-    """Run one episode of ``actor`` on ``env`` (``render_mode="rgb_array"``) and write an MP4.
-
-    Stops at termination, truncation or ``max_steps``. With ``strip``, also writes a PNG of
-    ``strip_frames`` frames spread over the episode; ``on_reset(obs, info)`` runs after the
-    reset, before the first frame; ``progress`` shows a bar of the frames on stderr. Returns a
-    record of the episode, also written as JSON beside the video.
-    """
+    """Run one episode of ``actor`` on ``env`` (``render_mode="rgb_array"``) and write an MP4
+    (and the strip): real time, one frame for the reset state and one per step. ``states``
+    collects each frame's state; ``on_reset(obs, info)`` runs after the reset, before the first
+    frame. Returns the episode's record, also written as JSON beside the video."""
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
-    path = Path(path)
+    path, strip = Path(path), settings.strip
     check_outputs(path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata["render_fps"]
-    limit = max_steps or getattr(env.spec, "max_episode_steps", None)  # None: not known
-    bar = Steps(limit + 1 if limit else None, "render", progress, "frames")
+    limit = settings.max_steps or getattr(env.spec, "max_episode_steps", None)  # None: unknown
+    bar = Steps(limit + 1 if limit else None, "render", settings.progress, "frames")
     with VideoWriter(path, fps) as writer, bar:
-        frames = _Frames(env, writer, captions, strip is not None, bar)
+        frames = _Frames(env, writer, settings.captions, strip is not None, bar)
 
         def reset_hook(obs: np.ndarray, info: dict[str, Any]) -> None:
             if on_reset is not None:
                 on_reset(obs, info)
             frames.on_reset(obs, info)
+            if states is not None:
+                states.append(env.unwrapped.state)
 
-        episode = run_episode(
-            env, actor, seed, reset_options, max_steps, reset_hook, frames.on_step
-        )
+        def step_hook(*args: Any) -> None:
+            frames.on_step(*args)
+            if states is not None:
+                states.append(env.unwrapped.state)
+
+        episode = run_episode(env, actor, settings.seed, reset_options,
+                              max_steps=settings.max_steps, on_reset=reset_hook,
+                              on_step=step_hook)  # fmt: skip
     record = {
-        "video": str(path),
-        "fps": fps,
-        "frames": episode.length + 1,
-        "length": episode.length,
-        "return": episode.episode_return,
-        "success": episode.success,
-        "seed": seed,
-        "size": [env.unwrapped.width, env.unwrapped.height],
-        "camera": env.unwrapped.camera,
-    }
+        "video": str(path), "fps": fps, "frames": episode.length + 1, "length": episode.length,
+        "return": episode.episode_return, "success": episode.success, "seed": settings.seed,
+        "size": [env.unwrapped.width, env.unwrapped.height], "camera": env.unwrapped.camera,
+    }  # fmt: skip
     if strip is not None:
         kept = frames.kept
-        picks = np.linspace(0, len(kept) - 1, strip_frames).round().astype(int)
+        picks = np.linspace(0, len(kept) - 1, 6).round().astype(int)
         image = Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1))
         write_atomic(strip, lambda f: image.save(f, format="PNG"))
         record["strip"] = str(strip)
@@ -273,39 +288,14 @@ def record_episode(
 
 
 def render_policy(
-    name: str,
-    out: str | Path,
-    seed: int = 0,
-    steps: int | None = None,
-    frame_skip: int = 1,
-    width: int = 480,
-    height: int = 480,
-    camera: str = "side",
-    strip: str | Path | None = None,
-    captions: bool = True,
-    progress: bool = False,
+    name: str, out: str | Path, settings: RenderSettings = RenderSettings(), frame_skip: int = 1
 ) -> dict[str, Any]:
-    """A video of a fixed policy (``pump``, ``zero`` or ``random``) from rest (``progress``: a
-    bar of the frames on stderr)."""
-    env = gym.make(
-        HeightGoal.env_id,
-        frame_skip=frame_skip,
-        render_mode="rgb_array",
-        width=width,
-        height=height,
-        camera=camera,
-    )
+    """A video of a fixed policy (``pump``, ``zero`` or ``random``, seeded by the settings'
+    seed) from rest."""
+    env = gym.make(HeightGoal.env_id, frame_skip=frame_skip, render_mode="rgb_array",
+                   **settings.env_kwargs())  # fmt: skip
     try:
-        record = record_episode(
-            env,
-            PolicyActor(make_policy(name, seed)),
-            out,
-            seed=seed,
-            max_steps=steps,
-            captions=captions,
-            strip=strip,
-            progress=progress,
-        )
+        record = record_episode(env, PolicyActor(make_policy(name, settings.seed)), out, settings)
     finally:
         env.close()
     record.update(policy=name, frame_skip=frame_skip)

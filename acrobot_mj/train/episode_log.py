@@ -8,7 +8,7 @@ stopped) and, in lockstep and population runs, ``learner`` (the learner's index)
 before the log was streamed lack the last two; readers need only the first four.
 
 The one writer is :class:`EpisodeLog` (every training path logs through
-:class:`~acrobot_mj.train.rundir.Checkpoints`); on resume it cuts the file back, atomically, to
+:class:`~acrobot_mj.train.records.Checkpoints`); on resume it cuts the file back, atomically, to
 the episodes its checkpoint counts, so the episodes after the checkpoint (and a line half
 written by a kill) are run again and logged once.
 """
@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from acrobot_mj.files import write_atomic
-from acrobot_mj.train.records import History
+
 
 
 def log_line(row: dict[str, Any]) -> bytes:
@@ -48,7 +48,7 @@ def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
     return rows
 
 
-def history_rows(history: History, learner: int | None = None) -> Iterator[dict[str, Any]]:
+def history_rows(history: Any, learner: int | None = None) -> Iterator[dict[str, Any]]:
     """A history's episodes as log lines (without times: what a log lacking them holds)."""
     lists = history.episode_lengths, history.episode_returns, history.episode_successes
     for k, (length, total, success) in enumerate(zip(*lists, strict=True)):
@@ -64,7 +64,7 @@ class EpisodeLog:
         self._file: IO[bytes] | None = None
         self._offset, self._clock = 0.0, time.perf_counter()
 
-    def start(self, history: History) -> None:
+    def start(self, history: Any) -> None:
         """Keep exactly ``history``'s episodes in the file (the first ``len(history)`` lines
         already there, else lines made from ``history``), atomically; then append after them."""
         self.close()

@@ -1,141 +1,137 @@
-"""Greedy episodes of a trained run: ``eval.json``, and videos of the greedy swing-up."""
+"""Evaluating and rendering any run, whatever its learner: greedy episodes from held-out starts
+(``eval.json``) and a video of the greedy episode from rest.
+
+``eval.json`` holds the protocol, a summary by the task's score (and the task's own measures:
+for the balance task, how many ended balanced and for how long), the episode from rest apart,
+and per held-out episode its exact ``start_states`` [rad, rad/s], the ``actions`` given to the
+env (``Discrete(3)`` indices, or float32 torques as floats), the ``torques`` MuJoCo applied per
+decision [N m], the ``final_states`` and the results: replaying the actions from
+``env.reset(options={"state": start})`` gives the same episode. Height-goal runs are compared,
+per start, with the minimum-time swing-up found by a beam search (stored for the default
+protocol in ``heldout_minima.json``, about 6 minutes to compute with
+``python scripts/heldout_minima.py``; an upper bound on the true minimum, so the ratio is, if
+anything, flattering to the learner).
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.agents.actors import Greedy
-from acrobot_mj.agents.protocol import Agent
-from acrobot_mj.envs.episode import run_episode
-from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.control.search import min_time_search
+from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.files import write_json
-from acrobot_mj.report.video import record_episode
-from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episodes import make_env, tie_stream
-from acrobot_mj.train.heldout import DEFAULT, Protocol
+from acrobot_mj.report.video import RenderSettings, record_episode
+from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.minima import compare, compute_minima, env_settings, stored_minima
-from acrobot_mj.train.records import History
-from acrobot_mj.train.rundir import EVAL_FILE, load_agent
-from acrobot_mj.train.stats import spread
+from acrobot_mj.train.records import EVAL_FILE, History, spread
+from acrobot_mj.train.trainer import load_learner
 from acrobot_mj.version import versions
 
 #: What ``evaluate`` compares with: stored per-start minima, computed ones, or none.
 MINIMA = ("stored", "compute", "none")
+STORED = Path(__file__).with_name("heldout_minima.json")
+#: The analytic model's integrator for each of the env's.
+METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 
 
-def evaluate(run_dir: str | Path, protocol: Protocol = DEFAULT, minima: str = "stored") -> dict:
-    """Greedy episodes of a trained run on its own env settings, from the held-out starts of
-    ``protocol`` and, apart, from rest (the run's ``greedy_from_rest``). Writes and returns
-    ``eval.json`` (see :func:`evaluate_agent`); the run directory is locked meanwhile."""
+def evaluate(
+    run_dir: str | Path, protocol: Protocol | dict | None = None, minima: str = "stored"
+) -> dict[str, Any]:
+    """Greedy episodes of a run from the held-out starts of ``protocol`` (default: its
+    learner's; a dict changes some of its settings) and, apart, from rest; writes and returns
+    ``eval.json``. ``minima``: compare with ``"stored"`` per-start minima where they apply,
+    ``"compute"`` them otherwise, or ``"none"``. The run directory is locked meanwhile."""
     with RunLock(Path(run_dir), "evaluate", create=False):
         return evaluate_run(run_dir, protocol, minima)
 
 
-def evaluate_run(run_dir: str | Path, protocol: Protocol = DEFAULT, minima: str = "stored") -> dict:
-    """:func:`evaluate` for a caller that holds the lock (of the run or of a directory above)."""
-    run_dir = Path(run_dir)
-    config, run_seed, agent = load_agent(run_dir)
+def evaluate_run(
+    run_dir: str | Path, protocol: Protocol | dict | None = None, minima: str = "stored"
+) -> dict[str, Any]:
+    """:func:`evaluate` for a caller that holds the lock (of the run or of one above it)."""
+    if minima not in MINIMA:
+        raise ValueError(f"minima must be one of {MINIMA}, got {minima!r}")
+    learner = load_learner(run_dir)
+    if protocol is None or isinstance(protocol, dict):
+        protocol = dataclasses.replace(learner.protocol, **(protocol or {}))
     record = {
         "run": str(run_dir),
-        "run_seed": run_seed,
-        "config": config.to_dict(),
+        "run_seed": learner.seed,
+        **({"kind": learner.kind} if learner.kind else {}),
+        "config": learner.config.to_dict(),
         "versions": versions(),
-        **evaluate_agent(config, agent, run_seed, protocol, minima),
+        **evaluate_learner(learner, protocol, minima),
     }
-    write_json(run_dir / EVAL_FILE, record)
+    write_json(Path(run_dir) / EVAL_FILE, record)
     return record
 
 
-def evaluate_agent(
-    config: TrainConfig,
-    agent: Agent,
-    run_seed: int,
-    protocol: Protocol = DEFAULT,
-    minima: str = "stored",
-) -> dict[str, Any]:
-    """The held-out evaluation of ``agent``: per episode its ``start_states`` [rad, rad/s],
-    ``actions`` and results, a summary by the task's score, the episode from rest apart, and
-    learned / minimum per start against the references of :mod:`acrobot_mj.train.minima`
-    (``minima``: ``"stored"`` where stored ones apply, ``"compute"`` them otherwise, or
-    ``"none"``). Ties are broken by :func:`tie_stream` (``run_seed``, episode 0 for rest)."""
-    if minima not in MINIMA:
-        raise ValueError(f"minima must be one of {MINIMA}, got {minima!r}")
-    env = make_env(config)
-    rest = greedy_episode(env, agent, tie_stream(run_seed), {"start_noise": 0.0}, run_seed)
-    starts = protocol.starts(np.array(rest["start_state"]))
-    history, actions = History(), []
-    for k, start in enumerate(starts):
-        episode = greedy_episode(env, agent, tie_stream(run_seed, k + 1), {"state": start})
-        actions.append(episode["actions"])
-        history.add(episode["length"], episode["return"], episode["success"])
-    record = {
-        "protocol": protocol.to_dict(),
-        "summary": summarise(history, config),
-        "rest": rest,
-        "start_states": starts.tolist(),
-        "actions": actions,
-        **history.to_dict(),
-    }
-    references = references_for(env, protocol, starts, config, minima)
-    env.close()
+def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored") -> dict:
+    """The held-out evaluation of ``learner`` (see the module docstring)."""
+    env = learner.env()
+    try:
+        rest = play(env, learner, 0, {"start_noise": 0.0}, seed=learner.seed)
+        starts = protocol.starts(np.array(rest["start_state"]))
+        episodes = [play(env, learner, k + 1, {"state": s}) for k, s in enumerate(starts)]
+        task = env.unwrapped.task
+        history = History()
+        for e in episodes:
+            history.add(e["length"], e["return"], e["success"])
+        record = {
+            "protocol": protocol.to_dict(),
+            "summary": {
+                task.score.quantity: spread(task.score.values(history.to_dict())),
+                "successes": sum(history.episode_successes), "episodes": len(history),
+                **task.summarise([e["assessment"] for e in episodes], spread),
+            },
+            "rest": {**{k: v for k, v in rest.items() if k != "assessment"},
+                     **rest["assessment"]},
+            "start_states": starts.tolist(),
+            **{name: [e[key] for e in episodes] for name, key in PER_EPISODE.items()},
+            **history.to_dict(),
+            **{key: [e["assessment"][key] for e in episodes] for key in rest["assessment"]},
+        }  # fmt: skip
+        references = references_for(env, protocol, starts, minima)
+    finally:
+        env.close()
     if references is not None:
         record["minima"] = compare(history.episode_lengths, references)
     return record
 
 
-def references_for(env, protocol, starts, config, minima) -> list[int | None] | None:
-    """The per-start minima ``evaluate_agent`` compares with (None: none apply or asked)."""
-    if minima == "none" or env_settings(env) is None:
-        return None
-    stored = stored_minima(env, protocol)
-    if stored is not None or minima == "stored":
-        return stored
-    return [m["decisions"] for m in compute_minima(env, starts, config.max_episode_steps)]
+#: What eval.json lists per held-out episode besides the results: its name there, and the
+#: episode's key.
+PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state"}
 
 
-def greedy_episode(
-    env: gym.Env, agent: Agent, ties: Any, options: dict[str, Any], seed: int | None = None
-) -> dict[str, Any]:
-    """One greedy episode from ``env.reset(seed, options)``: its start state, actions and
-    result."""
-    actions: list[int] = []
-    starts: list[np.ndarray] = []
-    episode = run_episode(
-        env,
-        Greedy(agent, ties),
-        seed,
-        options,
-        on_reset=lambda obs, info: starts.append(env.unwrapped.state),
-        on_step=lambda action, *_: actions.append(int(action)),
-    )
-    return {
-        "start_state": starts[0].tolist(),
-        "length": episode.length,
-        "return": episode.episode_return,
-        "success": episode.success,
-        "actions": actions,
-    }
+def play(env: gym.Env, learner: Learner, episode: int, options: dict, seed: int | None = None):
+    """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``: its start
+    state, actions, torques, final state, results and the task's assessment."""
+    acrobot, actions, torques, states = env.unwrapped, [], [], []
 
+    def on_step(action: Any, *_: Any) -> None:
+        actions.append(float(action[0]) if isinstance(action, np.ndarray) else int(action))
+        torques.append(float(acrobot.data.ctrl[0]))
+        states.append(acrobot.state)
 
-def summarise(history: History, config: TrainConfig) -> dict[str, Any]:
-    """The held-out episodes by the task's score: spread of the scores and the successes."""
-    score = get_task(config.task).score
-    return {
-        score.quantity: spread(score.values(history.to_dict())),
-        "successes": sum(history.episode_successes),
-        "episodes": len(history),
-    }
+    result = run_episode(env, learner.actor(env, episode), seed, options,
+                         on_reset=lambda *_: states.append(acrobot.state), on_step=on_step)  # fmt: skip
+    assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up)
+    return {"start_state": states[0].tolist(), "length": result.length,
+            "return": result.episode_return, "success": result.success, "actions": actions,
+            "torques": torques, "final_state": states[-1].tolist(), "assessment": assessment}  # fmt: skip
 
 
 def distinct_outcomes(evaluations: list[dict[str, Any]]) -> dict[str, int]:
-    """How many distinct greedy behaviours several runs' evaluations show: runs whose greedy
-    policies take the same actions from rest (``from_rest``), or from every held-out start
-    (``held_out``), count once. Seeds that collapse onto a few policies are few outcomes."""
+    """How many distinct greedy behaviours several runs' evaluations show: runs that take the
+    same actions from rest (``from_rest``), or from every held-out start (``held_out``), count
+    once. Seeds that collapse onto a few policies are few outcomes."""
     return {
         "from_rest": len({tuple(e["rest"]["actions"]) for e in evaluations}),
         "held_out": len({tuple(map(tuple, e["actions"])) for e in evaluations}),
@@ -143,38 +139,83 @@ def distinct_outcomes(evaluations: list[dict[str, Any]]) -> dict[str, int]:
 
 
 def render_run(
-    run_dir: str | Path,
-    out: str | Path,
-    seed: int = 0,
-    width: int = 480,
-    height: int = 480,
-    camera: str = "side",
-    max_steps: int | None = None,
-    strip: str | Path | None = None,
-    captions: bool = True,
-    progress: bool = False,
+    run_dir: str | Path, out: str | Path, settings: RenderSettings = RenderSettings()
 ) -> dict[str, Any]:
-    """A video of a trained run's greedy policy from rest, on the run's own env settings (the
-    video and its record must not replace a file of the run; ``progress``: a bar of the
-    frames on stderr)."""
-    with RunLock(run_dir, "render", create=False):
-        config, run_seed, agent = load_agent(run_dir)
-        env = make_env(config, render_mode="rgb_array", width=width, height=height, camera=camera)
+    """A video of a run's greedy episode from rest, on the run's own env (the video and its
+    record must not replace a file of the run)."""
+    with RunLock(Path(run_dir), "render", create=False):
+        learner = load_learner(run_dir)
+    env = learner.env(render_mode="rgb_array", **settings.env_kwargs())
     try:
-        record = record_episode(
-            env,
-            # Ties broken as in the run's greedy_from_rest and evaluate's episode 0.
-            Greedy(agent, tie_stream(run_seed)),
-            out,
-            seed=seed,
-            max_steps=max_steps,
-            reset_options={"start_noise": 0.0},
-            captions=captions,
-            strip=strip,
-            progress=progress,
-        )
+        states: list[np.ndarray] = []
+        options = {"start_noise": 0.0}
+        record = record_episode(env, learner.actor(env, 0), out, settings, options, states)
+        task, dt = env.unwrapped.task, env.unwrapped.dt
+        record.update(task.assess(np.array(states), dt, learner.swing_up))
     finally:
         env.close()
-    record.update(run=str(run_dir), run_seed=run_seed, policy="greedy")
+    policy = "greedy" if learner.kind is None else "identified model + TVLQR"
+    record.update(run=str(run_dir), run_seed=learner.seed, policy=policy)
     write_json(Path(out).with_suffix(".json"), record)
     return record
+
+
+def env_settings(env: gym.Env) -> dict[str, Any] | None:
+    """What the minimum-time search depends on in ``env`` (None: not a height-goal task)."""
+    acrobot = env.unwrapped
+    if acrobot.task.name != "height_goal":
+        return None
+    return {"frame_skip": acrobot.frame_skip, "integrator": acrobot.integrator,
+            "goal_height": acrobot.task.goal_height}  # fmt: skip
+
+
+def compute_minima(
+    env: gym.Env, starts: np.ndarray, max_decisions: int, width: int = 20_000
+) -> list[dict[str, Any]]:
+    """The beam search from each start on ``env``'s settings: decisions (None if the goal was
+    not reached within ``max_decisions``) and actions."""
+    settings = env_settings(env)
+    if settings is None:
+        raise ValueError(f"per-start minima exist for the height goal only, not "
+                         f"{env.unwrapped.task.name!r}")  # fmt: skip
+    found = []
+    for start in np.asarray(starts, dtype=np.float64):
+        result = min_time_search(
+            frame_skip=settings["frame_skip"], width=width,
+            method=METHODS[settings["integrator"]], max_decisions=max_decisions,
+            goal_height=settings["goal_height"], start=start,
+        )  # fmt: skip
+        found.append({"decisions": result.decisions, "actions": result.actions})
+    return found
+
+
+def stored_minima(env: gym.Env, protocol: Protocol) -> list[int] | None:
+    """The stored per-start minima if they are for ``protocol`` and ``env``'s settings."""
+    stored = json.loads(STORED.read_text())
+    if stored["protocol"] != protocol.to_dict() or stored["env"] != env_settings(env):
+        return None
+    return [entry["decisions"] for entry in stored["starts"]]
+
+
+def references_for(env: gym.Env, protocol: Protocol, starts: np.ndarray, minima: str):
+    """The per-start minima an evaluation compares with (None: none apply, or none asked)."""
+    if minima == "none" or env_settings(env) is None:
+        return None
+    stored = stored_minima(env, protocol)
+    if stored is not None or minima == "stored":
+        return stored
+    limit = env.spec.max_episode_steps if env.spec is not None else 1000
+    return [m["decisions"] for m in compute_minima(env, starts, limit)]
+
+
+def compare(lengths: list[int], minima: list[int | None]) -> dict[str, Any]:
+    """Learned / minimum per start (starts without a reference are left out, and counted)."""
+    if len(lengths) != len(minima):
+        raise ValueError(f"{len(lengths)} episodes but {len(minima)} per-start minima")
+    pairs = [(n, m) for n, m in zip(lengths, minima, strict=True) if m]
+    return {
+        "per_start": minima,
+        "minimum": spread([m for _, m in pairs]),
+        "ratio": spread([n / m for n, m in pairs]),
+        "without_reference": len(lengths) - len(pairs),
+    }

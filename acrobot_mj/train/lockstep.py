@@ -11,6 +11,7 @@ single agent does; so the records and checkpoints are identical to the single-en
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from functools import partial
 from pathlib import Path
@@ -18,44 +19,77 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents.protocol import Agent, DivergenceError
-from acrobot_mj.agents.registry import AGENTS, agent_spec, make_agent, make_features
+from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episodes import episode_seed, greedy_from_rest, make_env
-from acrobot_mj.train.learner import check_finite_return, diverged
+from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.progress import Monitor, watching
-from acrobot_mj.train.records import History, run_record
-from acrobot_mj.train.rundir import (
+from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     Checkpoints,
+    History,
     load_into,
     read_for_resume,
+    run_record,
     seed_dir,
     write_run,
 )
+
+#: Learners of one process from which tabular SARSA's seeds go in lockstep unless told
+#: otherwise: in smaller groups the learners that finish an episode wait for the group's
+#: slowest, and one process per seed is faster (measured: docs/learning.md).
+LOCKSTEP_GROUP_FROM = 25
+
+
+def can_lockstep(config: TrainConfig) -> bool:
+    """Whether seeds of ``config`` can train together on one vector env: an algorithm with a
+    lockstep form, one learner per run, no shaping, no decision cap, in the env."""
+    return (agent_spec(config.algorithm).group is not None and config.energy_shaping == 0.0
+            and config.population == 1 and config.max_decisions == 0
+            and config.identify_decisions == 0)  # fmt: skip
+
+
+def lockstep_pays(config: TrainConfig, group: int) -> bool:
+    """Whether ``group`` seeds of ``config`` in one process go in lockstep unless told
+    otherwise: they can, and there are at least :data:`LOCKSTEP_GROUP_FROM` of them."""
+    return can_lockstep(config) and group >= LOCKSTEP_GROUP_FROM
+
+
+def check_lockstep(config: TrainConfig) -> None:
+    """Refuse a config whose seeds cannot train in lockstep, saying what would allow it."""
+    if not can_lockstep(config):
+        able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.group is not None]
+        raise ValueError(
+            f"lockstep training needs an algorithm with a lockstep form: {', '.join(able)}, "
+            f"one learner per run, no energy shaping and no decision cap; got "
+            f"{config.algorithm} (population {config.population}, energy_shaping "
+            f"{config.energy_shaping}, max_decisions {config.max_decisions}): train it with "
+            "one process per seed"
+        )
 
 
 def train_lockstep(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path | None = None,
+    *,
     progress: bool | Monitor = False,
     greedy: bool = True,
     resume: bool = False,
     run_dirs: list[Path] | None = None,
     tensorboard: str | Path | None = None,
 ) -> list[dict[str, Any]]:
-    """Train one learner per seed together, on one :class:`AcrobotVectorEnv`.
+    """Train one learner per seed together, on one :class:`AcrobotVectorEnv`: learner ``k``
+    sees exactly what ``train(config, seeds[k])`` would show it (its sub-env reset with the same
+    seed and start noise, the algorithm's lockstep form drawing and computing as the single
+    agent), so the records and checkpoints are the single runs', up to ``wall_seconds`` (the
+    training time shared out).
 
-    Writes ``out_dir/seed_S/`` (or ``run_dirs[k]`` for learner ``k``) like
-    :func:`~acrobot_mj.train.trainer.train`, with each learner's checkpoint every
-    ``checkpoint_every`` of its episodes, at the end and on Ctrl-C; ``resume`` continues from
-    them; ``greedy=False`` skips the final greedy runs from rest. ``progress``: one bar over
-    every learner's episodes (or the monitor of a bigger run), ``tensorboard``: a directory for
-    their scalars. Returns the run records, one per seed.
-    """
+    Writes ``out_dir/seed_S/`` (or ``run_dirs[k]``) like ``train``, each learner's checkpoint
+    every ``checkpoint_every`` of its episodes, at the end and on Ctrl-C; ``resume`` continues
+    from them; ``greedy=False`` skips the final greedy runs. ``progress``: one bar over every
+    learner's episodes (or a bigger run's monitor). Returns the run records, one per seed."""
     check_lockstep(config)
     if run_dirs is None and out_dir is not None:
         run_dirs = [seed_dir(Path(out_dir), s) for s in seeds]
@@ -64,48 +98,15 @@ def train_lockstep(
     if resume and run_dirs is None:
         raise ValueError("resume needs the run directories (out_dir or run_dirs)")
     with RunLock(out_dir) if out_dir is not None else contextlib.nullcontext():
-        run, elapsed = _run(config, seeds, run_dirs, progress, resume, tensorboard)
-        return run.records(elapsed, greedy)[0]
-
-
-def train_together(
-    config: TrainConfig,
-    seeds: list[int],
-    run_dirs: list[Path] | None,
-    progress: bool | Monitor = False,
-    resume: bool = False,
-) -> tuple[list[dict[str, Any]], list[Agent]]:
-    """:func:`train_lockstep` for a population's learners (its caller holds the run's lock):
-    no greedy runs and no learning curves; the records and the trained agents."""
-    check_lockstep(config)
-    run, elapsed = _run(config, seeds, run_dirs, progress, resume, None)
-    return run.records(elapsed, greedy=False, curves=False)
-
-
-def _run(config, seeds, run_dirs, progress, resume, tensorboard) -> tuple[_Lockstep, float]:
-    """The lockstep run of ``seeds``, trained (restored first with ``resume``); its seconds."""
-    run = _Lockstep(config, seeds, run_dirs)
-    if resume:
-        run.restore()
-    label = f"lockstep {config.algorithm} x{len(seeds)}"
-    total = (config.episodes * len(seeds), "episodes")
-    with watching(progress, total, label, tensorboard) as monitor:
-        started = time.perf_counter()
-        run.train(monitor)
-    return run, time.perf_counter() - started
-
-
-def check_lockstep(config: TrainConfig) -> None:
-    """Refuse a config whose seeds cannot train in lockstep, saying what would allow it."""
-    if not config.lockstep:
-        able = [f"{s.name} ({s.doc})" for s in AGENTS.values() if s.lockstep is not None]
-        raise ValueError(
-            f"lockstep training needs an algorithm with a lockstep form: {', '.join(able)}, "
-            f"one learner per run, no energy shaping and no decision cap; got "
-            f"{config.algorithm} (kernel {config.kernel}, population {config.population}, "
-            f"energy_shaping {config.energy_shaping}, max_decisions {config.max_decisions}): "
-            "train it with one process per seed"
-        )
+        run = _Lockstep(config, seeds, run_dirs)
+        if resume:
+            run.restore()
+        total = (config.episodes * len(seeds), "episodes")
+        label = f"lockstep {config.algorithm} x{len(seeds)}"
+        with watching(progress, total, label, tensorboard) as monitor:
+            started = time.perf_counter()
+            run.train(monitor)
+        return run.records(time.perf_counter() - started, greedy)
 
 
 class _Lockstep:
@@ -118,9 +119,8 @@ class _Lockstep:
         self.vec = AcrobotVectorEnv(
             num_envs=k, autoreset_mode="disabled", task=config.task, **config.env_kwargs()
         )
-        self.learners = agent_spec(config.algorithm).lockstep(
-            make_features(config), config, self.seeds
-        )
+        features = config.encoding.build(self.vec.single_observation_space)
+        self.learners = agent_spec(config.algorithm).group(features, config.agent, self.seeds)
         self.histories = [History() for _ in range(k)]
         self.episode = np.zeros(k, dtype=np.int64)
         self.checkpoints = [
@@ -200,15 +200,10 @@ class _Lockstep:
             raise type(stop)(
                 "interrupted; each learner's checkpoint holds its last completed episode"
             ) from None
-        except DivergenceError as error:
+        except DivergenceError:
             for checkpoint in self.checkpoints:  # each learner's last finite state
                 checkpoint.save()
-            if error.learner is None:
-                raise
-            i = error.learner
-            raise diverged(
-                config, self.seeds[i], int(self.episode[i]), len(self.histories[i]), error
-            ) from None
+            raise
         for checkpoint in self.checkpoints:
             checkpoint.save()
             checkpoint.close()
@@ -219,16 +214,10 @@ class _Lockstep:
         """Record the episodes that just ended, and checkpoint where one is due."""
         self.episode[done] += 1
         for i in np.flatnonzero(done):
-            try:
-                check_finite_return(float(total[i]))
-            except DivergenceError as error:
-                raise diverged(
-                    self.config,
-                    self.seeds[i],
-                    int(self.episode[i]) - 1,
-                    len(self.histories[i]),
-                    error,
-                ) from None
+            if not math.isfinite(total[i]):
+                error = DivergenceError(f"the episode's return is {total[i]}", rewards=True)
+                episode, kept = int(self.episode[i]) - 1, len(self.histories[i])
+                raise diverged(self.config, self.seeds[i], episode, kept, error)
             self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
             self._snapshot(i)
             self.monitors[i].episode(
@@ -237,15 +226,13 @@ class _Lockstep:
             if self.episode[i] % self.config.checkpoint_every == 0:
                 self.checkpoints[i].save()
 
-    def records(
-        self, elapsed: float, greedy: bool, curves: bool = True
-    ) -> tuple[list[dict[str, Any]], list[Agent]]:
-        """Each learner's run record (and run directory, with its learning curve if
-        ``curves``), with its greedy episode from rest if ``greedy``; and the agents."""
-        config, records, agents = self.config, [], []
+    def records(self, elapsed: float, greedy: bool) -> list[dict[str, Any]]:
+        """Each learner's run record (and run directory, with its learning curve), with its
+        greedy episode from rest if ``greedy``."""
+        config, records = self.config, []
         env = make_env(config) if greedy else None  # for the greedy runs alone
         for i, seed in enumerate(self.seeds):
-            agent = make_agent(config, seed=seed)
+            agent: Agent = config.make_agent(seed, self.vec.single_observation_space)
             agent.load_state_dict(self.learners.state_dict(i))
             history = self.histories[i]
             record = run_record(
@@ -257,7 +244,6 @@ class _Lockstep:
                 greedy=greedy_from_rest(env, agent, seed) if greedy else None,
             )
             if self.dirs is not None:
-                write_run(self.dirs[i], record, f"seed {seed}", curves)
+                write_run(self.dirs[i], record, f"seed {seed}")
             records.append(record)
-            agents.append(agent)
-        return records, agents
+        return records

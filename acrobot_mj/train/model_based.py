@@ -9,7 +9,7 @@ A run with ``identify_decisions = N > 0``:
    (:mod:`acrobot_mj.control.identification`: the learner knows the equations' structure and
    the env's step, dt, steps per decision and velocity limits, not the masses, lengths or
    inertias);
-3. trains the config's learner, or its population, in :class:`acrobot_mj.envs.model_env.ModelEnv`
+3. trains the config's learner, or its population, in :class:`acrobot_mj.envs.identified.IdentifiedEnv`
    over the identified model with the config's task, rewards and shaping (Dyna-style planning:
    the learning episodes are simulated and cost the env nothing); a population keeps the
    learner whose greedy policy does best in the model from :data:`JUDGE_EPISODES` training
@@ -23,27 +23,29 @@ the data and the greedy run.
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.agents.actors import Greedy
-from acrobot_mj.agents.protocol import Agent
-from acrobot_mj.agents.random_stream import RandomStream
-from acrobot_mj.control.identification import StepStructure, Transition, identify
-from acrobot_mj.envs.episode import run_episode
-from acrobot_mj.envs.model_env import ModelEnv
+from acrobot_mj.agents import Agent
+from acrobot_mj.agents.base import Greedy
+from acrobot_mj.agents.stream import RandomStream
+from acrobot_mj.control.identification import Transition, identify
+from acrobot_mj.envs.identified import IdentifiedEnv
+from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.physics.integrators import Stepping
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episodes import greedy_from_rest, make_env
-from acrobot_mj.train.learner import OnEpisode
-from acrobot_mj.train.population import train_learners
-from acrobot_mj.train.progress import Monitor
-from acrobot_mj.train.records import greedy_result
-from acrobot_mj.train.rundir import write_run
+from acrobot_mj.train.learners import (
+    AgentLearner,
+    Run,
+    greedy_from_rest,
+    make_env,
+    train_learners,
+)
+from acrobot_mj.train.records import greedy_result, write_run
 
 #: The seed-tree branch of the data's draws (learning episodes use none).
 DATA_BRANCH = 0xDA7A
@@ -125,55 +127,46 @@ def check_fit(rms: float) -> None:
         )
 
 
-def step_structure(env: gym.Env) -> StepStructure:
+def stepping(env: gym.Env) -> Stepping:
     """What the learner is told about ``env``'s step (no inertial parameter)."""
     acrobot = env.unwrapped
-    return StepStructure(acrobot.model.opt.timestep, acrobot.frame_skip, MAX_VEL1, MAX_VEL2)
+    return Stepping(acrobot.model.opt.timestep, acrobot.frame_skip, (MAX_VEL1, MAX_VEL2))
 
 
 def identified_model(
     env: gym.Env, decisions: int, seed: int, noise: float
-) -> tuple[int, np.ndarray, float, StepStructure]:
+) -> tuple[int, np.ndarray, float, Stepping]:
     """Steps 1 and 2 of the module docstring on ``env``: ``decisions`` random-action
     transitions, the lumped parameters fitted to them (a model that misses its data is
     refused). Returns the transitions' count, the parameters, the fit's RMS error and what the
     learner was told of the step."""
     data = collect(env, decisions, seed, noise)
-    structure = step_structure(env)
-    theta, rms = identify(data, structure)
+    told = stepping(env)
+    theta, rms = identify(data, told)
     check_fit(rms)
-    return len(data), theta, rms, structure
+    return len(data), theta, rms, told
 
 
-def train_in_model(
-    config: TrainConfig,
-    seed: int,
-    out: Path | None,
-    env: gym.Env | None = None,
-    resume: bool = False,
-    progress: bool | Monitor = False,
-    on_episode: OnEpisode | None = None,
-) -> dict[str, Any]:
-    """Train ``config`` in a model identified from ``config.identify_decisions`` env decisions
-    (see the module docstring); returns the run record."""
-    if env is not None:
+def learn_in_model(learner: AgentLearner, run: Run) -> tuple[dict[str, Any], Agent]:
+    """Train ``learner``'s config in a model identified from ``config.identify_decisions`` env
+    decisions (see the module docstring): the run record and the kept agent."""
+    config, seed = learner.config, learner.seed
+    if learner.given_env is not None:
         raise ValueError("model-based training identifies the package's own env; give no env")
     real = make_env(config)
-    decisions, theta, rms, structure = identified_model(
+    decisions, theta, rms, told = identified_model(
         real, config.identify_decisions, seed, config.start_noise
     )
-    compiled = getattr(config, "kernel", None) == "numba"  # the model's step compiled too
-    model = ModelEnv(theta, real.unwrapped.task, structure, config.max_episode_steps, compiled)
-    judge = ModelJudge(model, config, seed)
+    model = IdentifiedEnv(theta, real.unwrapped.task, told, config.max_episode_steps)
     # The model as it is: each learner's training env adds the config's shaping (once).
-    record, agent = train_learners(config, seed, out, model, resume, progress, on_episode, judge)
+    record, agent = train_learners(config, seed, run, model, ModelJudge(model, config, seed))
     greedy = greedy_from_rest(real, agent, seed)
     record.update(
-        env="the identified model (ModelEnv)",
+        env="the identified model (IdentifiedEnv)",
         greedy_from_rest=greedy_result(greedy),
         decisions_total=decisions + greedy.length,
         model={"data_decisions": decisions, "theta": theta.tolist(), "rms": rms},
     )
-    if out is not None:
-        write_run(out, record, f"seed {seed}, learnt in an identified model")
-    return record
+    if run.out is not None:
+        write_run(run.out, record, f"seed {seed}, learnt in an identified model")
+    return record, agent

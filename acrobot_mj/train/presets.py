@@ -1,8 +1,10 @@
-"""The named training presets: the report, Sutton and Barto's book, and a tuned variant."""
+"""The named presets: the report, Sutton and Barto's book, the best model-free and model-based
+learners, and the balance preset (identify, plan, TVLQR)."""
 
 from __future__ import annotations
 
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.plan import PlanConfig
 
 # The report, exactly: tabular SARSA on the 5x5x3x3 grid, 0.05 s decisions, 200 episodes.
 _REPORT = TrainConfig()
@@ -10,7 +12,7 @@ _REPORT = TrainConfig()
 # weights 0, a decision every 0.2 s, 500 episodes, and their reward: -1 on every step, the last
 # one included (with the report's +100 the zero weights stop being optimistic near the goal, and
 # exploration dies there).
-_BOOK = TrainConfig(
+_BOOK = TrainConfig().replace(
     algorithm="sarsa_lambda",
     features="tiles",
     alpha=0.2 / 48,
@@ -28,7 +30,7 @@ _MODEL_FREE = _BOOK.replace(
     episodes=1000,
     max_decisions=48_000,
 )
-PRESETS: dict[str, TrainConfig] = {
+PRESETS: dict[str, TrainConfig | PlanConfig] = {
     "report": _REPORT,
     "book": _BOOK,
     # The best learner measured on held-out starts (the README's learning results): the
@@ -56,6 +58,8 @@ PRESETS: dict[str, TrainConfig] = {
     # starts over training seeds 0-29, 100-119 and 200-219; the README reports it on other
     # seeds.
     "model_free": _MODEL_FREE,
+    # Swing up AND balance, model-based: identify, plan, TVLQR (acrobot_mj.train.plan).
+    "balance": PlanConfig(),
 }
 
 #: The ``tuned`` preset of 0.2.0 (10 learners of 50 episodes, start noise 0.1 falling to 0 by

@@ -1,5 +1,5 @@
-"""Watching a run as it trains: one progress bar (tqdm, on stderr) over all its learners, and
-per-episode scalars for TensorBoard (:mod:`.tensorboard`) if asked.
+"""Watching a run as it trains: one progress bar (tqdm, on stderr) over all its learners, the
+logs of worker processes followed into it, and per-episode scalars for TensorBoard if asked.
 
 A :class:`Monitor` is handed down a run's training paths (seeds, lockstep, population,
 learner): each finished episode of any learner reaches :meth:`Monitor.episode`, so a run of
@@ -11,18 +11,20 @@ bar is shown.
 from __future__ import annotations
 
 import contextlib
+import json
+import os
+import threading
 import time
 from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from acrobot_mj.bars import make_bar
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.records import History
-from acrobot_mj.train.stats import RECENT
-from acrobot_mj.train.tensorboard import Board
+from acrobot_mj.train.records import RECENT, History
 
 #: Seconds between redraws of the bar's statistics (tqdm redraws the count more often).
 POSTFIX_EVERY = 0.5
@@ -95,7 +97,7 @@ class Progress:
 
 class Monitor:
     """What watches a run's episodes: its :class:`Progress` bar and, if asked, a TensorBoard
-    :class:`~acrobot_mj.train.tensorboard.Board`; ``name`` is the learner's TensorBoard run
+    :class:`Board`; ``name`` is the learner's TensorBoard run
     (``seed_3/learner_1``; empty for a run of one learner)."""
 
     def __init__(self, bar: Progress, board: Board | None = None, name: str = "") -> None:
@@ -142,3 +144,105 @@ def watching(
         yield monitor
     finally:
         monitor.close()
+
+
+#: Seconds between reads of worker processes' episode logs.
+EVERY = 0.5
+
+
+class LogFollower:
+    """Reads the complete lines added to ``paths`` every :data:`EVERY` seconds (while in a
+    ``with`` block, and once more at its end) into ``bar``. A log replaced by a new file (a
+    resume cuts it back) is read again from its start, its earlier lines taken off the bar."""
+
+    def __init__(self, paths: list[Path], bar: Progress) -> None:
+        self.paths, self.bar = paths, bar
+        #: Per log: its file's inode, the bytes read, and the units and successes counted.
+        self._seen: dict[Path, tuple[int, int, int, int]] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def __enter__(self) -> LogFollower:
+        if self.bar.bar is not None:  # nothing to show: nothing to read
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._thread.is_alive():
+            self._stop.set()
+            self._thread.join()
+            self.poll()
+
+    def _run(self) -> None:
+        while not self._stop.wait(EVERY):
+            self.poll()
+
+    def poll(self) -> None:
+        """Read what each log gained since the last poll."""
+        for path in self.paths:
+            try:
+                self._read(path)
+            except OSError:  # not there yet, or being replaced: the next poll reads it
+                continue
+
+    def _read(self, path: Path) -> None:
+        with open(path, "rb") as f:
+            inode, size = os.fstat(f.fileno()).st_ino, os.fstat(f.fileno()).st_size
+            old, offset, units, successes = self._seen.get(path, (inode, 0, 0, 0))
+            if old != inode or size < offset:  # a new file: count it again from its start
+                self.bar.retract(units, successes)
+                offset = units = successes = 0
+            f.seek(offset)
+            data = f.read()
+        end = data.rfind(b"\n") + 1  # complete lines only: the rest is still being written
+        for line in data[:end].splitlines():
+            try:
+                row = json.loads(line)
+                length, success = int(row["length"]), bool(row["success"])
+            except (ValueError, KeyError, TypeError):
+                continue  # not an episode's line: nothing to show
+            units += length if self.bar.unit == "decisions" else 1
+            successes += success
+            self.bar.episode(length, success)
+        self._seen[path] = (inode, offset + end, units, successes)
+
+
+EXTRA = "pip install acrobot-mj[tensorboard]"
+
+
+def summary_writer() -> Any:
+    """The ``SummaryWriter`` class of tensorboardX, or of torch; a one-line error without."""
+    try:
+        from tensorboardX import SummaryWriter
+    except ImportError:
+        try:
+            from torch.utils.tensorboard import SummaryWriter
+        except ImportError:
+            raise ImportError(
+                f"--tensorboard needs tensorboardX (or torch with tensorboard): {EXTRA}"
+            ) from None
+    return SummaryWriter
+
+
+class Board:
+    """One ``SummaryWriter`` per learner under ``root``, opened at the learner's first
+    episode."""
+
+    def __init__(self, root: str | Path) -> None:
+        self.root = Path(root)
+        self._writer_class = summary_writer()  # fails here, before any training
+        self._writers: dict[str, Any] = {}
+
+    def add(self, name: str, index: int, length: int, total: float, success: bool) -> None:
+        """Learner ``name``'s episode ``index``."""
+        writer = self._writers.get(name)
+        if writer is None:
+            writer = self._writers[name] = self._writer_class(str(self.root / name))
+        writer.add_scalar("episode/length", length, index)
+        writer.add_scalar("episode/return", total, index)
+        writer.add_scalar("episode/success", float(success), index)
+
+    def close(self) -> None:
+        for writer in self._writers.values():
+            writer.close()
+        self._writers.clear()

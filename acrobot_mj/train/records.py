@@ -1,33 +1,66 @@
-"""The run record: one definition of what ``run.json`` and a checkpoint's meta document hold.
+"""A run directory and its records, one definition of each.
 
-A run record has the config, the seed, package versions, progress (episodes, decisions, wall
-time, whether it was interrupted, ``decisions_total`` with its greedy episodes), the per-episode
-``episode_lengths``, ``episode_returns`` and ``episode_successes``, and the greedy episode from
-rest; population and lockstep runs add their own entries.
+A run directory holds ``run.json`` (:func:`run_record`: the config, seed, versions, progress,
+the per-episode ``episode_lengths``, ``episode_returns`` and ``episode_successes``, the greedy
+episode from rest), ``checkpoint.npz`` (:class:`Checkpoints`), ``episodes.jsonl`` (one line per
+training episode as it ends), ``learning_curve.png`` and, after evaluation, ``eval.json``; a run
+of several seeds holds ``summary.json`` and a ``seed_S/`` run per seed; a population run holds
+``learner_K/`` runs besides its own files. Every file is written atomically.
 """
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
-from acrobot_mj.envs.episode import Episode
+import numpy as np
+
+from acrobot_mj.envs.rollout import Episode
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.files import write_json
+from acrobot_mj.report.plots import learning_curve
+from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.stats import recent_median
+from acrobot_mj.train.episode_log import EpisodeLog, RunLog, read_rows
 from acrobot_mj.version import versions
 
+RUN_FILE, EVAL_FILE, CHECKPOINT_FILE = "run.json", "eval.json", "checkpoint.npz"
+CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = "learning_curve.png", "summary.json", "episodes.jsonl"
 HISTORY_KEYS = ("episode_lengths", "episode_returns", "episode_successes")
+#: Training episodes whose scores a run's recent performance is judged by.
+RECENT = 20
+#: Config fields a resumed run may change: they change nothing learned.
+RESUME_MAY_DIFFER = ("checkpoint_every",)
+#: An agent's arrays (its ``state_dict``).
+StateNow = dict[str, np.ndarray]
+
+
+def spread(values: Sequence[float]) -> dict[str, float | None]:
+    """Mean, standard deviation, median, quartiles and range of ``values`` (None, JSON's null,
+    for each if there are none): the one set of statistics across runs."""
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return dict.fromkeys(("mean", "std", "median", "q25", "q75", "min", "max"))
+    q25, q50, q75 = np.percentile(v, [25, 50, 75])
+    return {"mean": float(v.mean()), "std": float(v.std()), "median": float(q50),
+            "q25": float(q25), "q75": float(q75), "min": float(v.min()), "max": float(v.max())}  # fmt: skip
+
+
+def recent_median(values: Sequence[float]) -> float:
+    """Median of the last :data:`RECENT` values (of a run's per-episode scores)."""
+    return float(np.median(values[-RECENT:]))
 
 
 @dataclass
 class History:
-    """Per-episode results so far."""
+    """Per-episode results so far, and the decisions they took (a running total)."""
 
     episode_lengths: list[int] = field(default_factory=list)
     episode_returns: list[float] = field(default_factory=list)
     episode_successes: list[bool] = field(default_factory=list)
-    #: Decisions taken in all episodes: a running total, so reading it costs nothing per episode.
     steps: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
@@ -70,18 +103,13 @@ def run_record(
     greedy: Episode | None = None,
     **extra: Any,
 ) -> dict[str, Any]:
-    """The ``run.json`` of one run (``extra``: the entries of population or lockstep runs).
-
-    ``steps`` counts the decisions of learning episodes; ``decisions_total`` adds the run's
-    greedy episode from rest (``greedy``): all the experience the run cost the env."""
+    """The ``run.json`` of one run (``greedy``: its greedy episode from rest; ``extra``: the
+    entries of population or lockstep runs). ``steps`` counts the learning decisions;
+    ``decisions_total`` adds the greedy episode: the env's whole cost."""
     record: dict[str, Any] = {
-        "config": config.to_dict(),
-        "seed": seed,
-        "versions": versions(),
-        "episodes_done": len(history),
-        "steps": history.steps,
-        "interrupted": interrupted,
-    }
+        "config": config.to_dict(), "seed": seed, "versions": versions(),
+        "episodes_done": len(history), "steps": history.steps, "interrupted": interrupted,
+    }  # fmt: skip
     if env is not None:
         record["env"] = env
     record["wall_seconds"] = wall_seconds
@@ -89,30 +117,209 @@ def run_record(
     record["decisions_total"] = history.steps + (0 if greedy is None else greedy.length)
     if greedy is not None:
         record["greedy_from_rest"] = greedy_result(greedy)
-    record.update(extra)
-    return record
+    return record | extra
 
 
-def checkpoint_meta(
-    config: TrainConfig, seed: int, episodes_done: int, steps: int, episode_log: str
-) -> dict[str, Any]:
+def checkpoint_meta(config: TrainConfig, seed: int, episodes: int, steps: int) -> dict[str, Any]:
     """The JSON document of a training checkpoint: with the agent's arrays and the first
-    ``episodes_done`` lines of the run's episode log, enough to resume exactly."""
-    return {
-        "config": config.to_dict(),
-        "seed": seed,
-        "episodes_done": episodes_done,
-        "steps": steps,
-        "episode_log": episode_log,
-        "agent": config.algorithm,
-    }
+    ``episodes`` lines of the run's episode log (``steps`` decisions), enough to resume."""
+    return {"config": config.to_dict(), "seed": seed, "episodes_done": episodes, "steps": steps,
+            "episode_log": EPISODE_LOG, "agent": config.algorithm}  # fmt: skip
 
 
 def recent_score(record: dict[str, Any]) -> float:
-    """Median score of the last 20 training episodes of the learner a run keeps (in a
-    population run: the kept learner's, not the last learner's), by the run's task."""
+    """Median score of the last 20 training episodes of the learner a run keeps (a
+    population's kept learner's), by the run's task."""
     pop = record.get("population")
     if pop is not None:
         return float(pop["scores"][pop["kept"]])
     score = get_task(TrainConfig.from_dict(record["config"]).task).score
     return recent_median(score.values(record))
+
+
+def seed_dir(out: Path, seed: int) -> Path:
+    """The run directory of ``seed`` in a run of several seeds."""
+    return out / f"seed_{seed}"
+
+
+def learner_dir(out: Path, k: int) -> Path:
+    """The run directory of learner ``k`` in a population run."""
+    return out / f"learner_{k}"
+
+
+def check_fresh(out: Path) -> None:
+    """Refuse to write a new run over an existing one."""
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"{out} is a file, not a run directory")
+    names = (RUN_FILE, CHECKPOINT_FILE, SUMMARY_FILE, learner_dir(Path(), 0).name)
+    taken = [name for name in names if (out / name).exists()]
+    if taken:
+        raise FileExistsError(
+            f"{out} already holds a run ({', '.join(taken)}): resume it, "
+            "choose another directory, or overwrite it on purpose"
+        )
+
+
+def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
+    """A training checkpoint's meta (schema checked), arrays and config."""
+    meta, arrays = load_checkpoint(path)
+    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int}
+    wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
+    if "history" in meta:  # written before the episode log: the episodes in the meta
+        history = meta["history"]
+        if not (isinstance(history, dict) and sorted(history) == sorted(HISTORY_KEYS)
+                and all(len(v) == meta.get("episodes_done") for v in history.values())):  # fmt: skip
+            wrong.append("history")
+    elif meta.get("episode_log") != EPISODE_LOG:
+        wrong.append("episode_log")
+    if wrong:
+        raise CheckpointError(f"{path} is not a training checkpoint: bad or missing {wrong}")
+    try:
+        config = TrainConfig.from_dict(meta["config"])
+    except (TypeError, ValueError) as error:
+        raise CheckpointError(f"{path} holds an invalid config: {error}") from error
+    return meta, arrays, config
+
+
+def read_history(path: Path, meta: dict[str, Any]) -> History:
+    """The episodes a checkpoint covers: from its meta (older checkpoints) or the first
+    ``episodes_done`` lines of the episode log beside it."""
+    if "history" in meta:
+        return History(**meta["history"])
+    log, count = path.parent / meta["episode_log"], meta["episodes_done"]
+    history = History()
+    try:
+        for row in read_rows(log, count):  # a line cut short by a kill is not counted
+            history.add(int(row["length"]), float(row["return"]), bool(row["success"]))
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise CheckpointError(f"{log} cannot give the episodes of {path}: {error!r}") from None
+    if len(history) != count:
+        raise CheckpointError(f"{log} holds {len(history)} episodes, but {path} was saved "
+                              f"after {count}")  # fmt: skip
+    return history
+
+
+def check_same_run(path: Path, meta: dict, saved: TrainConfig, config: TrainConfig, seed: int,
+                   may_differ: tuple[str, ...] = ()) -> None:  # fmt: skip
+    """Refuse a checkpoint written with another config (but ``may_differ``) or seed."""
+    new = config.to_dict()
+    differs = {k for k, v in saved.to_dict().items() if v != new[k]} - set(may_differ)
+    if differs:
+        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
+    if meta["seed"] != seed:
+        raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
+
+
+def read_for_resume(path: Path, config: TrainConfig, seed: int) -> tuple[History, StateNow]:
+    """The history and agent arrays of a checkpoint that ``config`` and ``seed`` may continue
+    (more episodes are allowed, and another ``checkpoint_every``; no change of the schedule)."""
+    meta, arrays, saved = read_checkpoint(path)
+    check_same_run(path, meta, saved, config, seed, ("episodes", *RESUME_MAY_DIFFER))
+    history = read_history(path, meta)
+    if config.episodes < meta["episodes_done"]:
+        raise CheckpointError(f"{path} already holds {meta['episodes_done']} episodes; resume "
+                              f"needs episodes >= that, got {config.episodes}")  # fmt: skip
+    if config.noise_until and config.episodes != saved.episodes:
+        raise CheckpointError(f"{path}: the start-noise schedule depends on episodes "
+                              f"({saved.episodes}), so resume cannot change it")  # fmt: skip
+    return history, arrays
+
+
+def load_into(load: Callable[[StateNow], None], arrays: StateNow, path: Path) -> None:
+    """Give an agent a checkpoint's arrays (``load``: its ``load_state_dict``), or say the
+    checkpoint does not fit it."""
+    try:
+        load(arrays)
+    except (KeyError, ValueError, TypeError, IndexError) as error:
+        raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
+
+
+def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
+    """Refuse a checkpoint that is not the run ``run.json`` records (if there is one)."""
+    run_file, path = run_dir / RUN_FILE, run_dir / CHECKPOINT_FILE
+    if not run_file.exists():
+        return
+    try:
+        record = json.loads(run_file.read_text())
+        recorded, recorded_seed = TrainConfig.from_dict(record["config"]), record["seed"]
+    except (OSError, ValueError, TypeError, KeyError) as error:
+        raise CheckpointError(f"{run_file} is not a readable run record: {error!r}") from None
+    if recorded_seed != seed:
+        raise CheckpointError(f"{path} is for seed {seed} but {run_file} records seed "
+                              f"{recorded_seed}")  # fmt: skip
+    mine, theirs = config.to_dict(), recorded.to_dict()
+    differs = sorted(k for k, v in theirs.items() if v != mine[k])
+    if differs:
+        both = ", ".join(f"{k}: {mine[k]!r} vs {theirs[k]!r}" for k in differs)
+        raise CheckpointError(f"{path} and {run_file} disagree on the config ({both})")
+
+
+class Checkpoints:
+    """A learner's checkpoint and episode log: the checkpoint holds the state after the
+    learner's last completed episode (:meth:`snapshot`), so a run stopped in the middle of an
+    episode resumes exactly (that episode is run again). ``path`` None keeps nothing;
+    ``learner`` is the learner's index in its log's lines, ``tee`` its population's log.
+
+    A snapshot logs the episodes since the last one to ``episodes.jsonl`` (flushed at once) and
+    keeps the agent's state (or a function that gives it: ``Rewinding`` agents); a save syncs the
+    log, then writes the checkpoint, which counts its lines. Neither grows with the run."""
+
+    def __init__(self, path: Path | None, config: TrainConfig, seed: int,
+                 learner: int | None = None, tee: RunLog | None = None) -> None:  # fmt: skip
+        self.path, self.config, self.seed = path, config, seed
+        self.log = None if path is None else EpisodeLog(path.parent / EPISODE_LOG, learner, tee)
+        self._state: tuple[Any, int, int] | None = None
+        self._logged = 0
+
+    def start(self, history: History) -> None:
+        """Begin at ``history``: the log keeps exactly its episodes."""
+        if self.log is not None:
+            self.log.start(history)
+            self._logged = len(history)
+
+    def snapshot(self, state: Callable[[], Any], history: History) -> None:
+        """Log the episodes ``history`` gained, and remember the agent's state (``state()``,
+        called only if there is a file to write) after a completed episode."""
+        if self.log is None:
+            return
+        lists = history.episode_lengths, history.episode_returns, history.episode_successes
+        for k in range(self._logged, len(history)):
+            self.log.append(k, lists[0][k], lists[1][k], lists[2][k])
+        self._logged = len(history)
+        self._state = (state(), len(history), history.steps)
+
+    def save(self) -> None:
+        """Sync the log, then write the checkpoint (atomically) that counts its lines."""
+        if self.log is None or self._state is None:
+            return
+        arrays, episodes, steps = self._state
+        if callable(arrays):
+            arrays = arrays()
+        self.log.sync()
+        save_checkpoint(self.path, arrays, checkpoint_meta(self.config, self.seed, episodes, steps))
+
+    def close(self) -> None:
+        if self.log is not None:
+            self.log.close()
+
+
+def write_run(out: Path, record: dict[str, Any], label: str, curve: bool = True) -> None:
+    """A finished run's ``run.json`` and (``curve``) learning curve (``label``: which run)."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / RUN_FILE, record)
+    if curve:
+        plot_learning_curves(out / CURVE_FILE, TrainConfig.from_dict(record["config"]),
+                             [record], label)  # fmt: skip
+
+
+def plot_learning_curves(path: Path, config: TrainConfig, records: list[dict], label: str) -> None:
+    """The task's score per training episode: one run as a line, several as the median and
+    the 25-75 % band (nothing is drawn for runs without episodes)."""
+    task = get_task(config.task)
+    runs = [task.score.values(r) for r in records if r["episode_lengths"]]
+    if not runs:
+        return
+    reference = task.reference(config.frame_skip)
+    learning_curve(path, runs, f"{config.algorithm} ({config.features}), {label}",
+                   [reference] if reference else [], ylabel=task.score.label,
+                   log_y=task.score.log_scale)  # fmt: skip

@@ -1,9 +1,8 @@
 """Several seeds of one config: one run directory per seed, a summary across them, and their
 learning curves together. Tabular SARSA trains the seeds together on one vector env
 (:mod:`.lockstep`, identical records) once there are enough of them (at least
-:data:`~acrobot_mj.train.config.LOCKSTEP_GROUP_FROM` per process), and so does compiled
-Sarsa(lambda) when asked (``lockstep=True``: slower than processes here); with ``jobs``
-processes, one lockstep group of seeds each. The others run one seed per process."""
+:data:`~acrobot_mj.train.lockstep.LOCKSTEP_GROUP_FROM` per process); with ``jobs`` processes,
+one lockstep group of seeds each. The others run one seed per process."""
 
 from __future__ import annotations
 
@@ -14,22 +13,20 @@ from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import write_json
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
-from acrobot_mj.train.follow import LogFollower
-from acrobot_mj.train.heldout import DEFAULT, Protocol
+from acrobot_mj.train.learners import DEFAULT, Protocol
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.lockstep import check_lockstep, train_lockstep
-from acrobot_mj.train.progress import Progress, run_total, watching
-from acrobot_mj.train.records import recent_score
-from acrobot_mj.train.rundir import (
+from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
+from acrobot_mj.train.progress import LogFollower, Progress, run_total, summary_writer, watching
+from acrobot_mj.train.records import (
     CURVE_FILE,
     EPISODE_LOG,
     SUMMARY_FILE,
     check_fresh,
     plot_learning_curves,
+    recent_score,
     seed_dir,
+    spread,
 )
-from acrobot_mj.train.stats import spread
-from acrobot_mj.train.tensorboard import summary_writer
 from acrobot_mj.train.trainer import train
 from acrobot_mj.train.workers import WorkerPool
 from acrobot_mj.version import versions
@@ -57,15 +54,8 @@ Run = tuple[dict[str, Any], dict[str, Any] | None]
 def _train_one(config, seed, out_dir, resume, progress, tensorboard=None, protocol=None) -> Run:
     """One seed's run and (``protocol``) its held-out evaluation, in the process that trained
     it: ``(record, evaluation or None)``."""
-    record = train(
-        config,
-        seed,
-        out_dir,
-        resume=resume,
-        progress=progress,
-        overwrite=True,
-        tensorboard=tensorboard,
-    )
+    record = train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True,
+                   tensorboard=tensorboard)  # fmt: skip
     return record, None if protocol is None else evaluate_run(out_dir, protocol)
 
 
@@ -88,7 +78,7 @@ def train_seeds(
     episode logs as the workers write them); ``tensorboard``: each seed's scalars in
     ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True), one run
     per seed (False), or the algorithm's faster way (None: lockstep for tabular SARSA in groups
-    of at least :data:`~acrobot_mj.train.config.LOCKSTEP_GROUP_FROM` seeds per process)."""
+    of at least :data:`~acrobot_mj.train.lockstep.LOCKSTEP_GROUP_FROM` seeds per process)."""
     if not seeds:
         raise ValueError("train_seeds needs at least one seed")
     if tensorboard is not None:
@@ -99,7 +89,7 @@ def train_seeds(
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
         group = len(seeds) // min(jobs, len(seeds))  # the smallest lockstep group
-        together = config.lockstep_pays(group) if lockstep is None else lockstep
+        together = lockstep_pays(config, group) if lockstep is None else lockstep
         if together:
             check_lockstep(config)
         runs = _train_all(config, seeds, out, jobs, resume, progress, tensorboard, together,
@@ -127,9 +117,8 @@ def _train_all(config, seeds, out, jobs, resume, progress, board, together, prot
     lockstep in this process (evaluation None: evaluated afterwards)."""
     jobs = min(jobs, len(seeds))
     if together and jobs == 1:
-        records = train_lockstep(
-            config, seeds, out, progress=progress, resume=resume, tensorboard=board
-        )
+        records = train_lockstep(config, seeds, out, progress=progress, resume=resume,
+                                 tensorboard=board)  # fmt: skip
         return [(record, None) for record in records]
     count, unit = run_total(config)
     label = f"{config.algorithm} x{len(seeds)} seeds"

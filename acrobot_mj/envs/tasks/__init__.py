@@ -12,22 +12,10 @@ from __future__ import annotations
 import gymnasium
 
 from acrobot_mj.envs.tasks.balance import Balance
-from acrobot_mj.envs.tasks.base import ARRAY, SCALAR, Outcome, Score, Task, constant_of
+from acrobot_mj.envs.tasks.base import Rule, Score, Task
 from acrobot_mj.envs.tasks.height_goal import HeightGoal
 
-__all__ = [
-    "ARRAY",
-    "SCALAR",
-    "TASKS",
-    "Balance",
-    "HeightGoal",
-    "Outcome",
-    "Score",
-    "Task",
-    "constant_of",
-    "get_task",
-    "register_task",
-]
+__all__ = ["TASKS", "Balance", "HeightGoal", "Rule", "Score", "Task", "get_task", "register_task"]
 
 TASKS: dict[str, type[Task]] = {}
 _REQUIRED = ("name", "env_id", "max_episode_steps", "score")
@@ -48,7 +36,7 @@ def register_task(task: type[Task]) -> type[Task]:
     if task.env_id not in gymnasium.registry:
         gymnasium.register(
             id=task.env_id,
-            entry_point="acrobot_mj.envs.env:AcrobotEnv",
+            entry_point="acrobot_mj.envs.acrobot:AcrobotEnv",
             vector_entry_point="acrobot_mj.envs.vector:AcrobotVectorEnv",
             max_episode_steps=task.max_episode_steps,
             reward_threshold=task.reward_threshold,

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.envs.tasks.base import Outcome, Score, Task, constant_of
-from acrobot_mj.physics.angles import wrap_angle
+from acrobot_mj.envs.tasks.base import Rule, Score, Task
+from acrobot_mj.physics.xp import maximum, wrap
 
 
 class Balance(Task):
@@ -78,6 +79,8 @@ class Balance(Task):
         "return", lower_is_better=False, label="return per episode", unit="", best_word="highest"
     )
     options = ("tolerance",)
+    info_keys = ("upright_error",)
+    success_keys = ("is_balanced", "is_success")
     success_label = "BALANCED"
     success_text = "ended balanced"
 
@@ -89,38 +92,51 @@ class Balance(Task):
         if self.tolerance in (0.0, math.pi):
             raise ValueError(f"tolerance must be inside (0, pi) rad, got {self.tolerance:g}")
 
-    def outcome(self, xp: Any) -> Outcome:
-        sin, cos, absolute, maximum = xp.sin, xp.cos, xp.abs, xp.maximum
-        constant = constant_of(xp)
-        tolerance, up = constant(self.tolerance), constant(math.pi / 2)
-        one, four = constant(1.0), constant(4.0)
-
-        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
-            # Closeness to upright, then the larger angle error from it (wrapped).
-            reward = (one + sin(q1)) * (one + cos(q2)) / four
-            error = maximum(absolute(wrap_angle(q1 - up)), absolute(wrap_angle(q2)))
-            balanced = error < tolerance
-            info = {"upright_error": error, "is_balanced": balanced, "is_success": balanced}
-            return reward, False, info
-
-        return outcome
-
-    def compiled_outcome(self) -> Outcome:
-        from acrobot_mj.envs.tasks.compiled import balance_rows  # numba: on first use
-
+    def rule(self) -> Rule:
         tolerance, up = self.tolerance, math.pi / 2
-        if type(tolerance) is not float:  # a subclass's own number (an array?): its rule
-            return None
 
-        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
-            n = len(q1)
-            reward, error = np.empty(n), np.empty(n)
-            balanced, success = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-            balance_rows(q1, q2, tolerance, up, reward, error, balanced, success)
-            info = {"upright_error": error, "is_balanced": balanced, "is_success": success}
-            return reward, np.zeros(n, dtype=bool), info  # never terminates
+        def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
+            # Closeness to upright, then the larger angle error from it (wrapped).
+            reward = (1.0 + math.sin(q1)) * (1.0 + math.cos(q2)) / 4.0
+            error = maximum(abs(wrap(q1 - up)), abs(wrap(q2)))
+            return reward, False, error < tolerance, (error,)
 
-        return outcome
+        return rule
+
+    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
+        """How long states ``(T + 1, 4)`` [rad, rad/s] ``dt`` [s] apart stayed balanced from the
+        end of the swing-up (``swing_up`` steps; default: where the last balanced stretch
+        begins) to the end: its time, the error on arrival, the hold time [s], whether it held
+        to the end, the largest error while it held, and the final error [rad]."""
+        _, _, info = self.outcomes(*np.ascontiguousarray(states, dtype=np.float64).T)
+        error, balanced = info["upright_error"], info["is_balanced"]
+        if swing_up is None:
+            out = np.flatnonzero(~balanced)
+            swing_up = min(int(out[-1]) + 1 if out.size else 0, len(states) - 1)
+        after = error[swing_up:]
+        out = np.flatnonzero(~balanced[swing_up:])
+        inside = after if out.size == 0 else after[: out[0]]  # the steps within tolerance
+        return {
+            "swing_up_seconds": swing_up * dt,
+            "arrival_error": float(after[0]),
+            "hold_seconds": max(len(inside) - 1, 0) * dt,
+            "balanced": out.size == 0,
+            "max_error_during_hold": float(inside.max()) if inside.size else None,
+            "final_error": float(error[-1]),
+        }
+
+    @staticmethod
+    def summarise(assessments: list[dict[str, Any]], spread: Callable) -> dict[str, Any]:
+        """How many episodes ended balanced, the ``spread`` of the hold times [s], and the
+        largest error while balanced [rad]."""
+        balanced = [a for a in assessments if a["balanced"]]
+        return {
+            "balanced": len(balanced),
+            "hold_seconds": spread([a["hold_seconds"] for a in assessments]),
+            "largest_error_while_balanced": max(
+                (a["max_error_during_hold"] or 0.0 for a in balanced), default=None
+            ),
+        }
 
     def caption(self, info: dict[str, Any]) -> str:
         return f"error {float(info['upright_error']):.3f} rad"

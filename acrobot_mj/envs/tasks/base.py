@@ -1,20 +1,14 @@
-"""What a task is: its start distribution, its reward, termination and success, what ``info``
-reports, and how its results are scored.
+"""What a task is: its start, its step rule (reward, termination, success, what ``info``
+reports) and how its results are scored.
 
-A task is a :class:`Task` subclass (one file in this package) plus one registration
-(:func:`acrobot_mj.envs.tasks.register_task`). :class:`~acrobot_mj.envs.env.AcrobotEnv`,
-:class:`~acrobot_mj.envs.vector.AcrobotVectorEnv`, training summaries, population selection,
-sweeps, plots and video captions all ask the task; none of them knows the height goal.
-
-The per-step rule is written once, in :meth:`Task.outcome`, over a small math namespace ``xp``:
-:data:`SCALAR` (Python floats, the single env's hot path) or :data:`ARRAY` (numpy, one row per
-sub-env of the vector env; ``constant_of(xp)(x)`` gives a task's number in the namespace's fast
-form). The same formula serves both, so the two envs cannot drift apart.
+A task is a :class:`Task` subclass plus one registration (:func:`acrobot_mj.envs.tasks.
+register_task`). The step rule is written once, in :meth:`Task.rule`, on Python floats and
+``math``: the single env calls it as it is, and the vector env runs it over its rows compiled by
+numba (:meth:`Task.outcomes`); the two cannot drift apart.
 """
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,65 +17,20 @@ from typing import Any, ClassVar
 import numpy as np
 
 from acrobot_mj.checks import check_float
+from acrobot_mj.compiled import compiled
 
-#: ``outcome(q1, q2, dq1, dq2) -> (reward, terminated, info)`` on unwrapped angles [rad] and
-#: velocities [rad/s] after a step; floats with :data:`SCALAR`, arrays with :data:`ARRAY`.
-Outcome = Callable[[Any, Any, Any, Any], tuple[Any, Any, dict[str, Any]]]
-
-
-def _where(condition: bool, if_true: Any, if_false: Any) -> Any:
-    return if_true if condition else if_false
-
-
-def _same(value: float) -> float:
-    return value
-
-
-class ScalarMath:
-    """numpy's names for the math a task's outcome uses, on Python floats (several times faster
-    than numpy's on one number)."""
-
-    sin = staticmethod(math.sin)
-    cos = staticmethod(math.cos)
-    exp = staticmethod(math.exp)
-    sqrt = staticmethod(math.sqrt)
-    abs = staticmethod(abs)
-    maximum = staticmethod(max)
-    minimum = staticmethod(min)
-    where = staticmethod(_where)
-    constant = staticmethod(_same)
-
-
-class ArrayMath:
-    """numpy, on arrays of one row per sub-env, and ``constant(x)``: a task's number as a
-    0-d array, which numpy 2 broadcasts faster than a Python float or a one-element array
-    (measured at 256 rows: a product 0.6 us, against 1.0 and 1.3 us; the same numbers: every
-    operation is still elementwise IEEE arithmetic)."""
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(np, name)
-
-    @staticmethod
-    def constant(value: float) -> np.ndarray:
-        return np.array(value)
-
-
-def constant_of(xp: Any) -> Callable[[float], Any]:
-    """``xp.constant``, or (a namespace without it, such as the numpy module) the identity."""
-    return getattr(xp, "constant", _same)
-
-
-SCALAR = ScalarMath()
-ARRAY = ArrayMath()
+#: ``rule(q1, q2, dq1, dq2) -> (reward, terminated, success, values)`` on the angles [rad] and
+#: velocities [rad/s] after a step; ``values``: a tuple of floats named by ``Task.info_keys``.
+Rule = Callable[[float, float, float, float], tuple[float, bool, bool, tuple[float, ...]]]
+#: The compiled form of each task's rule over rows, by the task's type and settings.
+_ROWS: dict[tuple, Callable[..., None]] = {}
 
 
 @dataclass(frozen=True)
 class Score:
-    """How a task's episodes are scored: a per-episode quantity and which way is better.
-
-    ``quantity`` is ``"length"`` (decisions) or ``"return"``: the field of a greedy result and,
-    as ``episode_{quantity}s``, the per-episode list of a run record.
-    """
+    """How a task's episodes are scored: ``quantity`` ``"length"`` (decisions) or ``"return"``
+    (the field of a greedy result and, as ``episode_{quantity}s``, of a run record) and which
+    way is better."""
 
     quantity: str
     lower_is_better: bool
@@ -106,9 +55,9 @@ class Score:
 class Task(ABC):
     """One acrobot task on the shared physics, actions and observations.
 
-    Subclasses set the class attributes and implement :meth:`outcome` and :meth:`caption`;
-    their constructor takes ``links`` (l1, l2 [m], measured on the model by the env),
-    ``start_noise`` and the keyword options listed in :attr:`options`, each validated.
+    Subclasses set the class attributes and implement :meth:`rule` and :meth:`caption`; their
+    constructor takes ``links`` (l1, l2 [m], measured on the model by the env), ``start_noise``
+    and the keyword :attr:`options`, each validated.
     """
 
     #: Short name: ``TrainConfig.task`` and the ``task`` argument of the envs.
@@ -117,16 +66,16 @@ class Task(ABC):
     env_id: ClassVar[str]
     #: Truncation (Gymnasium's TimeLimit, and the vector env's default).
     max_episode_steps: ClassVar[int]
-    #: How its results are scored.
     score: ClassVar[Score]
-    #: The registered spec's ``reward_threshold``: the mean return that counts as solved with
-    #: the registered defaults, or None where the task names none.
+    #: The mean return that counts as solved with the registered defaults (or None).
     reward_threshold: ClassVar[float | None] = None
-    #: Keyword options of the constructor besides ``start_noise`` (also the config fields that
-    #: apply to this task).
+    #: Keyword options of the constructor besides ``start_noise``.
     options: ClassVar[tuple[str, ...]] = ()
     #: The model keyframe episodes start from.
     start_keyframe: ClassVar[str] = "hanging"
+    #: Names of the rule's ``values`` in ``info``, and the names success is reported under.
+    info_keys: ClassVar[tuple[str, ...]] = ()
+    success_keys: ClassVar[tuple[str, ...]] = ("is_success",)
     #: Caption of a successful frame in videos, and what success means in words.
     success_label: ClassVar[str] = "SUCCESS"
     success_text: ClassVar[str] = "succeeded"
@@ -138,59 +87,75 @@ class Task(ABC):
     def start_offsets(
         self, rng: np.random.Generator, noise: float
     ) -> tuple[np.ndarray, np.ndarray] | None:
-        """What is added to the keyframe's ``qpos`` and ``qvel`` [rad, rad/s] at a reset:
-        ``U(-noise, noise)`` for each angle, then each velocity (None without noise)."""
+        """What a reset adds to the keyframe's ``qpos`` and ``qvel`` [rad, rad/s]: ``U(-noise,
+        noise)`` for each angle, then each velocity (None without noise)."""
         if noise <= 0.0:
             return None
         return rng.uniform(-noise, noise, 2), rng.uniform(-noise, noise, 2)
 
     @abstractmethod
-    def outcome(self, xp: Any) -> Outcome:
-        """The step rule over the math namespace ``xp`` (:data:`SCALAR` or :data:`ARRAY`).
-
-        ``info`` must hold ``is_success``; the envs add nothing else to it.
-        """
-
-    def compiled_outcome(self) -> Outcome | None:
-        """The rule of ``outcome(ARRAY)`` compiled (numba), the same numbers bit for bit, for
-        large batches; None (the default) where the task has none. Built-in tasks have one
-        (:mod:`~acrobot_mj.envs.tasks.compiled`); a new task needs none.
-
-        Its rule returns new arrays of one entry per row, none shared with another (``terminated``
-        an array too, and ``info["is_success"]`` apart from ``terminated``), which the vector
-        env hands on as they are."""
-        return None
-
-    def rows_outcome(self, compiled: bool) -> tuple[Outcome, bool]:
-        """The step rule over arrays of one row per sub-env, and whether it is the compiled one:
-        :meth:`compiled_outcome` where ``compiled`` and the task has one (and numba loads), else
-        ``outcome(ARRAY)``.
-
-        A compiled rule is used only where it was written beside the ``outcome`` it copies: a
-        subclass (or an instance) that overrides ``outcome`` without a ``compiled_outcome`` of
-        its own gets its own rule, not its parent's compiled one."""
-        own = "outcome" not in vars(self) and callable(self.compiled_outcome)
-        if compiled and own and _defined_in(type(self), "compiled_outcome", "outcome"):
-            try:
-                fast = self.compiled_outcome()
-            except (ImportError, RuntimeError):  # a numba that does not load
-                fast = None
-            if fast is not None:
-                return fast, True
-        return self.outcome(ARRAY), False
+    def rule(self) -> Rule:
+        """The step rule (see :data:`Rule`): plain arithmetic on floats and ``math``, so that
+        numba compiles it; the task's numbers are read once, outside the returned function."""
 
     @abstractmethod
     def caption(self, info: dict[str, Any]) -> str:
         """A few words on a frame's state for video captions, e.g. ``tip +0.53 m``."""
+
+    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
+        """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart
+        (``swing_up``: the steps a planned swing-up takes), for evaluations: none here."""
+        return {}
+
+    @staticmethod
+    def summarise(assessments: list[dict[str, Any]], spread: Callable) -> dict[str, Any]:
+        """What :meth:`assess` says over many episodes (``spread``: the statistics of a list)."""
+        return {}
 
     @classmethod
     def reference(cls, frame_skip: int) -> tuple[float, str] | None:
         """A reference score and its label for plots (e.g. the best known), or None."""
         return None
 
+    def info(self) -> Callable[[tuple, Any], dict[str, Any]]:
+        """``info(values, success)``: a step's ``info``, the rule's values by
+        :attr:`info_keys`, then success by :attr:`success_keys` (a dict literal where there is
+        one value: the single env's hot path)."""
+        keys, names = self.info_keys, self.success_keys
+        if len(keys) == 1 and len(names) in (1, 2):
+            key, first, last = keys[0], names[0], names[-1]
+            return lambda values, success: {key: values[0], first: success, last: success}
+        return lambda values, success: {**dict(zip(keys, values)), **dict.fromkeys(names, success)}
 
-def _defined_in(cls: type, name: str, below: str) -> bool:
-    """Whether ``cls`` takes ``name`` from the class that defines ``below``, or from a subclass
-    of it (an override of ``below`` further down leaves ``name`` behind)."""
-    owner = next(k for k in cls.__mro__ if name in k.__dict__)
-    return issubclass(owner, next(k for k in cls.__mro__ if below in k.__dict__))
+    def outcomes(self, q1: np.ndarray, q2: np.ndarray, dq1: np.ndarray, dq2: np.ndarray) -> tuple:
+        """The rule over rows (arrays ``(N,)``), compiled: rewards, terminations and ``info``
+        (one new array per entry, none sharing memory with another)."""
+        n = len(q1)
+        reward, flags = np.empty(n), np.empty((2, n), bool)
+        values = np.empty((len(self.info_keys), n))
+        rows = self.__dict__.get("_compiled_rows") or self._rows()
+        rows(q1, q2, dq1, dq2, reward, flags, values)
+        info = {key: values[j] for j, key in enumerate(self.info_keys)}
+        success = flags[1]
+        for key in self.success_keys[:-1]:
+            info[key] = success.copy()
+        info[self.success_keys[-1]] = success
+        return reward, flags[0], info
+
+    def _rows(self) -> Callable[..., None]:
+        """:meth:`rule` over rows, compiled once per process for each task's settings."""
+        settings = {k: v for k, v in vars(self).items() if not k.startswith("_")}
+        key = (type(self), tuple(sorted(settings.items())))
+        if key not in _ROWS:
+            rule = self.rule()
+
+            def rows(q1, q2, dq1, dq2, reward, flags, values):  # pragma: no cover  (compiled)
+                for i in range(q1.shape[0]):
+                    r, t, s, v = rule(q1[i], q2[i], dq1[i], dq2[i])
+                    reward[i], flags[0, i], flags[1, i] = r, t, s
+                    for j in range(values.shape[0]):
+                        values[j, i] = v[j]
+
+            _ROWS[key] = compiled(rows, cache=False, calls=(rule,))
+        self._compiled_rows = _ROWS[key]
+        return _ROWS[key]

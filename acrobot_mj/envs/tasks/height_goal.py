@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
-import numpy as np
-
 from acrobot_mj.checks import check_float
-from acrobot_mj.envs.tasks.base import Outcome, Score, Task, constant_of
+from acrobot_mj.envs.tasks.base import Rule, Score, Task
 
 
 class HeightGoal(Task):
@@ -64,6 +63,7 @@ class HeightGoal(Task):
         log_scale=True,
     )
     options = ("step_reward", "goal_reward", "goal_height")
+    info_keys = ("tip_height",)
     success_label = "GOAL"
     success_text = "reached the goal"
     #: Best-known minimum decisions from rest to the goal (``acrobot-mj validate``'s search).
@@ -88,36 +88,17 @@ class HeightGoal(Task):
                 f"at {self.goal_height:g} m the goal is never or always reached"
             )
 
-    def outcome(self, xp: Any) -> Outcome:
-        constant = constant_of(xp)
-        l1, l2, height = constant(self.l1), constant(self.l2), constant(self.goal_height)
-        goal_reward, step_reward = constant(self.goal_reward), constant(self.step_reward)
-        sin, where = xp.sin, xp.where
+    def rule(self) -> Rule:
+        l1, l2, height = self.l1, self.l2, self.goal_height
+        goal_reward, step_reward = self.goal_reward, self.step_reward
 
-        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
+        def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
             # Tip height above the pivot [m], then the goal test.
-            tip = l1 * sin(q1) + l2 * sin(q1 + q2)
+            tip = l1 * math.sin(q1) + l2 * math.sin(q1 + q2)
             reached = tip > height
-            reward = where(reached, goal_reward, step_reward)
-            return reward, reached, {"tip_height": tip, "is_success": reached}
+            return (goal_reward if reached else step_reward), reached, reached, (tip,)
 
-        return outcome
-
-    def compiled_outcome(self) -> Outcome:
-        from acrobot_mj.envs.tasks.compiled import height_goal_rows  # numba: on first use
-
-        constants = (self.l1, self.l2, self.goal_height, self.goal_reward, self.step_reward)
-        if any(type(c) is not float for c in constants):  # a subclass's own numbers: its rule
-            return None
-
-        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
-            n = len(q1)
-            reward, tip = np.empty(n), np.empty(n)
-            reached, success = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-            height_goal_rows(q1, q2, *constants, reward, reached, success, tip)
-            return reward, reached, {"tip_height": tip, "is_success": success}
-
-        return outcome
+        return rule
 
     def caption(self, info: dict[str, Any]) -> str:
         return f"tip {float(info['tip_height']):+.2f} m"

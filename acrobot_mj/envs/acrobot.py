@@ -14,18 +14,20 @@ import numpy as np
 from acrobot_mj.checks import check_bool, check_int
 from acrobot_mj.envs.assets import link_lengths, load_model
 from acrobot_mj.envs.gl import make_renderer
-from acrobot_mj.envs.resets import RESET_OPTIONS, reset_noise, reset_state
 from acrobot_mj.envs.spaces import (
     INT_TYPES,
     MAX_VEL1,
     MAX_VEL2,
+    RESET_OPTIONS,
     TORQUE_OF,
     action_space,
     action_torque,
     observation_space,
+    reset_noise,
+    reset_state,
 )
-from acrobot_mj.envs.tasks import SCALAR, Task, get_task
-from acrobot_mj.physics.angles import wrap_angle
+from acrobot_mj.envs.tasks import Task, get_task
+from acrobot_mj.physics.xp import clip, wrap
 
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
 
@@ -38,8 +40,8 @@ MAX_ANGLE = 1e6
 MAX_FRAME_SKIP = 1000
 # Global names are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
-_PI, _MIN_PI, _MIN_Q = math.pi, -math.pi, -MAX_ANGLE
-_MIN_VEL1, _MIN_VEL2 = -MAX_VEL1, -MAX_VEL2
+_MIN_Q, _MIN_VEL1, _MIN_VEL2 = -MAX_ANGLE, -MAX_VEL1, -MAX_VEL2
+_PI, _MIN_PI = math.pi, -math.pi
 _BAD_STATE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -214,7 +216,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self._qpos, self._qvel = d.qpos, d.qvel
         motor = m.actuator("elbow_motor").id
         self._ctrl = d.ctrl[motor : motor + 1]
-        self._outcome = self.task.outcome(SCALAR)
+        self._rule, self._info = self.task.rule(), self.task.info()
 
     def _set_up_rendering(self, render_mode: str | None, width: int, height: int, camera: str):
         offwidth, offheight = self.model.vis.global_.offwidth, self.model.vis.global_.offheight
@@ -234,7 +236,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("_qpos", "_qvel", "_ctrl", "_outcome"):
+        for key in ("_qpos", "_qvel", "_ctrl", "_rule", "_info"):
             state.pop(key)
         state["_renderer"] = None  # a GL context cannot be copied; the copy makes its own
         return state
@@ -297,37 +299,32 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             self._qvel += offsets[1]
         q1, q2 = self._qpos.tolist()
         v1, v2 = self._qvel.tolist()
-        _, _, info = self._outcome(q1, q2, v1, v2)
-        info["is_success"] = False  # a reset is no success
-        return np.array((wrap_angle(q1), wrap_angle(q2), v1, v2)), info
+        values = self._rule(q1, q2, v1, v2)[3]
+        return np.array((wrap(q1), wrap(q2), v1, v2)), self._info(values, False)  # no success
 
     def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
-        # The hot path (profiled): names resolved to ids once, views into data cached, module
-        # constants instead of attribute lookups and calls, the observation the only
-        # allocation besides the task's info.
+        # The hot path (profiled): names resolved to ids once, views into data cached.
         torque = self._torque_of.get(action) if action.__class__ in INT_TYPES else None
         self._ctrl[0] = action_torque(action, self._continuous) if torque is None else torque
         m, d, qvel = self.model, self.data, self._qvel
         for _ in self._substeps:
             _mj_step(m, d)
-            # Velocity limits of the task, after every physics step.
+            # The task's velocity limits, after every physics step.
             v1, v2 = qvel.tolist()
-            if v1 > MAX_VEL1 or v1 < _MIN_VEL1:
-                v1 = qvel[0] = MAX_VEL1 if v1 > 0 else _MIN_VEL1
-            if v2 > MAX_VEL2 or v2 < _MIN_VEL2:
-                v2 = qvel[1] = MAX_VEL2 if v2 > 0 else _MIN_VEL2
+            if not (_MIN_VEL1 <= v1 <= MAX_VEL1 and _MIN_VEL2 <= v2 <= MAX_VEL2):  # or NaN
+                v1 = qvel[0] = clip(v1, _MIN_VEL1, MAX_VEL1)
+                v2 = qvel[1] = clip(v2, _MIN_VEL2, MAX_VEL2)
         q1, q2 = self._qpos.tolist()
         # False for NaN, infinities and angles beyond MAX_ANGLE alike (per coordinate, as
-        # MuJoCo's own mjMAXVAL test); clipped velocities are finite unless NaN. The env
-        # disables MuJoCo's autoreset, so a bad state cannot hide.
+        # MuJoCo's own mjMAXVAL test); MuJoCo's autoreset is off, so a bad state cannot hide.
         if not (_MIN_Q < q1 < MAX_ANGLE and _MIN_Q < q2 < MAX_ANGLE and v1 == v1 and v2 == v2):
             self._raise_bad_state()
-        # Angles in [-pi, pi) are observed exactly as they are (wrap_angle's first case,
-        # inlined); others are wrapped.
-        w1 = q1 if _MIN_PI <= q1 < _PI else wrap_angle(q1)
-        w2 = q2 if _MIN_PI <= q2 < _PI else wrap_angle(q2)
-        reward, terminated, info = self._outcome(q1, q2, v1, v2)
-        return np.array((w1, w2, v1, v2)), reward, terminated, False, info
+        reward, terminated, success, values = self._rule(q1, q2, v1, v2)
+        # Angles in [-pi, pi) are observed as they are (wrap's first case, inlined).
+        w1 = q1 if _MIN_PI <= q1 < _PI else wrap(q1)
+        w2 = q2 if _MIN_PI <= q2 < _PI else wrap(q2)
+        obs = np.array((w1, w2, v1, v2))
+        return obs, reward, terminated, False, self._info(values, success)
 
     def _raise_bad_state(self) -> None:
         reported = [

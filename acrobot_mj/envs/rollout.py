@@ -3,7 +3,7 @@ policies all run their episodes through :func:`run_episode`.
 
 What acts is an :class:`Actor`: ``begin(obs)`` gives the first action, ``observe(reward, obs,
 terminated, truncated)`` sees each step's result and gives the next action (ignored once the
-episode is over). A learning agent learns in ``observe`` (``acrobot_mj.agents.actors``); a fixed
+episode is over). A learning agent learns in ``observe`` (``acrobot_mj.agents.base``); a fixed
 policy just maps observations to actions (:class:`PolicyActor`). Hooks see the reset and every
 step, for frames or per-step records.
 """
@@ -93,6 +93,7 @@ def run_episode(
     actor: Actor,
     seed: int | None = None,
     options: dict[str, Any] | None = None,
+    *,
     max_steps: int | None = None,
     on_reset: ResetHook | None = None,
     on_step: StepHook | None = None,

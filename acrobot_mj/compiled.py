@@ -1,0 +1,95 @@
+"""numba, the package's one compiler: each rule is plain Python, and numba compiles that same
+source where speed matters (the step, the tasks' rules over rows, the learners' updates).
+
+Mark a function ``@jitable`` (numba may compile it, and compiled code may call it) and ask for
+its compiled form with :func:`compiled` where it is used. numba is imported only then. Where it
+cannot load, :func:`compiled` returns the Python function itself, after one line on stderr: the
+same numbers, more slowly.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable
+from typing import Any
+
+#: Every function marked ``@jitable``, registered with numba when it is first loaded.
+JITABLE: list[Callable[..., Any]] = []
+_COMPILED: dict[tuple[Callable[..., Any], bool], Callable[..., Any]] = {}
+_NUMBA: Any = None  # the numba module once loaded; False where it cannot load
+
+
+def jitable(function: Callable[..., Any]) -> Callable[..., Any]:
+    """Mark ``function`` as compilable (it stays a plain Python function)."""
+    JITABLE.append(function)
+    return function
+
+
+def numba() -> Any:
+    """The numba module, or None where it cannot load (said once on stderr)."""
+    global _NUMBA
+    if _NUMBA is None:
+        try:
+            import numba as module
+            from numba.extending import register_jitable
+        except Exception as error:  # ImportError, or a numba built for another numpy
+            sys.stderr.write(
+                f"acrobot-mj: numba cannot load ({type(error).__name__}: {error}); the kernels "
+                "run as plain Python: the same numbers, about 50 times slower\n"
+            )
+            _NUMBA = False
+            return None
+        if "NUMBA_THREADING_LAYER" not in os.environ:
+            # A fork-safe pool for the threaded kernels: a process forked after GNU OpenMP's
+            # threads ran aborts when it runs them itself (worker pools fork).
+            module.config.THREADING_LAYER = "forksafe"
+        for function in JITABLE:
+            register_jitable(function)
+        _NUMBA = module
+    return _NUMBA or None
+
+
+def compiled(
+    function: Callable[..., Any],
+    parallel: bool = False,
+    cache: bool = True,
+    calls: tuple[Callable[..., Any], ...] = (),
+) -> Callable[..., Any]:
+    """``function`` compiled by numba, or ``function`` itself where numba cannot load.
+
+    ``parallel``: its ``prange`` loops run on numba's threads; ``cache``: kept on disk between
+    processes (not for closures over functions, which numba cannot find again); ``calls``:
+    functions it calls that are not marked ``@jitable`` (closures)."""
+    key = (function, parallel)
+    if key not in _COMPILED:
+        nb = numba()
+        if nb is None:
+            _COMPILED[key] = function
+        else:
+            from numba.extending import register_jitable
+
+            for callee in calls:
+                register_jitable(callee)
+            if parallel:  # not cached: numba's cache keys a function by name, not by this flag
+                function.__globals__["prange"] = nb.prange  # a range to Python as well
+            options = {"cache": cache and not parallel, "parallel": parallel}
+            _COMPILED[key] = nb.njit(**options)(function)
+    return _COMPILED[key]
+
+
+def available_threads() -> int:
+    """numba's threads (``NUMBA_NUM_THREADS``, one per CPU by default); 1 without numba."""
+    nb = numba()
+    return 1 if nb is None else int(nb.config.NUMBA_NUM_THREADS)
+
+
+def set_threads(n: int) -> None:
+    """Run the parallel kernels on ``n`` of numba's threads."""
+    nb = numba()
+    if nb is not None:
+        nb.set_num_threads(n)
+
+
+#: ``range`` to Python; numba's ``prange`` inside a kernel compiled with ``parallel=True``.
+prange = range

@@ -1,0 +1,98 @@
+"""An env over an identified model: the same task, spaces and resets as
+:class:`~acrobot_mj.envs.acrobot.AcrobotEnv`, with the one discrete step of the analytic model
+(:func:`acrobot_mj.physics.integrators.step`, compiled) on the identified parameters instead of
+MuJoCo. What a model-based learner plans in: simulated experience, no env decisions. The task
+is the real env's (its rewards, goal and start noise: what is asked, not how the acrobot moves).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.compiled import compiled
+from acrobot_mj.envs.acrobot import MAX_ANGLE
+from acrobot_mj.envs.spaces import (
+    RESET_OPTIONS,
+    action_space,
+    action_torque,
+    observation_space,
+    reset_noise,
+    reset_state,
+)
+from acrobot_mj.envs.tasks import Task
+from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.physics.integrators import Stepping, method_code, step_rows
+from acrobot_mj.physics.xp import wrap
+
+
+class IdentifiedEnv(gym.Env[np.ndarray, Any]):
+    """``Discrete(3)`` torques on the lumped model ``theta`` with ``task`` (a Task object, e.g.
+    ``real_env.unwrapped.task``), stepped as ``stepping`` says (the real env's dt, steps per
+    decision and limits); truncation after ``max_episode_steps`` decisions. ``reset`` takes the
+    single env's options and draws its start offsets from the task, as the single env does."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        theta: Sequence[float],
+        task: Task,
+        stepping: Stepping = Stepping(substeps=4),
+        max_episode_steps: int = 1000,
+    ) -> None:
+        theta = np.asarray(theta, dtype=np.float64)
+        if theta.shape != (5,) or not np.all(np.isfinite(theta)):
+            raise ValueError(f"theta must be 5 finite lumped parameters, got {theta!r}")
+        self.theta, self.task, self.stepping = tuple(theta.tolist()), task, stepping
+        self.max_episode_steps = max_episode_steps
+        self.observation_space, self.action_space = observation_space(), action_space(False)
+        self._rule, self._info = task.rule(), task.info()
+        self._x, self._tau, self._t = HANGING[None].copy(), np.zeros(1), 0
+        self._constants = stepping.constants(self.theta)
+        self._code = method_code(stepping.method)
+        self._step = compiled(step_rows)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The unwrapped state ``(q1, q2, dq1, dq2)`` [rad, rad/s], a copy."""
+        return self._x[0].copy()
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        start = reset_state(options)
+        noise = reset_noise(options, self.task.start_noise, known=RESET_OPTIONS)
+        x = HANGING.copy() if start is None else start
+        offsets = None if start is not None else self.task.start_offsets(self.np_random, noise)
+        if offsets is not None:
+            x[:2] += offsets[0]
+            x[2:] += offsets[1]
+        self._x[0], self._t = x, 0
+        values = self._rule(*x.tolist())[3]
+        return self._observe(), self._info(values, False)
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self._tau[0] = action_torque(action, False)
+        self._step(self._x, self._tau, self._constants, self.stepping.substeps, self._code)
+        self._t += 1
+        reward, terminated, success, values = self._rule(*self._x[0].tolist())
+        truncated = not terminated and self._t >= self.max_episode_steps
+        obs = self._observe()
+        return obs, float(reward), bool(terminated), truncated, self._info(values, success)
+
+    def _observe(self) -> np.ndarray:
+        q1, q2, v1, v2 = self._x[0].tolist()
+        # As the MuJoCo env: NaN (kept by the limits), infinities or runaway angles stop the
+        # episode with an error instead of reaching the learner.
+        inside = -MAX_ANGLE < q1 < MAX_ANGLE and -MAX_ANGLE < q2 < MAX_ANGLE
+        if not (inside and v1 == v1 and v2 == v2):
+            raise RuntimeError(
+                f"the model reached a non-finite state or angles beyond +-{MAX_ANGLE:g} rad: "
+                f"{[q1, q2, v1, v2]}; call reset() before stepping again"
+            )
+        return np.array((wrap(q1), wrap(q2), v1, v2))

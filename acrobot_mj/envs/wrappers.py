@@ -1,0 +1,90 @@
+"""Wrappers: potential-based reward shaping with the acrobot's energy, and Gymnasium's
+``Acrobot-v1`` in the report's convention.
+
+Shaping (Ng, Harada and Russell, 1999): adding ``F = gamma phi(s') - phi(s)`` to every reward leaves the
+optimal policies unchanged (the shaping terms of an episode telescope to ``-phi(s0)``, the same
+for every policy from ``s0``), while it changes what a learner tries first. Here
+
+    phi(s) = scale * (E(s) - E_hanging) / (E_upright - E_hanging)
+
+with ``E`` the mechanical energy [J]: 0 hanging at rest, ``scale``
+balanced upright at rest, ``scale / 2`` at rest with both links horizontal. Swinging up means
+pumping energy in, so the shaping rewards every step that adds energy and charges every step that
+takes it out. The terminal state has ``phi = 0`` (Grzes, 2017: otherwise the telescoping breaks
+and so does the policy invariance).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.envs.spaces import observation_space
+from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, energies
+from acrobot_mj.physics.params import REPORT, AcrobotParams
+from acrobot_mj.physics.xp import wrap
+
+
+class EnergyShaping(gym.Wrapper):
+    """Adds ``scale * (gamma phi(s') - phi(s))`` to each reward (``phi``: the energy normalised
+    to 0 hanging and 1 upright at rest, :func:`acrobot_mj.physics.dynamics.energies` on
+    ``params``). ``info["unshaped_reward"]`` keeps the env's own reward, so returns can be
+    reported on the task's scale. Observations must be ``(q1, q2, dq1, dq2)`` (this package's
+    env, or Acrobot-v1 through :class:`ReportObservation`)."""
+
+    def __init__(
+        self, env: gym.Env, scale: float, gamma: float = 1.0, params: AcrobotParams = REPORT
+    ) -> None:
+        super().__init__(env)
+        if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+            raise ValueError(f"energy shaping scale must be a finite number > 0, got {scale!r}")
+        if not 0.0 <= gamma <= 1.0:
+            raise ValueError(f"energy shaping gamma must be in [0, 1], got {gamma!r}")
+        self.scale, self.gamma = float(scale), float(gamma)
+        self._theta = params.lumped
+        self._rest = [sum(energies(*state.tolist(), self._theta)) for state in (HANGING, UPRIGHT)]
+        self._phi: float | None = None
+
+    def potential(self, obs: Any) -> float:
+        """``scale`` times the normalised energy of ``obs = (q1, q2, dq1, dq2)``."""
+        kinetic, potential = energies(*np.asarray(obs, dtype=np.float64).tolist(), self._theta)
+        hanging, upright = self._rest
+        return self.scale * ((kinetic + potential - hanging) / (upright - hanging))
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._phi = self.potential(obs)
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        if self._phi is None:
+            raise RuntimeError("EnergyShaping.step() before reset()")
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        phi = 0.0 if terminated else self.potential(obs)
+        shaped = float(reward) + self.gamma * phi - self._phi
+        self._phi = None if (terminated or truncated) else phi
+        return obs, shaped, terminated, truncated, {**info, "unshaped_reward": float(reward)}
+
+
+class ReportObservation(gym.ObservationWrapper):
+    """Gymnasium's ``Acrobot-v1`` observed in the report's convention: its ``(cos theta1,
+    sin theta1, cos theta2, sin theta2, dtheta1, dtheta2)`` with ``theta1`` from hanging become
+    ``(q1, q2, dq1, dq2)``, ``q1 = theta1 - pi/2`` wrapped (the same agents run on both)."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        if getattr(env.observation_space, "shape", None) != (6,):
+            raise ValueError(f"expected Acrobot-v1's (6,) observations, got {env.observation_space}")
+        self.observation_space = observation_space()
+
+    def observation(self, observation: np.ndarray) -> np.ndarray:
+        c1, s1, c2, s2, dq1, dq2 = observation.tolist()
+        return np.array((wrap(math.atan2(s1, c1) - math.pi / 2), math.atan2(s2, c2), dq1, dq2))
+
+
+def make_gymnasium_acrobot(**kwargs: Any) -> gym.Env:
+    """``gymnasium.make("Acrobot-v1", **kwargs)`` observed in the report's convention."""
+    return ReportObservation(gym.make("Acrobot-v1", **kwargs))

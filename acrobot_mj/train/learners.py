@@ -1,0 +1,408 @@
+"""Everything trained or planned has one interface, :class:`Learner` (as Stable-Baselines3's
+``BaseAlgorithm``): it ``learn``s into a run directory (:class:`Run`), acts in its ``env`` through
+an ``actor``, and is loaded back from its run directory. ``evaluate``, ``render``, seeds and sweeps
+use nothing else (:mod:`acrobot_mj.train.evaluate`).
+
+:class:`AgentLearner` learns by interaction: one agent of the config's algorithm, or a
+population of them with the best kept (random restarts: with epsilon 0 a Sarsa(lambda) learner
+settles on one swing-up after a few dozen episodes, which one depending on its first episodes),
+in the env or in a model identified from a few env decisions (:mod:`.model_based`). The balance
+preset's learner identifies and plans (:mod:`.plan`).
+
+Every random choice comes from the run's seed: each episode's reset seed (:func:`episode_seed`)
+and each greedy episode's tie-breaking stream (:func:`tie_stream`), so a resumed run is identical
+to an uninterrupted one, and ``train``, ``evaluate`` and ``render`` report the same greedy run.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.agents import Agent, DivergenceError
+from acrobot_mj.agents.base import Greedy, Learning, Rewinding
+from acrobot_mj.agents.stream import RandomStream
+from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.envs.rollout import Actor, Episode, run_episode
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.envs.wrappers import EnergyShaping
+from acrobot_mj.train.checkpoint import load_checkpoint, save_checkpoint
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.episode_log import RunLog
+from acrobot_mj.train.progress import Monitor, run_total, watching
+from acrobot_mj.train.records import (
+    CHECKPOINT_FILE,
+    EPISODE_LOG,
+    RECENT,
+    RESUME_MAY_DIFFER,
+    SUMMARY_FILE,
+    Checkpoints,
+    History,
+    check_record_agrees,
+    check_same_run,
+    checkpoint_meta,
+    learner_dir,
+    load_into,
+    read_checkpoint,
+    read_for_resume,
+    recent_median,
+    run_record,
+    write_run,
+)
+
+#: Called after every training episode with its index and the history so far.
+OnEpisode = Callable[[int, History], None]
+#: Scores a trained learner ``k`` of a population (instead of its last training episodes).
+Judge = Callable[[Agent, int], float]
+
+
+@dataclass
+class Run:
+    """Where a run writes (``out``; None: nowhere) and what watches it, handed to each of its
+    learners: ``resume`` from the checkpoints there, the ``monitor`` (bar, TensorBoard), a
+    callback after each episode, and ``tee``, a population's episode log."""
+
+    out: Path | None = None
+    resume: bool = False
+    monitor: Monitor | None = None
+    on_episode: OnEpisode | None = None
+    tee: RunLog | None = None
+    progress: bool = False  # a bar where the learner keeps no monitor (the balance preset)
+
+    def learner(self, k: int, tee: RunLog | None) -> Run:
+        """The run of learner ``k`` of a population, in ``learner_K/``."""
+        out = None if self.out is None else learner_dir(self.out, k)
+        again = self.resume and out is not None and (out / CHECKPOINT_FILE).exists()
+        monitor = None if self.monitor is None else self.monitor.scoped(f"learner_{k}")
+        return Run(out, again, monitor, self.on_episode, tee, self.progress)
+
+
+#: The spawn key of every evaluation draw (training draws have none).
+HELDOUT_BRANCH = 0xE7A1
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """Held-out evaluation: ``episodes`` starts of ``U(-start_noise, start_noise)`` [rad, rad/s]
+    on each of (q1, q2, dq1, dq2) around rest, drawn from ``SeedSequence(seed, spawn_key=
+    (HELDOUT_BRANCH,))``. Every draw of training comes from a seed sequence without a spawn
+    key, so no training seed gives the evaluation's stream, and no evaluation setting can
+    change what training does."""
+
+    episodes: int = 100
+    start_noise: float = 0.05
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_int("episodes", self.episodes, 1)
+        check_float("start_noise", self.start_noise, 0.0, 1.0)
+        check_int("seed", self.seed, 0)
+
+    def starts(self, rest: np.ndarray) -> np.ndarray:
+        """The held-out start states, shape ``(episodes, 4)``: ``rest`` plus the draws."""
+        rest = np.asarray(rest, dtype=np.float64)
+        if rest.shape != (4,):
+            raise ValueError(f"rest must be a state (q1, q2, dq1, dq2), got shape {rest.shape}")
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(HELDOUT_BRANCH,)))
+        return rest + rng.uniform(-self.start_noise, self.start_noise, size=(self.episodes, 4))
+
+    def to_dict(self) -> dict[str, float | int]:
+        return {"episodes": self.episodes, "start_noise": self.start_noise, "seed": self.seed}
+
+
+#: The protocol of the README's learning results: 100 starts of U(-0.05, 0.05), seed 0.
+DEFAULT = Protocol()
+
+
+class Learner(ABC):
+    """A trained thing: ``learn`` fills a run directory and returns its record; ``env`` and
+    ``actor`` are how it acts (greedily) in episodes; ``load`` takes it back from the directory."""
+
+    #: ``run.json``'s ``kind`` (absent for agents: records written before kinds existed).
+    kind: ClassVar[str | None] = None
+    #: The held-out starts its results are measured on.
+    protocol: ClassVar[Protocol] = DEFAULT
+    #: Physics steps its plan swings up in (None: none planned), for the task's assessment.
+    swing_up: int | None = None
+
+    def __init__(self, config: Any, seed: int) -> None:
+        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+            raise ValueError(f"a run's seed must be an integer >= 0, got {seed!r}")
+        self.config, self.seed = config, seed
+
+    @abstractmethod
+    def learn(self, run: Run) -> dict[str, Any]:
+        """Train into ``run``; the run record (also ``run.json`` where there is a directory)."""
+
+    @abstractmethod
+    def env(self, **kwargs: Any) -> gym.Env:
+        """The env its episodes run on (``kwargs``: render settings)."""
+
+    @abstractmethod
+    def actor(self, env: gym.Env, episode: int) -> Actor:
+        """Its greedy policy for evaluation episode ``episode`` (0: from rest) in ``env``."""
+
+    @classmethod
+    @abstractmethod
+    def load(cls, run_dir: Path) -> Learner:
+        """The learner a run directory holds (refused, saying why, if it holds none)."""
+
+
+def episode_seed(seed: int, episode: int) -> int:
+    """The env's reset seed of training episode ``episode`` of run ``seed``."""
+    return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
+
+
+def tie_stream(run_seed: int, episode: int = 0) -> RandomStream:
+    """The stream that breaks the ties of greedy episode ``episode`` of run ``run_seed``."""
+    return RandomStream(np.random.SeedSequence([run_seed, episode]))
+
+
+def learner_seed(seed: int, k: int) -> int:
+    """The seed of learner ``k`` of a population run ``seed``."""
+    return int(np.random.SeedSequence([seed, 0x9E37, k]).generate_state(1)[0])
+
+
+def make_env(config: TrainConfig, **kwargs: Any) -> gym.Env:
+    """The config's env (``gymnasium.make``, so with its TimeLimit) with its reward shaping."""
+    return shape_rewards(gym.make(config.env_id, **{**config.env_kwargs(), **kwargs}), config)
+
+
+def shape_rewards(env: gym.Env, config: TrainConfig) -> gym.Env:
+    """``env`` with ``config``'s energy shaping (records report unshaped returns)."""
+    if config.energy_shaping == 0.0:
+        return env
+    return EnergyShaping(env, config.energy_shaping, 1.0 if config.gamma is None else config.gamma)
+
+
+def check_spaces(env: gym.Env) -> None:
+    """Refuse envs whose spaces the agents cannot use, naming what is wrong."""
+    if not (isinstance(env.action_space, gym.spaces.Discrete) and env.action_space.n == 3):
+        raise ValueError(f"the agents need a Discrete(3) action space, got {env.action_space}")
+    if not isinstance(env.observation_space, gym.spaces.Box) or env.observation_space.shape != (4,):
+        raise ValueError("the agents need observations (q1, q2, dq1, dq2) in a Box of shape "
+                         f"(4,), got {env.observation_space}")  # fmt: skip
+
+
+def greedy_from_rest(env: gym.Env, agent: Agent, run_seed: int) -> Episode:
+    """The greedy episode from rest that a run records (ties broken by :func:`tie_stream`)."""
+    return run_episode(env, Greedy(agent, tie_stream(run_seed)), run_seed, {"start_noise": 0.0})
+
+
+class AgentLearner(Learner):
+    """The config's agent trained by interaction: one, or ``population`` of them with the best
+    kept, in ``env`` (any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)``
+    observations; default the config's) or, with ``identify_decisions``, in an identified
+    model."""
+
+    def __init__(self, config: TrainConfig, seed: int, env: gym.Env | None = None) -> None:
+        super().__init__(config, seed)
+        if env is not None:
+            check_spaces(env)
+        self.given_env, self.agent = env, None
+
+    def learn(self, run: Run) -> dict[str, Any]:
+        learners = f" x{self.config.population}" if self.config.population > 1 else ""
+        label = f"{self.config.algorithm}{learners} seed {self.seed}"
+        with watching(run.monitor or False, run_total(self.config), label) as monitor:
+            run = replace(run, monitor=monitor)
+            if self.config.identify_decisions > 0:
+                from acrobot_mj.train.model_based import learn_in_model
+
+                record, self.agent = learn_in_model(self, run)
+            else:
+                record, self.agent = train_learners(self.config, self.seed, run, self.given_env)
+        return record
+
+    def env(self, **kwargs: Any) -> gym.Env:
+        return make_env(self.config, **kwargs)
+
+    def actor(self, env: gym.Env, episode: int) -> Actor:
+        return Greedy(self.agent, tie_stream(self.seed, episode))
+
+    @classmethod
+    def load(cls, run_dir: Path) -> AgentLearner:
+        path = Path(run_dir) / CHECKPOINT_FILE
+        if not path.exists() and (Path(run_dir) / SUMMARY_FILE).exists():
+            raise FileNotFoundError(f"{run_dir} holds several seeds ({SUMMARY_FILE}): give one "
+                                    "of its seed_S directories")  # fmt: skip
+        meta, arrays, config = read_checkpoint(path)
+        check_record_agrees(Path(run_dir), config, meta["seed"])
+        learner = cls(config, meta["seed"])
+        learner.agent = config.make_agent(meta["seed"], learner.env().observation_space)
+        load_into(learner.agent.load_state_dict, arrays, path)
+        return learner
+
+
+def train_learners(
+    config: TrainConfig, seed: int, run: Run, env: gym.Env | None = None, judge: Judge | None = None
+) -> tuple[dict[str, Any], Agent]:
+    """One learner, or ``config.population`` of them with the best kept: record and agent."""
+    if config.population > 1:
+        return train_population(config, seed, run, env, judge)
+    return train_one(config, seed, run, env)
+
+
+def train_one(
+    config: TrainConfig, seed: int, run: Run, env: gym.Env | None = None, greedy: bool = True
+) -> tuple[dict[str, Any], Agent]:
+    """Train one learner into ``run`` (checkpoints every ``checkpoint_every`` episodes, at the
+    end and on Ctrl-C; exact resume). ``greedy=False``: no greedy episode from rest and no
+    learning curve (a population's learners)."""
+    env_name = "acrobot_mj (make_env)" if env is None else str(env)
+    env = make_env(config) if env is None else shape_rewards(env, config)
+    agent = config.make_agent(seed, env.observation_space)
+    history = History()
+    path = None if run.out is None else run.out / CHECKPOINT_FILE
+    checkpoints = Checkpoints(path, config, seed, tee=run.tee)
+    if run.resume:
+        if path is None:
+            raise ValueError("resume needs the run directory (out_dir)")
+        history, arrays = read_for_resume(path, config, seed)
+        load_into(agent.load_state_dict, arrays, path)
+    checkpoints.start(history)
+    state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
+    checkpoints.snapshot(state, history)
+    with watching(run.monitor or False, run_total(config), f"{config.algorithm} seed {seed}") as m:
+        m.restored(history)
+        started = time.perf_counter()
+        stop = None
+        try:
+            for episode in range(len(history), config.episodes):
+                cap = config.learner_decisions
+                left = None if cap == 0 else max(cap - history.steps, 0)
+                if left == 0:
+                    break
+                noise = config.start_noise_at(episode)
+                options = {"start_noise": noise} if noise > 0 else None
+                try:
+                    with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
+                        result = run_episode(env, Learning(agent), episode_seed(seed, episode),
+                                             options, max_steps=left)  # fmt: skip
+                    if not math.isfinite(result.episode_return):
+                        raise DivergenceError(f"the episode's return is {result.episode_return}",
+                                              rewards=True)  # fmt: skip
+                except DivergenceError as error:
+                    checkpoints.save()  # the state after the last finite episode
+                    checkpoints.close()
+                    raise diverged(config, seed, episode, len(history), error) from None
+                history.add_episode(result)
+                checkpoints.snapshot(state, history)
+                m.episode(episode, result.length, result.episode_return, result.success)
+                if (episode + 1) % config.checkpoint_every == 0:
+                    checkpoints.save()
+                if run.on_episode is not None:
+                    run.on_episode(episode, history)
+        except KeyboardInterrupt as interrupt:
+            stop = interrupt
+    elapsed = time.perf_counter() - started
+    checkpoints.save()
+    checkpoints.close()
+    rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
+    record = run_record(config, seed, history, elapsed, interrupted=bool(stop), env=env_name,
+                        greedy=rest)  # fmt: skip
+    if run.out is not None:
+        write_run(run.out, record, f"seed {seed}", curve=greedy)
+    if stop:
+        raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
+    return record, agent
+
+
+def diverged(config: TrainConfig, seed: int, episode: int, kept: int,
+             error: DivergenceError) -> DivergenceError:  # fmt: skip
+    """The error a run stops with when its learner diverges: where, and the likely cause."""
+    if error.rewards:
+        cause = (f"the rewards (step_reward {config.step_reward}, goal_reward "
+                 f"{config.goal_reward}) overflow a float")  # fmt: skip
+    else:
+        space = gym.spaces.Box(-1.0, 1.0, (4,))
+        n = config.encoding.build(space).num_active
+        cause = (f"the step size: alpha={config.alpha:g} is per weight, and {n} features are "
+                 f"active in each state (Sutton and Barto use 0.2/{n} with tile coding)")  # fmt: skip
+    return DivergenceError(
+        f"{config.algorithm} diverged in episode {episode + 1} of seed {seed} ({error}); the "
+        f"likely cause is {cause}; the checkpoint keeps the state after episode {kept}"
+    )
+
+
+def train_population(
+    config: TrainConfig, seed: int, run: Run, env: gym.Env | None = None, judge: Judge | None = None
+) -> tuple[dict[str, Any], Agent]:
+    """``config.population`` learners of ``episodes`` each (own seeds, own start noise), the one
+    whose last 20 training episodes scored best kept (or the best by ``judge``). The choice
+    sees training episodes only: no greedy runs are made for it.
+
+    ``learner_K/`` holds each learner's run (record, episode log, and its checkpoint while the
+    population trains); the top holds the usual files, the kept learner's checkpoint and every
+    learner's episodes in order, ``population`` in ``run.json`` saying which was kept and why.
+    Once the top checkpoint is written the learners' go (a resumed finished run trains them
+    again, to the same result)."""
+    out, single = run.out, config.replace(population=1, max_decisions=config.learner_decisions)
+    if run.resume:
+        if out is None:
+            raise ValueError("resume needs the run directory (out_dir)")
+        if (out / CHECKPOINT_FILE).exists():  # else unfinished: each learner checks its own
+            meta, _, saved = read_checkpoint(out / CHECKPOINT_FILE)
+            check_same_run(out / CHECKPOINT_FILE, meta, saved, config, seed, RESUME_MAY_DIFFER)
+    elif out is not None:
+        for old in sorted(out.glob("learner_*")):  # an overwritten run's learners
+            if old.is_dir():
+                shutil.rmtree(old)
+    score = get_task(config.task).score
+    records, scores, best, kept = [], [], 0, None
+    for k in range(config.population):
+        tee = None if out is None else _population_log(out, records, run.resume)
+        try:
+            record, learner = train_one(single, learner_seed(seed, k), run.learner(k, tee), env,
+                                        greedy=False)  # fmt: skip
+        except KeyboardInterrupt as error:
+            raise type(error)(f"interrupted in learner {k} of {config.population} ({error}); "
+                              "resume to continue") from error  # fmt: skip
+        finally:
+            if tee is not None:
+                tee.close()
+        records.append(record)
+        scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
+        if k == 0 or score.is_better(scores[k], scores[best]):  # ties: the first
+            best, kept = k, learner  # only the best so far stays in memory
+    history = History()
+    for r in records:
+        history.extend(r)
+    real = make_env(config) if env is None else shape_rewards(env, config)
+    record = run_record(
+        config, seed, history, sum(r["wall_seconds"] for r in records),
+        interrupted=records[best]["interrupted"], env=records[best].get("env"),
+        greedy=greedy_from_rest(real, kept, seed),
+        population={"learners": config.population, "seeds": [r["seed"] for r in records],
+                    "scores": scores, "kept": best,
+                    "rule": getattr(judge, "rule", f"{score.best_word} median of the last "
+                                                   f"{RECENT} training episodes")},
+    )  # fmt: skip
+    if out is not None:
+        meta = checkpoint_meta(config, seed, len(history), history.steps)
+        save_checkpoint(out / CHECKPOINT_FILE, kept.state_dict(), meta)
+        write_run(out, record, f"{config.population} learners, seed {seed}")
+        for k in range(config.population):
+            (learner_dir(out, k) / CHECKPOINT_FILE).unlink(missing_ok=True)
+    return record, kept
+
+
+def _population_log(out: Path, records: list[dict[str, Any]], resume: bool) -> RunLog:
+    """The run's ``episodes.jsonl`` for the next learner: the learners' before it and, resuming,
+    the next one's episodes its checkpoint counts."""
+    k = len(records)
+    counts = [r["episodes_done"] for r in records]
+    mine = learner_dir(out, k) / CHECKPOINT_FILE
+    counts.append(load_checkpoint(mine)[0]["episodes_done"] if resume and mine.exists() else 0)
+    return RunLog(out / EPISODE_LOG, [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)],
+                  counts)  # fmt: skip
+
