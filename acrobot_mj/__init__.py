@@ -18,8 +18,8 @@ from acrobot_mj.envs.gl import configure_gl
 configure_gl()
 
 from acrobot_mj.envs.tasks import TASKS, HeightGoal  # noqa: E402  registers the tasks
+from acrobot_mj.files import __version__  # noqa: E402
 from acrobot_mj.physics.params import AcrobotParams  # noqa: E402
-from acrobot_mj.version import __version__  # noqa: E402
 
 ENV_ID = HeightGoal.env_id
 MAX_EPISODE_STEPS = HeightGoal.max_episode_steps

@@ -1,5 +1,6 @@
-"""Writing files atomically: a temporary file beside the target, flushed, then renamed over it,
-so a crash or a full disk never leaves a half-written record in place."""
+"""Writing records: atomically (a temporary file beside the target, flushed, then renamed over
+it, so a crash or a full disk never leaves a half-written record in place), as strict JSON, with
+the versions every record carries."""
 
 from __future__ import annotations
 
@@ -8,6 +9,26 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
+
+#: The package's version (``pyproject.toml`` reads it from here).
+__version__ = "0.3.0"
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and the packages a result depends on (for every record)."""
+    import platform
+
+    import gymnasium
+    import mujoco
+    import numpy
+
+    return {
+        "python": platform.python_version(),
+        "acrobot_mj": __version__,
+        "mujoco": mujoco.__version__,
+        "gymnasium": gymnasium.__version__,
+        "numpy": numpy.__version__,
+    }
 
 
 def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:

@@ -9,13 +9,13 @@ from acrobot_mj.agents.base import (
     Agent,
     AgentSpec,
     DivergenceError,
+    RandomStream,
     agent_spec,
     register_agent,
 )
 from acrobot_mj.agents.features import FEATURES
 from acrobot_mj.agents.sarsa import Sarsa, SarsaConfig, SarsaGroup
 from acrobot_mj.agents.sarsa_lambda import SarsaLambda, SarsaLambdaConfig
-from acrobot_mj.agents.stream import RandomStream
 
 __all__ = [
     "AGENTS", "FEATURES", "Agent", "AgentSpec", "DivergenceError", "RandomStream", "Sarsa",

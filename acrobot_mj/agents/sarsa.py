@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.agents.base import BLOCK, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import StateGrid
-from acrobot_mj.agents.stream import BLOCK, RandomStream, checked_values, policy
 from acrobot_mj.checks import check_float
 from acrobot_mj.compiled import compiled, jitable
 

@@ -25,8 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.agents.base import DivergenceError
-from acrobot_mj.agents.stream import RandomStream, checked_values, policy
+from acrobot_mj.agents.base import DivergenceError, RandomStream, checked_values, policy
 from acrobot_mj.checks import check_float
 from acrobot_mj.compiled import compiled, jitable
 

@@ -13,11 +13,11 @@ from collections.abc import Sequence
 
 from acrobot_mj.cli import learning, tools
 from acrobot_mj.envs.gl import GLBackendError
-from acrobot_mj.train.checkpoint import CheckpointError
+from acrobot_mj.files import __version__
 from acrobot_mj.train.lock import RunDirectoryBusy
 from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.version import __version__
+from acrobot_mj.train.records import CheckpointError
 
 COMMANDS = (
     learning.add_train,

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.common import Commands, add_progress, positive_int, seed, show_progress
+from acrobot_mj.cli.tools import Commands, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value

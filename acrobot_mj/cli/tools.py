@@ -1,31 +1,69 @@
-"""``acrobot-mj render | validate | balance | bench | demo | params``: parsers and handlers."""
+"""``acrobot-mj render | validate | balance | bench | demo | params``: parsers and handlers, and
+what every command shares (argument types, the progress flag, writing a command's record)."""
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
 import os
+import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 
-from acrobot_mj.cli.common import (
-    Commands,
-    add_progress,
-    positive_int,
-    seed,
-    show_progress,
-    write_record,
-)
 from acrobot_mj.control.policies import POLICY_NAMES, make_policy
 from acrobot_mj.envs.rollout import PolicyActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import RenderSettings, render_policy
 from acrobot_mj.train.evaluate import render_run
 from acrobot_mj.train.records import History
-from acrobot_mj.version import versions
+
+
+class Commands(Protocol):
+    """What ``ArgumentParser.add_subparsers()`` returns: each command adds its parser to it."""
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser: ...
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer >= 1."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def seed(text: str) -> int:
+    """An argparse type: a seed, an integer >= 0 (numpy's seeding takes no other)."""
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a seed must be an integer >= 0, got {value}")
+    return value
+
+
+def add_progress(p: argparse.ArgumentParser) -> None:
+    """``--progress/--no-progress``: a bar on stderr, by default when stderr is a terminal."""
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Whether to show a bar: as asked, else when stderr is a terminal."""
+    return sys.stderr.isatty() if args.progress is None else args.progress
+
+
+def write_record(path: str | None, data: dict[str, Any]) -> None:
+    """Write ``data`` as JSON to ``path`` (when given) and say so."""
+    if path:
+        write_json(path, data)
+        print(f"wrote {path}")
 
 
 def add_render(commands: Commands) -> None:

@@ -1,5 +1,11 @@
-"""Balancing at upright: the exact linearisation of the env's step, infinite-horizon discrete
-LQR, its saturated form and basin, and the bound no controller with |tau| <= 1 N m can beat."""
+"""Linear feedback: the exact linearisation of the env's step, infinite-horizon discrete LQR at
+upright (its saturated form and basin, and the bound no controller with |tau| <= 1 N m can
+beat), time-varying LQR along a swing-up, and sigma-delta modulation for {-1, 0, +1} torques.
+
+TVLQR runs the discrete Riccati recursion backwards along the trajectory on the exact Jacobians
+of the physics step at each ``(x_k, u_k)`` (:func:`step_jacobians`, no finite differences),
+starting from the infinite-horizon LQR's cost at upright, so the two feedbacks join without a
+seam."""
 
 from __future__ import annotations
 
@@ -8,18 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import dynamics, integrators
-from acrobot_mj.physics.dynamics import UPRIGHT
+from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.params import REPORT, AcrobotParams
-from acrobot_mj.physics.xp import wrap_angle
-
-
-def state_error(x: np.ndarray, reference: np.ndarray = UPRIGHT) -> np.ndarray:
-    """``x - reference`` [rad, rad/s], shape ``(..., 4)``, the angle differences wrapped to
-    ``[-pi, pi)`` (a state one turn away is the same state)."""
-    error = np.asarray(x, dtype=float) - reference
-    error[..., :2] = wrap_angle(error[..., :2])
-    return error
 
 
 def step_jacobians(
@@ -151,3 +149,50 @@ def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
     for _ in range(a.shape[0] - 1):
         blocks.append(a @ blocks[-1])
     return int(np.linalg.matrix_rank(np.hstack(blocks)))
+
+
+class SwingUpController:
+    """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory`` (angles of the error
+    wrapped), then the saturated LQR at upright, both on the trajectory's model
+    (``trajectory.params``). ``q`` and ``r`` weight the state error and the torque in both."""
+
+    def __init__(
+        self,
+        trajectory: Trajectory,
+        q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
+        r: float = 1.0,
+    ) -> None:
+        self.trajectory, p = trajectory, trajectory.params
+        self.lqr = LQR(q, r, p)
+        weights, cost, riccati = np.diag(q), np.array([[r]]), self.lqr.cost
+        self.gains = np.zeros((trajectory.steps, 4))
+        for k in reversed(range(trajectory.steps)):
+            x, u = trajectory.states[k], trajectory.torques[k]
+            a, b = step_jacobians(x, u, trajectory.method, p)
+            gain = np.linalg.solve(cost + b.T @ riccati @ b, b.T @ riccati @ a)
+            riccati = weights + a.T @ riccati @ (a - b @ gain)
+            self.gains[k] = gain[0]
+
+    def __call__(self, k: int, x: np.ndarray) -> float:
+        """The torque [N m] at physics step ``k`` (0 at the start) in state ``x``."""
+        if k >= self.trajectory.steps:
+            return float(self.lqr(x))
+        error = state_error(x, self.trajectory.states[k])
+        u = self.trajectory.torques[k] - self.gains[k] @ error
+        limit = self.trajectory.params.max_torque
+        return float(np.clip(u, -limit, limit))
+
+
+class SigmaDelta:
+    """First-order sigma-delta modulation: torques in {-1, 0, +1} N m whose running sum follows
+    that of a continuous torque, the quantisation error carried to the next step."""
+
+    def __init__(self) -> None:
+        self.carried = 0.0
+
+    def __call__(self, u: float) -> int:
+        """The ``Discrete(3)`` action (0, 1, 2) for the continuous torque ``u`` [N m]."""
+        wanted = u + self.carried
+        level = int(np.clip(np.rint(wanted), -1, 1))
+        self.carried = wanted - level
+        return level + 1

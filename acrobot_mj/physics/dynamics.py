@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from acrobot_mj.compiled import jitable
 from acrobot_mj.physics import xp as FLOATS
 from acrobot_mj.physics.params import REPORT, AcrobotParams, Lumped
-from acrobot_mj.physics.xp import ARRAY
+from acrobot_mj.physics.xp import ARRAY, wrap_angle
 
 #: Hanging at rest and upright at rest, ``(q1, q2, dq1, dq2)`` [rad, rad/s].
 HANGING = np.array([-np.pi / 2, 0.0, 0.0, 0.0])
@@ -166,6 +166,14 @@ def tip_position(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
 def tip_height(x: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """Height of the tip above the pivot [m] of states ``(..., 4)`` (or angles ``(..., 2)``)."""
     return tip_position(np.asarray(x)[..., :2], p)[..., 1]
+
+
+def state_error(x: np.ndarray, reference: np.ndarray = UPRIGHT) -> np.ndarray:
+    """``x - reference`` [rad, rad/s], shape ``(..., 4)``, the angle differences wrapped to
+    ``[-pi, pi)`` (a state one turn away is the same state)."""
+    error = np.asarray(x, dtype=float) - reference
+    error[..., :2] = wrap_angle(error[..., :2])
+    return error
 
 
 def equilibria() -> NDArray:

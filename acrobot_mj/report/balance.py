@@ -18,13 +18,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.trajectory import Trajectory
-from acrobot_mj.control.tvlqr import SigmaDelta, SwingUpController
+from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
+from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import write_json
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode
-from acrobot_mj.version import versions
 
 INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
 
@@ -135,7 +134,7 @@ def load_trajectory(
     """The swing-up for nominal torques ``|u| <= reserve`` N m, and where it came from: the
     package's (1.0 and 0.8), a cached one in ``cache`` (re-checked), or a new optimisation
     (which needs CasADi, and minutes)."""
-    from acrobot_mj.control.trajectory import shipped
+    from acrobot_mj.control.trajopt import shipped
 
     if not (isinstance(reserve, (int, float)) and 0.0 < reserve <= 1.0):
         raise ValueError(f"the torque reserve must be in (0, 1] N m, got {reserve!r}")

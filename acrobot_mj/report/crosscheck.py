@@ -11,8 +11,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from acrobot_mj.control.lqr import controllability_rank
-from acrobot_mj.control.lqr import discrete_model
+from acrobot_mj.control.lqr import controllability_rank, discrete_model
 from acrobot_mj.envs.assets import load_model
 from acrobot_mj.physics import dynamics, errata, integrators
 from acrobot_mj.physics.dynamics import HANGING

@@ -9,8 +9,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.policies import energy_pumping_torque, pumping_energies
 from acrobot_mj.control.lqr import LQR, balances, q1_basin, unstable_mode_bound
+from acrobot_mj.control.policies import energy_pumping_torque, pumping_energies
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.envs.rollout import PolicyActor, SequenceActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal

@@ -17,8 +17,8 @@ import mujoco
 import numpy as np
 
 from acrobot_mj.bars import Steps
-from acrobot_mj.control.trajectory import shipped
-from acrobot_mj.files import write_json, write_text
+from acrobot_mj.control.trajopt import shipped
+from acrobot_mj.files import __version__, write_json, write_text
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.params import REPORT
@@ -26,7 +26,6 @@ from acrobot_mj.report.balance import CASES, closed_loop, robustness, table
 from acrobot_mj.report.crosscheck import METHODS, cross_check, integrator_study, linearisation
 from acrobot_mj.report.plots import Series, line_plot
 from acrobot_mj.report.references import controllers, minimum_time
-from acrobot_mj.version import __version__
 
 SCHEMA_VERSION = 1
 

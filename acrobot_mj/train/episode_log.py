@@ -26,7 +26,6 @@ from typing import IO, Any
 from acrobot_mj.files import write_atomic
 
 
-
 def log_line(row: dict[str, Any]) -> bytes:
     """One line of the log (strict JSON: a non-finite return has no place in it)."""
     return (json.dumps(row, allow_nan=False) + "\n").encode()

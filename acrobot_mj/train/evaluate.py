@@ -25,13 +25,12 @@ import numpy as np
 
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.envs.rollout import run_episode
-from acrobot_mj.files import write_json
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode
 from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import EVAL_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
-from acrobot_mj.version import versions
 
 #: What ``evaluate`` compares with: stored per-start minima, computed ones, or none.
 MINIMA = ("stored", "compute", "none")

@@ -29,13 +29,11 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.agents import Agent, DivergenceError
-from acrobot_mj.agents.base import Greedy, Learning, Rewinding
-from acrobot_mj.agents.stream import RandomStream
+from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
 from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
-from acrobot_mj.train.checkpoint import load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import RunLog
 from acrobot_mj.train.progress import Monitor, run_total, watching
@@ -51,11 +49,13 @@ from acrobot_mj.train.records import (
     check_same_run,
     checkpoint_meta,
     learner_dir,
+    load_checkpoint,
     load_into,
     read_checkpoint,
     read_for_resume,
     recent_median,
     run_record,
+    save_checkpoint,
     write_run,
 )
 

@@ -29,8 +29,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.agents import Agent
-from acrobot_mj.agents.base import Greedy
-from acrobot_mj.agents.stream import RandomStream
+from acrobot_mj.agents.base import Greedy, RandomStream
 from acrobot_mj.control.identification import Transition, identify
 from acrobot_mj.envs.identified import IdentifiedEnv
 from acrobot_mj.envs.rollout import run_episode

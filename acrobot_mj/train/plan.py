@@ -34,17 +34,16 @@ import numpy as np
 
 from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.control.identification import realise
-from acrobot_mj.control.trajectory import Trajectory
-from acrobot_mj.control.tvlqr import SwingUpController
+from acrobot_mj.control.lqr import SwingUpController
+from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import write_json
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.report.balance import BalanceActor, balance_env, closed_loop
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import RUN_FILE
-from acrobot_mj.version import versions
 
 #: ``run.json``'s ``kind`` of a balance-preset run, and its plan's file.
 KIND, TRAJECTORY_FILE = "identify_and_plan", "trajectory.json"

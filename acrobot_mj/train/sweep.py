@@ -50,8 +50,8 @@ from acrobot_mj.train.records import (
     recent_score,
     spread,
 )
+from acrobot_mj.train.seeds import WorkerPool
 from acrobot_mj.train.trainer import train
-from acrobot_mj.train.workers import WorkerPool
 
 if sys.version_info >= (3, 11):
     import tomllib

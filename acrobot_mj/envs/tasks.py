@@ -1,0 +1,436 @@
+"""Tasks: what the acrobot is asked to do on the shared physics, actions and observations, and
+the registry of them, each registered with Gymnasium.
+
+A task is a :class:`Task` subclass (its start, its step rule, what ``info`` reports, how its
+results are scored) plus one :func:`register_task` call, which registers its Gymnasium id. The
+step rule is written once, in :meth:`Task.rule`, on Python floats and ``math``: the single env
+calls it as it is, and the vector env runs it over its rows compiled by numba
+(:meth:`Task.outcomes`); the two cannot drift apart. Built in: :class:`HeightGoal` (Sutton and
+Barto's swing-up, ``acrobot_mj/Acrobot-v0``) and :class:`Balance` (swing up and stay upright, the
+report's own objective, ``acrobot_mj/AcrobotBalance-v0``).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.compiled import compiled
+from acrobot_mj.physics.xp import maximum, wrap
+
+#: ``rule(q1, q2, dq1, dq2) -> (reward, terminated, success, values)`` on the angles [rad] and
+#: velocities [rad/s] after a step; ``values``: a tuple of floats named by ``Task.info_keys``.
+Rule = Callable[[float, float, float, float], tuple[float, bool, bool, tuple[float, ...]]]
+#: The compiled form of each task's rule over rows, by the task's type and settings.
+_ROWS: dict[tuple, Callable[..., None]] = {}
+
+
+@dataclass(frozen=True)
+class Score:
+    """How a task's episodes are scored: ``quantity`` ``"length"`` (decisions) or ``"return"``
+    (the field of a greedy result and, as ``episode_{quantity}s``, of a run record) and which
+    way is better."""
+
+    quantity: str
+    lower_is_better: bool
+    label: str  # what the number is, e.g. "decisions per episode"
+    unit: str  # e.g. "decisions"
+    best_word: str  # "shortest", "highest": the best of several, in words
+    log_scale: bool = False  # plots of it read better on a log axis
+
+    def __post_init__(self) -> None:
+        if self.quantity not in ("length", "return"):
+            raise ValueError(f"score quantity must be 'length' or 'return', got {self.quantity!r}")
+
+    def values(self, record: dict[str, Any]) -> list[float]:
+        """The per-episode scores of a run record."""
+        return record[f"episode_{self.quantity}s"]
+
+    def is_better(self, a: float, b: float) -> bool:
+        """Whether score ``a`` is strictly better than ``b``."""
+        return a < b if self.lower_is_better else a > b
+
+
+class Task(ABC):
+    """One acrobot task on the shared physics, actions and observations.
+
+    Subclasses set the class attributes and implement :meth:`rule` and :meth:`caption`; their
+    constructor takes ``links`` (l1, l2 [m], measured on the model by the env), ``start_noise``
+    and the keyword :attr:`options`, each validated.
+    """
+
+    #: Short name: ``TrainConfig.task`` and the ``task`` argument of the envs.
+    name: ClassVar[str]
+    #: The Gymnasium id it is registered under.
+    env_id: ClassVar[str]
+    #: Truncation (Gymnasium's TimeLimit, and the vector env's default).
+    max_episode_steps: ClassVar[int]
+    score: ClassVar[Score]
+    #: The mean return that counts as solved with the registered defaults (or None).
+    reward_threshold: ClassVar[float | None] = None
+    #: Keyword options of the constructor besides ``start_noise``.
+    options: ClassVar[tuple[str, ...]] = ()
+    #: The model keyframe episodes start from.
+    start_keyframe: ClassVar[str] = "hanging"
+    #: Names of the rule's ``values`` in ``info``, and the names success is reported under.
+    info_keys: ClassVar[tuple[str, ...]] = ()
+    success_keys: ClassVar[tuple[str, ...]] = ("is_success",)
+    #: Caption of a successful frame in videos, and what success means in words.
+    success_label: ClassVar[str] = "SUCCESS"
+    success_text: ClassVar[str] = "succeeded"
+
+    def __init__(self, links: tuple[float, float], start_noise: float = 0.0) -> None:
+        self.l1, self.l2 = (check_float("link length", v, 0.0) for v in links)
+        self.start_noise = check_float("start_noise", start_noise, 0.0, 1.0)
+
+    def start_offsets(
+        self, rng: np.random.Generator, noise: float
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """What a reset adds to the keyframe's ``qpos`` and ``qvel`` [rad, rad/s]: ``U(-noise,
+        noise)`` for each angle, then each velocity (None without noise)."""
+        if noise <= 0.0:
+            return None
+        return rng.uniform(-noise, noise, 2), rng.uniform(-noise, noise, 2)
+
+    @abstractmethod
+    def rule(self) -> Rule:
+        """The step rule (see :data:`Rule`): plain arithmetic on floats and ``math``, so that
+        numba compiles it; the task's numbers are read once, outside the returned function."""
+
+    @abstractmethod
+    def caption(self, info: dict[str, Any]) -> str:
+        """A few words on a frame's state for video captions, e.g. ``tip +0.53 m``."""
+
+    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
+        """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart
+        (``swing_up``: the steps a planned swing-up takes), for evaluations: none here."""
+        return {}
+
+    @staticmethod
+    def summarise(assessments: list[dict[str, Any]], spread: Callable) -> dict[str, Any]:
+        """What :meth:`assess` says over many episodes (``spread``: the statistics of a list)."""
+        return {}
+
+    @classmethod
+    def reference(cls, frame_skip: int) -> tuple[float, str] | None:
+        """A reference score and its label for plots (e.g. the best known), or None."""
+        return None
+
+    def info(self) -> Callable[[tuple, Any], dict[str, Any]]:
+        """``info(values, success)``: a step's ``info``, the rule's values by
+        :attr:`info_keys`, then success by :attr:`success_keys` (a dict literal where there is
+        one value: the single env's hot path)."""
+        keys, names = self.info_keys, self.success_keys
+        if len(keys) == 1 and len(names) in (1, 2):
+            key, first, last = keys[0], names[0], names[-1]
+            return lambda values, success: {key: values[0], first: success, last: success}
+        return lambda values, success: {**dict(zip(keys, values)), **dict.fromkeys(names, success)}
+
+    def outcomes(self, q1: np.ndarray, q2: np.ndarray, dq1: np.ndarray, dq2: np.ndarray) -> tuple:
+        """The rule over rows (arrays ``(N,)``), compiled: rewards, terminations and ``info``
+        (one new array per entry, none sharing memory with another)."""
+        n = len(q1)
+        reward, flags = np.empty(n), np.empty((2, n), bool)
+        values = np.empty((len(self.info_keys), n))
+        rows = self.__dict__.get("_compiled_rows") or self._rows()
+        rows(q1, q2, dq1, dq2, reward, flags, values)
+        info = {key: values[j] for j, key in enumerate(self.info_keys)}
+        success = flags[1]
+        for key in self.success_keys[:-1]:
+            info[key] = success.copy()
+        info[self.success_keys[-1]] = success
+        return reward, flags[0], info
+
+    def _rows(self) -> Callable[..., None]:
+        """:meth:`rule` over rows, compiled once per process for each task's settings."""
+        settings = {k: v for k, v in vars(self).items() if not k.startswith("_")}
+        key = (type(self), tuple(sorted(settings.items())))
+        if key not in _ROWS:
+            rule = self.rule()
+
+            def rows(q1, q2, dq1, dq2, reward, flags, values):  # pragma: no cover  (compiled)
+                for i in range(q1.shape[0]):
+                    r, t, s, v = rule(q1[i], q2[i], dq1[i], dq2[i])
+                    reward[i], flags[0, i], flags[1, i] = r, t, s
+                    for j in range(values.shape[0]):
+                        values[j, i] = v[j]
+
+            _ROWS[key] = compiled(rows, cache=False, calls=(rule,))
+        self._compiled_rows = _ROWS[key]
+        return _ROWS[key]
+
+
+class HeightGoal(Task):
+    r"""Swing the tip of link 2 above a line one link length over the bar (the report's task).
+
+    ## Rewards
+    ``step_reward`` (-1) on every step and ``goal_reward`` (+100) instead on the step that
+    reaches the goal (the report).
+
+    ## Starting State
+    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)`` (the ``hanging`` keyframe). With
+    ``start_noise = s > 0`` each angle and velocity gets ``U(-s, s)`` added (from the env's
+    ``np_random``, angles first).
+
+    ## Episode End
+    - Termination: the tip is more than ``goal_height`` above the pivot, ``l1 sin(q1) +
+      l2 sin(q1 + q2) > goal_height``, tested once per action, after its last physics step
+      (with ``frame_skip > 1`` a swing that crosses the line and falls back within one action
+      is not counted).
+    - Truncation: 1000 actions, by the ``TimeLimit`` that ``gymnasium.make`` adds.
+
+    ``info`` holds ``tip_height`` [m above the pivot] and ``is_success`` (the goal was reached).
+
+    ## Options
+    | Option      | Default | Meaning                                                         |
+    |-------------|---------|-----------------------------------------------------------------|
+    | step_reward | -1.0    | reward of a step that does not reach the goal                   |
+    | goal_reward | 100.0   | reward of the step that reaches the goal                        |
+    | goal_height | 1.0     | tip height above the pivot that ends the episode [m], < l1 + l2 |
+    | start_noise | 0.0     | half-width of the uniform start noise [rad, rad/s], in [0, 1]   |
+
+    ## Score
+    Decisions to the goal (fewer is better; 1000 when it is not reached). The registered spec's
+    ``reward_threshold`` is -300: the goal within 401 steps of 0.05 s (20 s, Acrobot-v1's -100
+    carried over in time) on average, with the default rewards and ``frame_skip=1``.
+    """
+
+    name = "height_goal"
+    env_id = "acrobot_mj/Acrobot-v0"
+    max_episode_steps = 1000
+    # Gymnasium's Acrobot-v1 counts as solved at a mean return of -100: the goal within about
+    # 100 decisions of 0.2 s, 20 s. The same 20 s are 400 steps of 0.05 s here (the registered
+    # frame_skip=1), and an episode reaching the goal on step T returns -(T - 1) + 100 = 101 - T:
+    # -300 is the goal by step 401 on average (the best known minimum, 252 steps, returns -151;
+    # a truncated episode -1000). With frame_skip=4 it is as loose as 400 decisions; with other
+    # rewards it means nothing (the spec has one number for every keyword argument).
+    reward_threshold = -300.0
+    score = Score(
+        "length",
+        lower_is_better=True,
+        label="decisions per episode",
+        unit="decisions",
+        best_word="shortest",
+        log_scale=True,
+    )
+    options = ("step_reward", "goal_reward", "goal_height")
+    info_keys = ("tip_height",)
+    success_label = "GOAL"
+    success_text = "reached the goal"
+    #: Best-known minimum decisions from rest to the goal (``acrobot-mj validate``'s search).
+    MIN_DECISIONS = {1: 252, 4: 63}
+
+    def __init__(
+        self,
+        links: tuple[float, float],
+        start_noise: float = 0.0,
+        step_reward: float = -1.0,
+        goal_reward: float = 100.0,
+        goal_height: float = 1.0,
+    ) -> None:
+        super().__init__(links, start_noise)
+        self.step_reward = check_float("step_reward", step_reward)
+        self.goal_reward = check_float("goal_reward", goal_reward)
+        reach = self.l1 + self.l2
+        self.goal_height = check_float("goal_height", goal_height, -reach, reach)
+        if abs(self.goal_height) == reach:
+            raise ValueError(
+                f"goal_height must be strictly inside (-{reach:g}, {reach:g}) m: "
+                f"at {self.goal_height:g} m the goal is never or always reached"
+            )
+
+    def rule(self) -> Rule:
+        l1, l2, height = self.l1, self.l2, self.goal_height
+        goal_reward, step_reward = self.goal_reward, self.step_reward
+
+        def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
+            # Tip height above the pivot [m], then the goal test.
+            tip = l1 * math.sin(q1) + l2 * math.sin(q1 + q2)
+            reached = tip > height
+            return (goal_reward if reached else step_reward), reached, reached, (tip,)
+
+        return rule
+
+    def caption(self, info: dict[str, Any]) -> str:
+        return f"tip {float(info['tip_height']):+.2f} m"
+
+    @classmethod
+    def reference(cls, frame_skip: int) -> tuple[float, str] | None:
+        best = cls.MIN_DECISIONS.get(frame_skip)
+        return (best, f"best known minimum ({best})") if best else None
+
+
+class Balance(Task):
+    r"""Swing up from hanging and stay balanced upright, ``(q1, q2) = (pi/2, 0)``.
+
+    ## Rewards
+    ``(1 + sin q1) (1 + cos q2) / 4`` on every step: 1 balanced upright, 0 with link 1 hanging or
+    link 2 folded back, smooth in between. dm_control's acrobot ``swingup`` rewards the tip's
+    distance to the target with a tolerance band; this is the same idea on the two angles, with
+    no flat region (a learner always sees which way is up) and no velocity term (a swing-up must
+    pass through fast states).
+
+    ## Starting State
+    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)``; with ``start_noise = s > 0`` each angle and
+    velocity gets ``U(-s, s)`` added (angles first).
+
+    ## Episode End
+    No termination: balancing is staying up. Truncation at 2000 actions by the ``TimeLimit``
+    that ``gymnasium.make`` adds (100 s at 0.05 s steps: a swing-up of up to 40 s and 60 s of
+    balance).
+
+    ``info`` holds ``upright_error`` (the larger of the two angles' distances from upright,
+    wrapped [rad]) and ``is_balanced`` (that error below ``tolerance``, 0.05 rad), which is also
+    ``is_success``.
+
+    ## Options
+    | Option      | Default | Meaning                                                       |
+    |-------------|---------|---------------------------------------------------------------|
+    | tolerance   | 0.05    | largest angle error [rad] that counts as balanced, in (0, pi) |
+    | start_noise | 0.0     | half-width of the uniform start noise [rad, rad/s], in [0, 1] |
+
+    ## Score
+    The return (higher is better; at most 1 per step). The registered spec's
+    ``reward_threshold`` is 1200: 60 s (1200 steps of 0.05 s) balanced, the report's objective.
+
+    ## Example
+    Golden values computed by hand from the formulas above (``math`` only), at the state after
+    ten +1 N m steps from rest that ``AcrobotEnv``'s own example gives, ``(q1, q2) =
+    (-1.647489786, 0.204950005)``: reward ``(1 + sin q1)(1 + cos q2) / 4 = 0.00145437``, error
+    ``|q1 - pi/2 + 2 pi| = 3.064899`` rad:
+
+    >>> import gymnasium as gym
+    >>> import acrobot_mj
+    >>> env = gym.make("acrobot_mj/AcrobotBalance-v0")
+    >>> env.spec.max_episode_steps
+    2000
+    >>> obs, info = env.reset(seed=0)
+    >>> info
+    {'upright_error': 3.141592653589793, 'is_balanced': False, 'is_success': False}
+    >>> for _ in range(10):
+    ...     obs, reward, terminated, truncated, info = env.step(2)
+    >>> round(reward, 8), round(info["upright_error"], 6), info["is_balanced"], terminated
+    (0.00145437, 3.064899, False, False)
+    """
+
+    name = "balance"
+    env_id = "acrobot_mj/AcrobotBalance-v0"
+    max_episode_steps = 2000
+    # The report's objective is 60 s balanced after the swing-up: 1200 steps of 0.05 s at a
+    # reward of nearly 1 each. Rewards are at most 1, so a mean return of 1200 needs at least
+    # 1200 steps' worth of upright; spinning through every angle earns about 1/4 a step (500 in
+    # all). Measured: the shipped controller (476-step swing-up, then balance) returns 1610; the
+    # minimum-time swing-up with {-1, 0, +1} torques, which falls, 592.
+    reward_threshold = 1200.0
+    score = Score(
+        "return", lower_is_better=False, label="return per episode", unit="", best_word="highest"
+    )
+    options = ("tolerance",)
+    info_keys = ("upright_error",)
+    success_keys = ("is_balanced", "is_success")
+    success_label = "BALANCED"
+    success_text = "ended balanced"
+
+    def __init__(
+        self, links: tuple[float, float], start_noise: float = 0.0, tolerance: float = 0.05
+    ) -> None:
+        super().__init__(links, start_noise)
+        self.tolerance = check_float("tolerance", tolerance, 0.0, math.pi)
+        if self.tolerance in (0.0, math.pi):
+            raise ValueError(f"tolerance must be inside (0, pi) rad, got {self.tolerance:g}")
+
+    def rule(self) -> Rule:
+        tolerance, up = self.tolerance, math.pi / 2
+
+        def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
+            # Closeness to upright, then the larger angle error from it (wrapped).
+            reward = (1.0 + math.sin(q1)) * (1.0 + math.cos(q2)) / 4.0
+            error = maximum(abs(wrap(q1 - up)), abs(wrap(q2)))
+            return reward, False, error < tolerance, (error,)
+
+        return rule
+
+    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
+        """How long states ``(T + 1, 4)`` [rad, rad/s] ``dt`` [s] apart stayed balanced from the
+        end of the swing-up (``swing_up`` steps; default: where the last balanced stretch
+        begins) to the end: its time, the error on arrival, the hold time [s], whether it held
+        to the end, the largest error while it held, and the final error [rad]."""
+        _, _, info = self.outcomes(*np.ascontiguousarray(states, dtype=np.float64).T)
+        error, balanced = info["upright_error"], info["is_balanced"]
+        if swing_up is None:
+            out = np.flatnonzero(~balanced)
+            swing_up = min(int(out[-1]) + 1 if out.size else 0, len(states) - 1)
+        after = error[swing_up:]
+        out = np.flatnonzero(~balanced[swing_up:])
+        inside = after if out.size == 0 else after[: out[0]]  # the steps within tolerance
+        return {
+            "swing_up_seconds": swing_up * dt,
+            "arrival_error": float(after[0]),
+            "hold_seconds": max(len(inside) - 1, 0) * dt,
+            "balanced": out.size == 0,
+            "max_error_during_hold": float(inside.max()) if inside.size else None,
+            "final_error": float(error[-1]),
+        }
+
+    @staticmethod
+    def summarise(assessments: list[dict[str, Any]], spread: Callable) -> dict[str, Any]:
+        """How many episodes ended balanced, the ``spread`` of the hold times [s], and the
+        largest error while balanced [rad]."""
+        balanced = [a for a in assessments if a["balanced"]]
+        return {
+            "balanced": len(balanced),
+            "hold_seconds": spread([a["hold_seconds"] for a in assessments]),
+            "largest_error_while_balanced": max(
+                (a["max_error_during_hold"] or 0.0 for a in balanced), default=None
+            ),
+        }
+
+    def caption(self, info: dict[str, Any]) -> str:
+        return f"error {float(info['upright_error']):.3f} rad"
+
+
+TASKS: dict[str, type[Task]] = {}
+_REQUIRED = ("name", "env_id", "max_episode_steps", "score")
+
+
+def register_task(task: type[Task]) -> type[Task]:
+    """Add ``task`` to :data:`TASKS` and register its Gymnasium id (``gymnasium.make`` with its
+    TimeLimit, and ``gymnasium.make_vec``). Returns the class, so it can decorate it."""
+    if not (isinstance(task, type) and issubclass(task, Task)):
+        raise TypeError(f"a task must be a subclass of acrobot_mj.envs.tasks.Task, got {task!r}")
+    missing = [attribute for attribute in _REQUIRED if not hasattr(task, attribute)]
+    if missing:
+        raise TypeError(f"task {task.__name__} lacks the class attributes {missing}")
+    known = TASKS.get(task.name)
+    if known is not None and known is not task:
+        raise ValueError(f"a task named {task.name!r} is already registered ({known.__name__})")
+    TASKS[task.name] = task
+    if task.env_id not in gymnasium.registry:
+        gymnasium.register(
+            id=task.env_id,
+            entry_point="acrobot_mj.envs.acrobot:AcrobotEnv",
+            vector_entry_point="acrobot_mj.envs.vector:AcrobotVectorEnv",
+            max_episode_steps=task.max_episode_steps,
+            reward_threshold=task.reward_threshold,
+            kwargs={"task": task.name},
+        )
+    return task
+
+
+def get_task(name: str) -> type[Task]:
+    """The task class called ``name``; the error lists the known ones."""
+    try:
+        return TASKS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown task {name!r}; known: {sorted(TASKS)}") from None
+
+
+register_task(HeightGoal)
+register_task(Balance)
