@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import IO, Any
 
 #: The package's version (``pyproject.toml`` reads it from here).
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 
 
 def versions() -> dict[str, str]:

@@ -7,15 +7,15 @@ gymnax's Acrobot-v1), in interleaved rounds, medians:
 - ``analytic_env`` and ``mujoco_env``: ``env.step`` of random actions through autoresets, in
   sub-env steps (decisions) per second;
 - ``kernel_scan`` (one thread) and ``kernel_scan_threads`` (numba's threads): many decisions of
-  N acrobots in one compiled call (physics only: no task, resets, checks or Python), the
-  ceiling of the analytic env;
+  N acrobots in one compiled call of :func:`scan` (physics only: no task, resets, checks or
+  Python), the ceiling of the analytic env;
 - each also in simulated seconds per wall second (decisions/s x 0.2 s).
 
 ``profile`` splits the analytic env's step at N = 1024 into the physics (the kernel call) and
 the rest (actions, observation, the task's outcome, flags and info), in microseconds
 (medians of single calls; the physics stepped once more between the env's steps, so the states
 stay the env's kind). :func:`one_step_gap` measures the rounding gap of one physics step
-between the backends. Needs numba (the ``fast`` extra).
+between the backends.
 """
 
 from __future__ import annotations
@@ -27,10 +27,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from acrobot_mj.control.identification import lumped_step
-from acrobot_mj.envs.analytic_physics import lumped_parameters
+from acrobot_mj.compiled import available_threads, compiled, prange, set_threads
+from acrobot_mj.envs.batch import lumped_parameters
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.physics.integrators import UNLIMITED, step
 
 SIZES = (1, 64, 1024, 4096)
 FRAME_SKIP = 4
@@ -46,19 +47,34 @@ def _env_rate(env: AcrobotVectorEnv, steps: int) -> float:
     return env.num_envs * steps / (time.perf_counter() - start)
 
 
+def scan(state, taus, constants, substeps):
+    """``T`` decisions of every row ``i`` of ``state`` (``(N, 4)``, in place) with torques
+    ``taus[i]`` (``(N, T)``, each row's contiguous) and ``constants = (a, b, c, d, e, dt, |dq1|,
+    |dq2|)``: :func:`~acrobot_mj.physics.integrators.step` alone (semi-implicit Euler, the
+    velocity limits after each physics step), no task, no resets. Compiled, its rows run on
+    numba's threads with ``parallel=True``."""
+    theta = (constants[0], constants[1], constants[2], constants[3], constants[4])
+    dt, max_vel = constants[5], (constants[6], constants[7])
+    for i in prange(state.shape[0]):
+        q1, q2, dq1, dq2 = state[i, 0], state[i, 1], state[i, 2], state[i, 3]
+        for t in range(taus.shape[1]):
+            q1, q2, dq1, dq2 = step(q1, q2, dq1, dq2, taus[i, t], theta, dt, max_vel, substeps, 0)
+        state[i, 0], state[i, 1], state[i, 2], state[i, 3] = q1, q2, dq1, dq2
+
+
 def _scan_rate(n: int, decisions: int, threads: bool) -> float:
-    """Decisions per second of the bare kernel: ``decisions`` of ``n`` acrobots in one call, on
-    one thread or (``threads``) on numba's."""
-    from acrobot_mj.envs import analytic_kernel
-
-    scan = analytic_kernel.scan_parallel if threads else analytic_kernel.scan
-
-    physics = AcrobotVectorEnv(num_envs=n, backend="analytic").physics
+    """Decisions per second of the bare kernel :func:`scan`: ``decisions`` of ``n`` acrobots in
+    one call, on one thread or (``threads``) on all of numba's."""
+    # Not cached on disk: numba cannot load a cached function of a module loaded from its path.
+    kernel = compiled(scan, parallel=threads, cache=False)
+    if threads:
+        set_threads(available_threads())
+    constants = AcrobotVectorEnv(num_envs=n, backend="analytic").physics.constants
     state = np.tile([-np.pi / 2, 0.0, 0.0, 0.0], (n, 1))
     taus = np.random.default_rng(0).integers(-1, 2, (n, decisions)).astype(np.float64)
-    scan(state[:1].copy(), taus[:1, :1].copy(), physics.theta, FRAME_SKIP)  # compiled, cached
+    kernel(state[:1].copy(), taus[:1, :1].copy(), constants, FRAME_SKIP)  # compiled first
     start = time.perf_counter()
-    scan(state, taus, physics.theta, FRAME_SKIP)
+    kernel(state, taus, constants, FRAME_SKIP)
     return n * decisions / (time.perf_counter() - start)
 
 
@@ -93,7 +109,7 @@ def one_step_gap(states: int = 20_000, seed: int = 1) -> float:
     and torques in [-1, 1] N m: the rounding that the acrobot's chaos then amplifies."""
     model = AcrobotVectorEnv().model
     data = mujoco.MjData(model)
-    theta = (*lumped_parameters(model), model.opt.timestep, np.inf, np.inf)
+    theta, dt = lumped_parameters(model), model.opt.timestep
     rng, worst = np.random.default_rng(seed), 0.0
     for _ in range(states):
         speeds = rng.uniform(-1, 1, 2) * (MAX_VEL1, MAX_VEL2)
@@ -101,8 +117,8 @@ def one_step_gap(states: int = 20_000, seed: int = 1) -> float:
         tau = float(rng.uniform(-1, 1))
         data.qpos[:], data.qvel[:], data.ctrl[:] = x[:2], x[2:], tau
         mujoco.mj_step(model, data)
-        step = lumped_step(*x.tolist(), tau, *theta, 1)
-        worst = max(worst, float(np.max(np.abs(np.concatenate([data.qpos, data.qvel]) - step))))
+        new = step(*x.tolist(), tau, theta, dt, UNLIMITED)
+        worst = max(worst, float(np.max(np.abs(np.concatenate([data.qpos, data.qvel]) - new))))
     return worst
 
 
@@ -142,10 +158,8 @@ def analytic_rows(quick: bool = False, rounds: int | None = None) -> dict[str, A
     }
 
 
-def report_lines(rows: dict[str, Any] | str) -> list[str]:
-    """The rows as text (or the reason they were skipped)."""
-    if isinstance(rows, str):
-        return ["", rows]
+def report_lines(rows: dict[str, Any]) -> list[str]:
+    """The rows as text."""
     lines = ["", f"analytic backend (frame_skip {rows['frame_skip']}, decisions of "
              f"{rows['decision_s']:g} s): decisions/s, simulated s per wall s"]  # fmt: skip
     head = f"{'N':>6} {'analytic env':>13} {'MuJoCo env':>11} {'scan 1 thread':>14} "

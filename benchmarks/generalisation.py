@@ -2,7 +2,7 @@
 
 Every recipe here trains on the `book` env within 48,000 learning decisions (the last episode
 cut at the budget, as ``--max-decisions`` does) and is evaluated by the package's own held-out
-protocol (:func:`acrobot_mj.train.evaluate.evaluate_agent`, 100 starts, seed 0). The variants
+protocol (:func:`acrobot_mj.train.evaluate.evaluate_learner`, 100 starts, seed 0). The variants
 (prototypes, kept out of the package because none helped):
 
 - ``init_*``: initial action values other than 0 (weights = value / active features);
@@ -27,14 +27,11 @@ import json
 
 import numpy as np
 
-from acrobot_mj.agents.actors import Learning
-from acrobot_mj.agents.random_stream import RandomStream
-from acrobot_mj.agents.registry import make_agent, make_features
+from acrobot_mj.agents.base import Learning, RandomStream
 from acrobot_mj.agents.sarsa_lambda import SarsaLambda
-from acrobot_mj.envs.episode import run_episode
-from acrobot_mj.train.episodes import episode_seed, make_env
-from acrobot_mj.train.evaluate import evaluate_agent
-from acrobot_mj.train.population import learner_seed
+from acrobot_mj.envs.rollout import run_episode
+from acrobot_mj.train.evaluate import evaluate_learner
+from acrobot_mj.train.learners import DEFAULT, AgentLearner, episode_seed, learner_seed, make_env
 from acrobot_mj.train.presets import PRESETS
 
 BUDGET = 48_000
@@ -78,7 +75,8 @@ class Variant(SarsaLambda):
             self._sweep(self._episodes[i])
 
     def _sweep(self, episode):
-        w, n = self._w, self.num_features
+        w, n = self._w, self.num_features  # w[a, i] at a * n + i
+        offsets = np.arange(self.n_actions)[:, None] * n
         for t in range(len(episode) - 1, -1, -1):
             active, a, reward, after, terminal = episode[t]
             pairs = a * n + active
@@ -87,21 +85,21 @@ class Variant(SarsaLambda):
             elif self.target == "sarsa" and t + 1 < len(episode):
                 target = reward + w[episode[t + 1][1] * n + after].sum()
             else:
-                target = reward + w[self._offsets + after].sum(axis=1).max()
+                target = reward + w[offsets + after].sum(axis=1).max()
             w[pairs] += self.alpha * (target - w[pairs].sum())
 
 
 def variant(**options):
-    def build(c, seed):
+    def build(c, seed, space):
         return Variant(
-            make_features(c),
+            c.encoding.build(space),
             3,
-            c.alpha,
-            c.gamma,
-            c.lam,
-            c.epsilon,
-            c.traces,
-            c.trace_cutoff,
+            alpha=c.alpha,
+            gamma=c.gamma,
+            lam=c.lam,
+            epsilon=c.epsilon,
+            traces=c.traces,
+            trace_cutoff=c.trace_cutoff,
             seed=seed,
             replay_seed=seed,
             **options,
@@ -112,7 +110,9 @@ def variant(**options):
 
 def learn(config, seed, budget, env, build=None, keep_best=0, stop=None, agent=None):
     """One learner until ``budget`` decisions: (agent, decisions, episode lengths)."""
-    agent = agent or (make_agent(config, seed=seed) if build is None else build(config, seed))
+    if agent is None:
+        space = env.observation_space
+        agent = config.make_agent(seed, space) if build is None else build(config, seed, space)
     used, lengths, best = 0, [], (None, None)
     for episode in range(config.episodes):
         left = budget - used
@@ -124,7 +124,7 @@ def learn(config, seed, budget, env, build=None, keep_best=0, stop=None, agent=N
             Learning(agent),
             episode_seed(seed, episode),
             {"start_noise": config.start_noise},
-            limit,
+            max_steps=limit,
         )
         used += result.length
         lengths.append(result.length)
@@ -206,7 +206,9 @@ def measure(name, seeds):
     for seed in seeds:
         agent, used = RECIPES[name](BASE, seed)
         config = BASE.replace(energy_shaping=20.0) if "sh20" in name else BASE
-        record = evaluate_agent(config, agent, seed)
+        learner = AgentLearner(config, seed)
+        learner.agent = agent
+        record = evaluate_learner(learner, DEFAULT)
         medians.append(record["summary"]["length"]["median"])
         print(name, seed, used, medians[-1], record["rest"]["length"], flush=True)
     print(

@@ -251,7 +251,7 @@ def sections(
     import gymnasium as gym
 
     import acrobot_mj
-    from acrobot_mj.train.episodes import make_env
+    from acrobot_mj.train.learners import make_env
     from acrobot_mj.train.presets import PRESETS
 
     timestep = acrobot_mj.AcrobotEnv().model.opt.timestep  # [s]; the vector env: frame_skip 1

@@ -21,9 +21,9 @@ from pathlib import Path
 import gymnasium as gym
 
 import acrobot_mj
-from acrobot_mj.control.baselines import random_policy
-from acrobot_mj.envs.episode import PolicyActor
-from acrobot_mj.report.video import VideoWriter, caption, record_episode
+from acrobot_mj.control.policies import make_policy
+from acrobot_mj.envs.rollout import PolicyActor
+from acrobot_mj.report.video import RenderSettings, VideoWriter, caption, record_episode
 
 
 def main() -> None:
@@ -37,13 +37,14 @@ def main() -> None:
     whole, render_only, encode_only = [], [], []
     for k in range(args.repeats):
         start = time.perf_counter()
-        actor = PolicyActor(random_policy(k))
-        record = record_episode(env, actor, folder / "episode.mp4", seed=k)
+        actor = PolicyActor(make_policy("random", k))
+        settings = RenderSettings(args.width, args.height, seed=k)
+        record = record_episode(env, actor, folder / "episode.mp4", settings)
         whole.append(time.perf_counter() - start)
         assert record["frames"] == 1001
 
         env.reset(seed=k)
-        policy, frames = random_policy(k), []
+        policy, frames = make_policy("random", k), []
         start = time.perf_counter()
         frames.append(caption(env.render(), "t = 0.00 s"))
         for _ in range(1000):

@@ -7,8 +7,8 @@ actions (autoresets included); the ceiling, bare ``Batch.step`` calls back to ba
 the batch, ``Batch.step`` with the least input and output an env needs (the controls written
 from random actions, the observation rows read: two numpy calls between steps). The floor
 against the ceiling is what that least work costs (measured: within the ceiling's own
-run-to-run noise); the vector env against the floor is the env's own work (the task's outcome,
-the checks, the flags).
+run-to-run noise); the vector env against the floor is the env's own work (the velocity limits,
+the observation's checks, the task's outcome, the flags).
 """
 
 from __future__ import annotations

@@ -22,9 +22,9 @@ import numpy as np
 
 import acrobot_mj  # registers acrobot_mj/Acrobot-v0
 from acrobot_mj.files import write_json
-from acrobot_mj.train.heldout import DEFAULT, Protocol
-from acrobot_mj.train.minima import compare, stored_minima
-from acrobot_mj.train.stats import spread
+from acrobot_mj.train.evaluate import compare, stored_minima
+from acrobot_mj.train.learners import DEFAULT, Protocol
+from acrobot_mj.train.records import spread
 
 ENV_ID = acrobot_mj.ENV_ID
 #: 0.2 s decisions, as the package's ``book`` preset.

@@ -27,8 +27,8 @@ from heldout_sb3 import CosSin, Protocol, parse_args, report, set_up_torch
 from sac_acrobot import HYPERPARAMETERS
 
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.train.plan_config import BALANCE_NOISE
-from acrobot_mj.train.stats import spread
+from acrobot_mj.train.plan import PlanLearner
+from acrobot_mj.train.records import spread
 
 FRAME_SKIP = 4
 #: Decisions in the last 60 s of an episode (0.2 s each).
@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> dict:
     def act(obs):
         return model.predict(obs, deterministic=True)[0]
 
-    protocol = Protocol(episodes=args.episodes, start_noise=BALANCE_NOISE)
+    protocol = Protocol(episodes=args.episodes, start_noise=PlanLearner.protocol.start_noise)
     record = evaluate(act, protocol)
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")

@@ -9,9 +9,8 @@ from __future__ import annotations
 import time
 
 from acrobot_mj.files import write_json
-from acrobot_mj.train.episodes import make_env
-from acrobot_mj.train.heldout import DEFAULT
-from acrobot_mj.train.minima import STORED, compute_minima, env_settings
+from acrobot_mj.train.evaluate import STORED, compute_minima, env_settings
+from acrobot_mj.train.learners import DEFAULT, make_env
 from acrobot_mj.train.presets import PRESETS
 
 

@@ -1,8 +1,8 @@
 """Enumerate every run the book preset can make: its tie-break tree.
 
 With epsilon 0 and zero weights the book learner's only random choices are the ties of its
-argmax (all actions equal while the weights are still zero). Replacing its stream by a scripted
-one that takes a given branch at each tie, and walking the tree depth first, lists every
+argmax (all actions equal while the weights are still zero). Writing each tie's draw of its
+stream so that it takes a given branch, and walking the tree depth first, lists every
 possible training run with its probability (the product of 1/ties over its branch points), its
 greedy swing-up from rest and its held-out evaluation (the default protocol). A seed is a draw
 from this distribution, so a sample of seeds shows at most as many distinct outcomes as leaves.
@@ -18,44 +18,64 @@ from fractions import Fraction
 
 import numpy as np
 
-from acrobot_mj.agents.random_stream import RandomStream
-from acrobot_mj.agents.registry import make_agent
-from acrobot_mj.train.episodes import episode_seed, learn_episode, make_env, noise_options
-from acrobot_mj.train.evaluate import evaluate_agent
+from acrobot_mj.envs.rollout import run_episode
+from acrobot_mj.train.evaluate import evaluate_learner
+from acrobot_mj.train.learners import DEFAULT, AgentLearner, episode_seed, make_env
 from acrobot_mj.train.presets import PRESETS
 
 
-class ScriptedTies(RandomStream):
-    """Breaks the k-th tie by ``script[k]`` (then by the first action), recording each tie."""
+class ScriptedTies:
+    """The agent learning (an actor of the episode loop), the k-th tie of its argmax broken by
+    ``script[k]`` (then by the first action), each tie's size recorded in ``ties``. Before each
+    decision it finds the tie in the agent's action values (those the decision compares) and
+    writes the stream's next draw so that the decision picks the scripted action; it checks
+    that the decision read exactly that draw (with epsilon 0 nothing else is drawn)."""
 
-    def __init__(self, script: list[int]) -> None:
-        super().__init__(0)
-        self.script, self.ties = script, []
+    def __init__(self, agent, script: list[int]) -> None:
+        self.agent, self.script, self.ties = agent, script, []
 
-    def random(self) -> float:
-        raise RuntimeError("the scripted stream serves ties only (epsilon must be 0)")
-
-    def argmax(self, values: list[float]) -> int:
-        best = max(values)
-        tied = [i for i, v in enumerate(values) if v == best]
+    def _script(self, obs) -> tuple[int, int]:
+        """Set up the decision at ``obs``: the stream's position, and the draws it must read."""
+        q = self.agent.q_values(obs)
+        tied = np.flatnonzero(q == q.max())
+        stream = self.agent.stream
+        stream.reserve(2)  # the decision's own reserve(2) then keeps this block
         if len(tied) == 1:
-            return tied[0]
+            return stream.position, 0
         k = len(self.ties)
         choice = self.script[k] if k < len(self.script) else 0
         self.ties.append(len(tied))
-        return tied[choice]
+        stream.block[stream.position] = (choice + 0.5) / len(tied)  # picks tied[choice]
+        return stream.position, 1
+
+    def _check(self, at: tuple[int, int]) -> None:
+        if self.agent.stream.position - at[0] != at[1]:
+            raise RuntimeError("the scripted stream serves ties only (epsilon must be 0)")
+
+    def begin(self, obs) -> int:
+        at = self._script(obs)
+        action = self.agent.begin_episode(obs)
+        self._check(at)
+        return action
+
+    def observe(self, reward, obs, terminated, truncated):
+        at = (self.agent.stream.position, 0) if terminated else self._script(obs)
+        action = self.agent.learn(reward, obs, terminated, truncated)
+        self._check(at)
+        return action
 
 
 def run_leaf(config, script: list[int]) -> tuple[list[int], list[int], object]:
     """Train with ties broken by ``script``: the ties met, the episode lengths, the agent."""
-    agent = make_agent(config, seed=0)
-    agent.stream = ScriptedTies(script)
     env = make_env(config)
+    agent = config.make_agent(0, env.observation_space)
+    actor = ScriptedTies(agent, script)
     lengths = []
     for episode in range(config.episodes):
-        noise = noise_options(config.start_noise_at(episode))
-        lengths.append(learn_episode(env, agent, episode_seed(0, episode), noise).length)
-    return agent.stream.ties, lengths, agent
+        noise = config.start_noise_at(episode)
+        options = {"start_noise": noise} if noise > 0 else None
+        lengths.append(run_episode(env, actor, episode_seed(0, episode), options).length)
+    return actor.ties, lengths, agent
 
 
 def walk(config) -> list[dict]:
@@ -71,7 +91,9 @@ def walk(config) -> list[dict]:
         probability = Fraction(1)
         for n in ties:
             probability /= n
-        evaluation = evaluate_agent(config, agent, 0)
+        learner = AgentLearner(config, 0)
+        learner.agent = agent
+        evaluation = evaluate_learner(learner, DEFAULT)
         leaves.append(
             {
                 "branches": full,

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import acrobot_mj
+from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.assets import load_model, models_dir
-from acrobot_mj.envs.env import AcrobotEnv
 
 
 @pytest.fixture

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from acrobot_mj.cli import main
 
 
+@pytest.mark.slow  # minutes: every row of the bench, at its smallest
 def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None:
     out = tmp_path / "bench.json"
     # A peer python that is not there (through the variable): one line, the bench goes on.
@@ -21,21 +24,21 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
         "vector_env_vs_batch_ceiling",
         "lockstep_sarsa_vs_gymnasium_sarsa",
         *(f"vector_env_vs_sync_vector_env_N{n}" for n in (1, 4, 16, 64)),
-        "book_numpy_vs_gymnasium_env_step",
-        "book_numba_vs_gymnasium_env_step",  # numba is in the test extra
-        "lockstep_book_numba_vs_gymnasium_env_step",
-        "tuned_numba_vs_gymnasium_env_step",
+        "book_vs_gymnasium_env_step",
+        "tuned_vs_gymnasium_env_step",
         "tuned_seeds_vs_gymnasium_env_step",
         "vector_env_vs_batch_N1024",  # target 0.9 at N >= 256 (quick: N = 1024 only)
         "vector_env_vs_batch_io_floor_N1024",
     ):
         assert result["ratios"][key] > 0 and key in text
-    assert len(result["rates_steps_per_second"]) == 12  # with the lockstep book row
-    assert "tuned learner, numba (decisions)" in text
+    assert len(result["rates_steps_per_second"]) == 10
+    assert "book learner (decisions)" in text and "tuned learner (decisions)" in text
+    assert result["targets"]["book_vs_gymnasium_env_step"] == 1.5
     seeds = result["tuned_seeds"]  # 2 seeds of the CLI's whole run, between two baselines
-    assert (seeds["seeds"], seeds["jobs"], seeds["kernel"]) == (2, 2, "numba")
+    assert (seeds["seeds"], seeds["jobs"]) == (2, 2)
     assert seeds["ratio"] == seeds["decisions_per_second"] / seeds["gymnasium_env_step_per_second"]
-    assert "tuned over 2 seeds, --jobs 2 (numba)" in text
+    assert result["targets"]["tuned_seeds_vs_gymnasium_env_step"] == 3.0
+    assert "tuned over 2 seeds, --jobs 2:" in text
     compiled = result["compiled_learner"]  # a fresh process compiles, then loads the cache
     assert compiled["cold"] > compiled["cached"] > 0 and "numba's cache" in text
     assert set(result["scaling_steps_per_second"]) == {"1", "64", "1024"}
@@ -47,8 +50,6 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
     for row in versus_sync.values():  # the ratio is of the two rates measured side by side
         assert row["ratio"] == row["vector_env"] / row["sync_vector_env"]
     assert 1 < result["lockstep_peak_memory_mb_1024_learners"] < 1000
-    # 1,260,900 weights of 8 bytes and trace positions of 4: 15.1 MB, and traces' room.
-    assert 15 < result["lockstep_lambda_peak_memory_mb_per_tuned_learner"] < 20
     sims = result["sim_seconds_per_second"]  # the env rows, at their own steps' lengths
     assert sims["gymnasium Acrobot-v1 env.step"] > 0 and "simulated s per wall s" in text
     peers = result["peers"]  # gymnax never runs in this Python (its Gymnasium is older)
@@ -57,7 +58,7 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
     assert len(gymnax) == 1 and "no-such-python cannot run" in gymnax[0]
     assert {"envpool", "gymnax"} <= {*peers["peers"], *(w.split(":")[0] for w in peers["skipped"])}
 
-    analytic = result["analytic_backend"]  # numba is in the test extra
+    analytic = result["analytic_backend"]
     assert set(analytic["sizes"]) == {"1", "64", "1024", "4096"} and "analytic backend" in text
     for row in analytic["sizes"].values():
         for name in ("analytic_env", "mujoco_env", "kernel_scan", "kernel_scan_threads"):

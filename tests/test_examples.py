@@ -45,7 +45,7 @@ def test_an_example_trains_and_writes_a_replayable_record(name, tmp_path, capsys
 
 def test_the_helper_replays_a_record_exactly() -> None:
     helper = load("heldout_sb3")
-    from acrobot_mj.train.heldout import Protocol
+    from acrobot_mj.train.learners import Protocol
 
     def act(obs):  # a fixed law: pump against the shoulder's velocity
         return 0 if obs[4] > 0 else 2

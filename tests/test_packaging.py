@@ -50,7 +50,7 @@ def test_models_load_from_an_installed_wheel(tmp_path: Path) -> None:
     probe = (
         "import acrobot_mj, gymnasium as gym; from acrobot_mj.envs.assets import models_dir;"
         "env = gym.make('acrobot_mj/Acrobot-v0'); env.reset(seed=0); env.step(2);"
-        "from acrobot_mj.control.trajectory import shipped;"
+        "from acrobot_mj.control.trajopt import shipped;"
         "print(acrobot_mj.__file__); print(models_dir()); print(shipped('reserve').steps)"
     )
     # cwd is the temporary folder and PYTHONPATH only the install target, so nothing can come

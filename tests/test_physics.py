@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
 from acrobot_mj.physics import dynamics, integrators
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 from tests.conftest import random_states
 
 STARTS = np.array(
@@ -23,8 +26,9 @@ def _max_energy_drift(dt: float, seconds: float = 10.0) -> float:
     x = STARTS.copy()
     e0 = dynamics.total_energy(x[:, :2], x[:, 2:])
     drift = 0.0
+    p = dataclasses.replace(REPORT, dt=dt)
     for _ in range(round(seconds / dt)):
-        x = integrators.rk4_step(x, 0.0, dt)
+        x = integrators.step_states(x, 0.0, p, method="rk4", limits=False)
         drift = max(drift, float(np.max(np.abs(dynamics.total_energy(x[:, :2], x[:, 2:]) - e0))))
     return drift
 
@@ -48,7 +52,7 @@ def test_explicit_euler_pumps_energy_and_semi_implicit_does_not() -> None:
     e0 = dynamics.total_energy(x0[:2], x0[2:])
     energies = {}
     for method in ("explicit_euler", "semi_implicit_euler"):
-        xs = integrators.simulate(x0, np.zeros(400), method, clip=False)
+        xs = integrators.simulate(x0, np.zeros(400), method, limits=False)
         energies[method] = dynamics.total_energy(xs[:, :2], xs[:, 2:]) - e0
     # Measured: explicit Euler gains 52 J in 20 s (more than the 19.6 J that separates hanging
     # from upright); semi-implicit Euler oscillates within 0.16 J of the start. The bounds sit
@@ -161,18 +165,20 @@ def test_energy_matches_mujoco(model, data) -> None:
 @pytest.mark.parametrize(
     "p",
     [
-        dynamics.DEFAULT_PARAMS,
+        REPORT,
         # Not the report's numbers: every inertial term of its own size.
-        dynamics.AcrobotParams(l1=1.3, lc1=0.7, lc2=0.35, m1=0.8, m2=1.7, I1=0.4, I2=0.9, g=9.81),
+        AcrobotParams(l1=1.3, lc1=0.7, lc2=0.35, m1=0.8, m2=1.7, I1=0.4, I2=0.9, g=9.81),
     ],
 )
 def test_the_scalar_energy_is_total_energy_bit_for_bit(p) -> None:
-    # Equality, not closeness: the energy shaping's potential is this function, and the
-    # shaped presets' runs (and golden values) were made with total_energy's numbers, so the
-    # kinetic term must be summed in einsum's order (row by row, then the rows) and the sines
-    # must be numpy's. 20,000 states beyond the velocity limits and past +-pi.
+    # Equality, not closeness: the energy shaping's potential is energies() on Python floats,
+    # and the shaped presets' runs (and golden values) were made with total_energy's numbers
+    # (the same source over numpy arrays), so math's sines and numpy's must give the same
+    # doubles and the terms be summed in the same order. 20,000 states beyond the velocity
+    # limits and past +-pi.
     rng = np.random.default_rng(7)
     states = rng.uniform([-4, -4, -15, -30], [4, 4, 15, 30], (20_000, 4))
     for q1, q2, dq1, dq2 in states.tolist():
         expected = float(dynamics.total_energy(np.array([q1, q2]), np.array([dq1, dq2]), p))
-        assert dynamics.state_energy(q1, q2, dq1, dq2, p) == expected, (q1, q2, dq1, dq2)
+        kinetic, potential = dynamics.energies(q1, q2, dq1, dq2, p.lumped)
+        assert kinetic + potential == expected, (q1, q2, dq1, dq2)

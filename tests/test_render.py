@@ -32,7 +32,7 @@ W, H = 240, 240
 PROBE = f"""
 import json, numpy as np, mujoco, gymnasium as gym, acrobot_mj
 from acrobot_mj.envs import gl as render
-from acrobot_mj.report.video import render_policy
+from acrobot_mj.report.video import RenderSettings, render_policy
 env = gym.make(acrobot_mj.ENV_ID, render_mode="rgb_array", width={W}, height={H})
 env.reset(seed=0)
 u = env.unwrapped
@@ -42,7 +42,8 @@ for key in ("hanging", "upright"):
     frames[key] = env.render()
 env.close()
 np.savez("poses.npz", **frames)
-render_policy("pump", "pump.mp4", steps=40, width={W}, height={H}, captions=False)
+render_policy("pump", "pump.mp4", RenderSettings(width={W}, height={H}, captions=False,
+                                                max_steps=40))
 print(json.dumps({{"backend": mujoco.rendering.classic.gl_context.GLContext.__module__,
                   "choice": render.CHOICE}}))
 """

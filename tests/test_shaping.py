@@ -1,6 +1,7 @@
 """Potential-based energy shaping: the potential's golden values, the telescoping sum that makes
 it policy-invariant, unshaped returns in the records, and bad input."""
 
+import functools
 import math
 
 import gymnasium as gym
@@ -8,13 +9,36 @@ import numpy as np
 import pytest
 
 import acrobot_mj
-from acrobot_mj.control.baselines import pump_policy
-from acrobot_mj.envs.shaping import EnergyShaping, energy_potential
+from acrobot_mj.control.policies import pump_policy
+from acrobot_mj.envs.wrappers import EnergyShaping
+from acrobot_mj.physics.dynamics import potential_energy, total_energy
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.episodes import make_env
-from acrobot_mj.train.lockstep import train_lockstep
+from acrobot_mj.train.learners import make_env
+from acrobot_mj.train.lockstep import can_lockstep, train_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.trainer import train
+
+
+@functools.cache
+def _unit_shaping(params: AcrobotParams) -> EnergyShaping:
+    return EnergyShaping(gym.make(acrobot_mj.ENV_ID), 1.0, params=params)
+
+
+def energy_potential(obs, params: AcrobotParams = REPORT) -> float:
+    """The normalised energy of ``obs``, 0 hanging at rest and 1 upright: the wrapper's
+    potential at scale 1."""
+    return _unit_shaping(params).potential(obs)
+
+
+def total_energy_potential(obs, params: AcrobotParams = REPORT) -> float:
+    """The same from numpy's total_energy and potential_energy (the definition the shaped
+    presets' runs and golden values were made with)."""
+    obs = np.asarray(obs, dtype=np.float64)
+    hanging = float(potential_energy(np.array([-math.pi / 2, 0.0]), params))
+    upright = float(potential_energy(np.array([math.pi / 2, 0.0]), params))
+    return (float(total_energy(obs[:2], obs[2:], params)) - hanging) / (upright - hanging)
+
 
 # Golden values from the definition alone (no dynamics code): at rest the energy is potential
 # only, V = g ((m1 lc1 + m2 l1) sin q1 + m2 lc2 sin(q1 + q2)) = g (1.5 sin q1 + 0.5 sin(q1 + q2)),
@@ -113,8 +137,8 @@ def test_shaping_changes_learning_but_not_unshaped_env():
 
 
 def test_tabular_sarsa_with_shaping_is_not_run_in_lockstep():
-    config = TrainConfig(episodes=2, energy_shaping=1.0)
-    assert not config.lockstep and TrainConfig().lockstep
+    config = TrainConfig().replace(episodes=2, energy_shaping=1.0)
+    assert not can_lockstep(config) and can_lockstep(TrainConfig())
     with pytest.raises(ValueError, match="energy shaping"):
         train_lockstep(config, [0, 1])
 
@@ -136,18 +160,24 @@ def test_wrapper_refuses_bad_gamma_and_step_before_reset():
 @pytest.mark.parametrize("value", [-1.0, math.nan])
 def test_config_refuses_bad_energy_shaping(value):
     with pytest.raises((ValueError, TypeError), match="energy_shaping"):
-        TrainConfig(energy_shaping=value)
+        TrainConfig().replace(energy_shaping=value)
 
 
-def test_the_wrappers_potential_is_energy_potential_bit_for_bit():
-    # EnergyShaping.potential skips energy_potential's conversions; the numbers must not move.
-    from acrobot_mj.physics.params import AcrobotParams
-
+def test_the_wrappers_potential_is_the_normalised_total_energy_bit_for_bit():
+    # EnergyShaping.potential works on Python floats (energies()); the numbers must not move
+    # from numpy's total_energy, normalised, which the shaped presets' runs were made with.
     rng = np.random.default_rng(7)
     for params in (AcrobotParams(), AcrobotParams(m2=1.3, lc2=0.4)):
         shaping = EnergyShaping(make_env(PRESETS["book"]), 40.0, params=params)
         for obs in rng.uniform([-4, -4, -13, -29], [4, 4, 13, 29], (2000, 4)):
             for given in (obs, obs.astype(np.float32), obs.tolist()):
-                assert shaping.potential(given) == 40.0 * energy_potential(given, params)
+                expected = 40.0 * total_energy_potential(given, params)
+                assert shaping.potential(given) == expected
+
+
+def test_replacing_the_wrappers_params_moves_its_potential():
+    params = AcrobotParams(m2=1.3, lc2=0.4)
+    shaping = EnergyShaping(make_env(PRESETS["book"]), 40.0, params=params)
+    obs = np.array([0.3, -1.2, 2.0, -5.0])
     shaping.params = AcrobotParams()  # replaced: the rest energies follow
-    assert shaping.potential(obs) == 40.0 * energy_potential(obs)
+    assert shaping.potential(obs) == 40.0 * total_energy_potential(obs)

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from acrobot_mj.envs.env import AcrobotEnv
+from acrobot_mj.envs.acrobot import AcrobotEnv
 
 STEPS = 100_000
 

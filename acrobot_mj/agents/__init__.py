@@ -33,6 +33,7 @@ register_agent(AgentSpec(
     "sarsa_lambda", "linear Sarsa(lambda) with eligibility traces (Sutton and Barto)",
     SarsaLambdaConfig, ("grid", "tiles"),
     build=lambda features, c, seed, n: SarsaLambda(
-        features, n, c.alpha, c.gamma, c.lam, c.epsilon, c.traces, c.trace_cutoff, seed=seed
+        features, n, alpha=c.alpha, gamma=c.gamma, lam=c.lam, epsilon=c.epsilon,
+        traces=c.traces, trace_cutoff=c.trace_cutoff, seed=seed,
     ),
 ))  # fmt: skip

@@ -74,8 +74,10 @@ class StateGrid:
         """Cell centres per variable (q1, q2, dq1, dq2)."""
 
         def centres(low: float, high: float, n: int) -> tuple[float, ...]:
-            return ((low + high) / 2,) if n == 1 else tuple(
-                low + (high - low) * i / (n - 1) for i in range(n)
+            return (
+                ((low + high) / 2,)
+                if n == 1
+                else tuple(low + (high - low) * i / (n - 1) for i in range(n))
             )
 
         a, v = centres(*self.angle_range, self.angle_bins), centres(*self.velocity_range,
@@ -159,8 +161,10 @@ class TileCoder:
         extent = [t if w else t + 1 for t, w in zip(self.tiles, self.wrap, strict=True)]
         offsets, strides, bases, base = [], [], [], 0
         for variables, n_tilings in self.groups:
-            if not variables or len(set(variables)) != len(variables) or not all(
-                0 <= v < n_vars for v in variables
+            if (
+                not variables
+                or len(set(variables)) != len(variables)
+                or not all(0 <= v < n_vars for v in variables)
             ):
                 raise ValueError(f"bad variable subset {variables} for {n_vars} variables")
             if n_tilings < 1:

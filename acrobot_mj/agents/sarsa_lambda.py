@@ -141,8 +141,13 @@ def decide(w, a, active, following, outcome, traces, count, settings, stream, sc
             kept += 1
         else:
             place[pair] = -1
-    return (a2 if not truncated else -1), (n if terminated or truncated else kept), logged, \
-        position, delta
+    return (
+        (a2 if not truncated else -1),
+        (n if terminated or truncated else kept),
+        logged,
+        position,
+        delta,
+    )
 
 
 @jitable
@@ -168,6 +173,7 @@ class SarsaLambda:
         self,
         features: Any,
         n_actions: int = 3,
+        *,
         alpha: float = 0.2 / 48,
         gamma: float = 1.0,
         lam: float = 0.9,
@@ -311,4 +317,3 @@ class SarsaLambda:
             return {**now, **self.stream.state_dict("stream.", at=self._stream_at_start)}
 
         return state
-

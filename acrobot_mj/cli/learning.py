@@ -87,7 +87,9 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig:
                          "tabular or tile-coded learner)")  # fmt: skip
     overrides: dict[str, Any] = {"discrete": True} if args.plan_discrete else {}
     if args.identify_decisions is not None:
-        overrides["identify_decisions"] = _number(args.identify_decisions, int, "--identify-decisions")
+        overrides["identify_decisions"] = _number(
+            args.identify_decisions, int, "--identify-decisions"
+        )
     for flag, dest, _ in PLAN_OPTIONS:
         text = getattr(args, f"plan_{dest}")
         if text is not None and dest in ("horizons", "targets"):

@@ -279,10 +279,9 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
     from acrobot_mj.report.balance import run_balance  # MuJoCo and maybe CasADi: on demand
 
     out = Path(args.out)
-    record = run_balance(
-        out, args.discrete, args.reserve, args.hold, args.optimise, args.video,
-        (args.width, args.height), show_progress(args),
-    )  # fmt: skip
+    record = run_balance(out, discrete=args.discrete, reserve=args.reserve, hold=args.hold,
+                         optimise=args.optimise, video=args.video, size=(args.width, args.height),
+                         progress=show_progress(args))  # fmt: skip
     trajectory = record["trajectory"]
     kind = "{-1, 0, +1}" if args.discrete else "continuous"
     held = (

@@ -21,6 +21,7 @@ class SearchResult:
 
 def min_time_search(
     frame_skip: int = 4,
+    *,
     width: int = 20_000,
     cell: tuple[float, ...] = (0.05, 0.05, 0.1, 0.2),
     method: str = "semi_implicit_euler",

@@ -60,7 +60,9 @@ class Trajectory:
 
     def residual(self) -> float:
         """Largest gap between each stored state and the model's step of the one before."""
-        nxt = integrators.step_states(self.states[:-1], self.torques, self.params, method=self.method)
+        nxt = integrators.step_states(
+            self.states[:-1], self.torques, self.params, method=self.method
+        )
         return float(np.abs(nxt - self.states[1:]).max())
 
     def check(self, tolerance: float = TOLERANCE) -> Trajectory:
@@ -141,7 +143,7 @@ TARGETS = tuple(
 )
 _IPOPT = {"print_level": 0, "max_iter": 3000, "tol": 1e-10, "constr_viol_tol": 1e-12}
 #: A trajectory as arrays: states ``(N + 1, 4)`` and torques ``(N,)``.
-Path = tuple[np.ndarray, np.ndarray]
+Arrays = tuple[np.ndarray, np.ndarray]
 
 
 def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = REPORT) -> Any:
@@ -191,7 +193,7 @@ class Optimiser:
         return opti, xs, us, h
 
     def solve(
-        self, target: np.ndarray, warm: Path, objective: str = "feasible", free_time: bool = False
+        self, target: np.ndarray, warm: Arrays, objective: str = "feasible", free_time: bool = False
     ) -> tuple[np.ndarray, np.ndarray, float] | None:
         """One NLP of ``len(warm[1])`` steps from the warm start: ``objective`` ``"feasible"``
         (reach ``target`` exactly), ``"effort"`` (reach it with the least ``sum u^2``) or
@@ -222,7 +224,7 @@ class Optimiser:
         step = float(solution.value(h)) if free_time else self.p.dt
         return solution.value(xs).T, np.atleast_1d(solution.value(us)), step
 
-    def pumping(self, horizon: int) -> Path:
+    def pumping(self, horizon: int) -> Arrays:
         """The energy-pumping law (clipped to ``u_max``) rolled out for ``horizon`` steps: a
         dynamically consistent warm start."""
         xs, us = [HANGING.copy()], []
@@ -232,7 +234,7 @@ class Optimiser:
             us.append(u)
         return np.array(xs), np.array(us)
 
-    def approach(self, target: np.ndarray, warm: Path) -> tuple[Path | None, Path | None]:
+    def approach(self, target: np.ndarray, warm: Arrays) -> tuple[Arrays | None, Arrays | None]:
         """From ``warm``, the trajectory of its length whose end is closest to ``target`` and, if
         that end is within 0.1 of it, the exact one: ``(near, exact)``, None where not found."""
         near = self.solve(target, warm, "closest")
@@ -241,7 +243,7 @@ class Optimiser:
         exact = self.solve(target, near[:2])
         return near[:2], None if exact is None else exact[:2]
 
-    def shorten(self, target: np.ndarray, start: Path) -> Path | None:
+    def shorten(self, target: np.ndarray, start: Arrays) -> Arrays | None:
         """The shortest fixed-step trajectory near ``start``: the free-time optimum of its family
         (the step length a variable, so the swings' phase can adjust), rounded up to whole
         steps."""
@@ -255,7 +257,7 @@ class Optimiser:
                 return found
         return None
 
-    def candidates(self, horizon: int, target: np.ndarray) -> list[Path]:
+    def candidates(self, horizon: int, target: np.ndarray) -> list[Arrays]:
         """What one warm start gives: from the pumping rollout of ``horizon`` steps, the closest
         end; if it is near ``target``, the exact trajectory of that many steps (where there is
         one) and the shortened one of its family."""
@@ -266,11 +268,11 @@ class Optimiser:
         short = self.shorten(target, exact if found else near)
         return found + ([] if short is None else [short])
 
-    def trajectory(self, path: Path) -> Trajectory:
+    def trajectory(self, path: Arrays) -> Trajectory:
         return Trajectory(path[0], path[1], self.p.dt, self.method, self.u_max, self.p)
 
 
-def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> Path:
+def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> Arrays:
     """A trajectory stretched to ``horizon`` steps (linear in time): a warm start."""
     old, new = np.linspace(0, 1, len(states)), np.linspace(0, 1, horizon + 1)
     xs = np.stack([np.interp(new, old, states[:, i]) for i in range(4)], 1)
@@ -315,7 +317,7 @@ def min_time(
     return optimiser.trajectory(best)
 
 
-def _cost(path: Path) -> tuple[int, float]:
+def _cost(path: Arrays) -> tuple[int, float]:
     return len(path[1]), float(np.sum(path[1] ** 2))
 
 

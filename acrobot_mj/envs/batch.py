@@ -172,7 +172,9 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
             raise ValueError(f"the model's joints have {field} {values.tolist()}, which the "
                              "analytic backend does not model; use backend='mujoco'")  # fmt: skip
     flags, bits = model.opt.disableflags, mujoco.mjtDisableBit
-    contacts = not flags & bits.mjDSBL_CONTACT and np.any(model.geom_contype | model.geom_conaffinity)
+    contacts = not flags & bits.mjDSBL_CONTACT and np.any(
+        model.geom_contype | model.geom_conaffinity
+    )
     if not flags & bits.mjDSBL_CONSTRAINT and (np.any(model.jnt_limited) or model.neq or contacts):
         raise ValueError("the model has joint limits, equality constraints or contacts, which "
                          "the analytic backend does not model; use backend='mujoco'")  # fmt: skip

@@ -155,7 +155,7 @@ class Task(ABC):
         if key not in _ROWS:
             rule = self.rule()
 
-            def rows(q1, q2, dq1, dq2, reward, flags, values):  # pragma: no cover  (compiled)
+            def rows(q1, q2, dq1, dq2, reward, flags, values):  # kernel (numba, compiled)
                 for i in range(q1.shape[0]):
                     r, t, s, v = rule(q1[i], q2[i], dq1[i], dq2[i])
                     reward[i], flags[0, i], flags[1, i] = r, t, s

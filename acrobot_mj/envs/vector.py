@@ -95,6 +95,7 @@ class AcrobotVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int = 1,
+        *,
         max_episode_steps: int | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         nthread: int | None = None,

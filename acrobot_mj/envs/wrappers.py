@@ -43,13 +43,15 @@ class EnergyShaping(gym.Wrapper):
             raise ValueError(f"energy shaping scale must be a finite number > 0, got {scale!r}")
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"energy shaping gamma must be in [0, 1], got {gamma!r}")
-        self.scale, self.gamma = float(scale), float(gamma)
-        self._theta = params.lumped
-        self._rest = [sum(energies(*state.tolist(), self._theta)) for state in (HANGING, UPRIGHT)]
+        self.scale, self.gamma, self.params = float(scale), float(gamma), params
         self._phi: float | None = None
+        self._of: AcrobotParams | None = None  # the params the constants below are of
 
     def potential(self, obs: Any) -> float:
         """``scale`` times the normalised energy of ``obs = (q1, q2, dq1, dq2)``."""
+        if self._of is not self.params:  # (params replaced since: their constants)
+            self._of, self._theta = self.params, self.params.lumped
+            self._rest = [sum(energies(*x.tolist(), self._theta)) for x in (HANGING, UPRIGHT)]
         kinetic, potential = energies(*np.asarray(obs, dtype=np.float64).tolist(), self._theta)
         hanging, upright = self._rest
         return self.scale * ((kinetic + potential - hanging) / (upright - hanging))
@@ -77,7 +79,9 @@ class ReportObservation(gym.ObservationWrapper):
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
         if getattr(env.observation_space, "shape", None) != (6,):
-            raise ValueError(f"expected Acrobot-v1's (6,) observations, got {env.observation_space}")
+            raise ValueError(
+                f"expected Acrobot-v1's (6,) observations, got {env.observation_space}"
+            )
         self.observation_space = observation_space()
 
     def observation(self, observation: np.ndarray) -> np.ndarray:

@@ -155,6 +155,7 @@ def load_trajectory(
 
 def run_balance(
     out: Path,
+    *,
     discrete: bool = False,
     reserve: float = 0.8,
     hold: float = 60.0,

@@ -94,6 +94,7 @@ def line_figure(
     title: str,
     xlabel: str,
     ylabel: str,
+    *,
     log_y: bool = False,
     size: tuple[int, int] = (800, 500),
     hlines: Sequence[tuple[float, str]] = (),

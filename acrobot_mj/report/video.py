@@ -238,6 +238,7 @@ def record_episode(
     actor: Actor,
     path: str | Path,
     settings: RenderSettings = RenderSettings(),
+    *,
     reset_options: dict[str, Any] | None = None,
     states: list[np.ndarray] | None = None,
     on_reset: Any = None,

@@ -111,8 +111,11 @@ class TrainConfig:
             old = dataclasses.asdict(getattr(self, name))
             own = {k: v for k, v in changes.items() if k in _names(kind)}
             parts[name] = kind(**{**{k: v for k, v in old.items() if k in _names(kind)}, **own})
-        for name in set(changes) - set(_TOP_TYPES) - {*_names(type(parts["agent"])),
-                                                       *_names(type(parts["encoding"]))}:
+        for name in (
+            set(changes)
+            - set(_TOP_TYPES)
+            - {*_names(type(parts["agent"])), *_names(type(parts["encoding"]))}
+        ):
             owner = "algorithm" if name in _all_names(AGENTS) else "features"
             value = top.get(owner, getattr(self, owner))
             raise ValueError(f"config {name} has no effect with {owner}={value!r}")

@@ -148,7 +148,8 @@ def render_run(
     try:
         states: list[np.ndarray] = []
         options = {"start_noise": 0.0}
-        record = record_episode(env, learner.actor(env, 0), out, settings, options, states)
+        record = record_episode(env, learner.actor(env, 0), out, settings, reset_options=options,
+                                states=states)  # fmt: skip
         task, dt = env.unwrapped.task, env.unwrapped.dt
         record.update(task.assess(np.array(states), dt, learner.swing_up))
     finally:

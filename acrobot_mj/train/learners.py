@@ -201,8 +201,8 @@ def greedy_from_rest(env: gym.Env, agent: Agent, run_seed: int) -> Episode:
 class AgentLearner(Learner):
     """The config's agent trained by interaction: one, or ``population`` of them with the best
     kept, in ``env`` (any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)``
-    observations; default the config's) or, with ``identify_decisions``, in an identified
-    model."""
+    observations; default the config's). With ``identify_decisions``, in an identified model:
+    :class:`acrobot_mj.train.model_based.ModelBasedLearner`."""
 
     def __init__(self, config: TrainConfig, seed: int, env: gym.Env | None = None) -> None:
         super().__init__(config, seed)
@@ -214,14 +214,12 @@ class AgentLearner(Learner):
         learners = f" x{self.config.population}" if self.config.population > 1 else ""
         label = f"{self.config.algorithm}{learners} seed {self.seed}"
         with watching(run.monitor or False, run_total(self.config), label) as monitor:
-            run = replace(run, monitor=monitor)
-            if self.config.identify_decisions > 0:
-                from acrobot_mj.train.model_based import learn_in_model
-
-                record, self.agent = learn_in_model(self, run)
-            else:
-                record, self.agent = train_learners(self.config, self.seed, run, self.given_env)
+            record, self.agent = self.train(replace(run, monitor=monitor))
         return record
+
+    def train(self, run: Run) -> tuple[dict[str, Any], Agent]:
+        """The run record and the kept agent."""
+        return train_learners(self.config, self.seed, run, self.given_env)
 
     def env(self, **kwargs: Any) -> gym.Env:
         return make_env(self.config, **kwargs)
@@ -405,4 +403,3 @@ def _population_log(out: Path, records: list[dict[str, Any]], resume: bool) -> R
     counts.append(load_checkpoint(mine)[0]["episodes_done"] if resume and mine.exists() else 0)
     return RunLog(out / EPISODE_LOG, [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)],
                   counts)  # fmt: skip
-

@@ -146,26 +146,29 @@ def identified_model(
     return len(data), theta, rms, told
 
 
-def learn_in_model(learner: AgentLearner, run: Run) -> tuple[dict[str, Any], Agent]:
-    """Train ``learner``'s config in a model identified from ``config.identify_decisions`` env
-    decisions (see the module docstring): the run record and the kept agent."""
-    config, seed = learner.config, learner.seed
-    if learner.given_env is not None:
-        raise ValueError("model-based training identifies the package's own env; give no env")
-    real = make_env(config)
-    decisions, theta, rms, told = identified_model(
-        real, config.identify_decisions, seed, config.start_noise
-    )
-    model = IdentifiedEnv(theta, real.unwrapped.task, told, config.max_episode_steps)
-    # The model as it is: each learner's training env adds the config's shaping (once).
-    record, agent = train_learners(config, seed, run, model, ModelJudge(model, config, seed))
-    greedy = greedy_from_rest(real, agent, seed)
-    record.update(
-        env="the identified model (IdentifiedEnv)",
-        greedy_from_rest=greedy_result(greedy),
-        decisions_total=decisions + greedy.length,
-        model={"data_decisions": decisions, "theta": theta.tolist(), "rms": rms},
-    )
-    if run.out is not None:
-        write_run(run.out, record, f"seed {seed}, learnt in an identified model")
-    return record, agent
+class ModelBasedLearner(AgentLearner):
+    """An :class:`AgentLearner` that trains in a model identified from
+    ``config.identify_decisions`` env decisions (see the module docstring); it acts, saves and
+    loads as every agent does."""
+
+    def train(self, run: Run) -> tuple[dict[str, Any], Agent]:
+        config, seed = self.config, self.seed
+        if self.given_env is not None:
+            raise ValueError("model-based training identifies the package's own env; give no env")
+        real = make_env(config)
+        decisions, theta, rms, told = identified_model(
+            real, config.identify_decisions, seed, config.start_noise
+        )
+        model = IdentifiedEnv(theta, real.unwrapped.task, told, config.max_episode_steps)
+        # The model as it is: each learner's training env adds the config's shaping (once).
+        record, agent = train_learners(config, seed, run, model, ModelJudge(model, config, seed))
+        greedy = greedy_from_rest(real, agent, seed)
+        record.update(
+            env="the identified model (IdentifiedEnv)",
+            greedy_from_rest=greedy_result(greedy),
+            decisions_total=decisions + greedy.length,
+            model={"data_decisions": decisions, "theta": theta.tolist(), "rms": rms},
+        )
+        if run.out is not None:
+            write_run(run.out, record, f"seed {seed}, learnt in an identified model")
+        return record, agent

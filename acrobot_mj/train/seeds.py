@@ -18,6 +18,7 @@ import threading
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -137,18 +138,37 @@ def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, A
 Run = tuple[dict[str, Any], dict[str, Any] | None]
 
 
-def _train_one(config, seed, out_dir, resume, progress, tensorboard=None, protocol=None) -> Run:
-    """One seed's run and (``protocol``) its held-out evaluation, in the process that trained
-    it: ``(record, evaluation or None)``."""
-    record = train(config, seed, out_dir, resume=resume, progress=progress, overwrite=True,
-                   tensorboard=tensorboard)  # fmt: skip
-    return record, None if protocol is None else evaluate_run(out_dir, protocol)
+@dataclass(frozen=True)
+class SeedRuns:
+    """What every seed's run of a ``train --seeds`` shares (sent to worker processes)."""
+
+    config: TrainConfig
+    out: Path
+    resume: bool = False
+    protocol: Protocol | None = DEFAULT
+    tensorboard: str | Path | None = None
+
+    def one(self, seed: int, progress: Any = False, board: str | None = None) -> Run:
+        """One seed's run and (``protocol``) its held-out evaluation, where it trained."""
+        run_dir = seed_dir(self.out, seed)
+        record = train(self.config, seed, run_dir, resume=self.resume, progress=progress,
+                       overwrite=True, tensorboard=board)  # fmt: skip
+        return record, None if self.protocol is None else evaluate_run(run_dir, self.protocol)
+
+    def group(self, seeds: list[int], board: str | None = None) -> list[Run]:
+        """One lockstep group of seeds, then each one's held-out evaluation, where it trained."""
+        dirs = [seed_dir(self.out, s) for s in seeds]
+        records = train_lockstep(self.config, seeds, run_dirs=dirs, resume=self.resume,
+                                 tensorboard=board)  # fmt: skip
+        return [(r, None if self.protocol is None else evaluate_run(d, self.protocol))
+                for r, d in zip(records, dirs, strict=True)]  # fmt: skip
 
 
 def train_seeds(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path,
+    *,
     jobs: int = 1,
     resume: bool = False,
     progress: bool = False,
@@ -157,14 +177,13 @@ def train_seeds(
     tensorboard: str | Path | None = None,
     lockstep: bool | None = None,
 ) -> dict[str, Any]:
-    """Train one run per seed into ``out_dir/seed_S``, evaluate each on the held-out
-    ``protocol`` (its ``eval.json``; None: no evaluation), then write ``out_dir/summary.json``
-    and the learning curve across seeds (see the module docstring; ``jobs`` processes).
-    ``progress``: one bar over all the seeds' episodes (with ``jobs`` > 1, read from their
-    episode logs as the workers write them); ``tensorboard``: each seed's scalars in
-    ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True), one run
-    per seed (False), or the algorithm's faster way (None: lockstep for tabular SARSA in groups
-    of at least :data:`~acrobot_mj.train.lockstep.LOCKSTEP_GROUP_FROM` seeds per process)."""
+    """Train one run per seed into ``out_dir/seed_S`` (``jobs`` processes), evaluate each on
+    the held-out ``protocol`` (its ``eval.json``; None: none), then write
+    ``out_dir/summary.json`` and the learning curve across seeds. ``progress``: one bar over
+    all the seeds' episodes (with ``jobs`` > 1, read from their logs as the workers write them);
+    ``tensorboard``: each seed's scalars in ``tensorboard/seed_S``; ``lockstep``: the seeds
+    together on one vector env (True), one run per seed (False), or where that pays (None:
+    tabular SARSA from :data:`~acrobot_mj.train.lockstep.LOCKSTEP_GROUP_FROM` seeds a process)."""
     if not seeds:
         raise ValueError("train_seeds needs at least one seed")
     if tensorboard is not None:
@@ -174,72 +193,51 @@ def train_seeds(
         if not resume and not overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
-        group = len(seeds) // min(jobs, len(seeds))  # the smallest lockstep group
-        together = lockstep_pays(config, group) if lockstep is None else lockstep
+        jobs = min(jobs, len(seeds))
+        together = lockstep_pays(config, len(seeds) // jobs) if lockstep is None else lockstep
         if together:
             check_lockstep(config)
-        runs = _train_all(config, seeds, out, jobs, resume, progress, tensorboard, together,
-                          protocol)  # fmt: skip
-        records = [record for record, _ in runs]
-        evaluations = [evaluation for _, evaluation in runs]
-        if protocol is not None and None in evaluations:  # lockstep: evaluated here
+        runs = SeedRuns(config, out, resume, protocol, tensorboard)
+        if together and jobs == 1:
+            records = train_lockstep(config, seeds, out, progress=progress, resume=resume,
+                                     tensorboard=tensorboard)  # fmt: skip
+            finished = [(record, None) for record in records]
+        elif jobs == 1:
+            count, unit = run_total(config)
+            label = f"{config.algorithm} x{len(seeds)} seeds"
+            with watching(progress, (count * len(seeds), unit), label, tensorboard) as monitor:
+                finished = [runs.one(s, monitor.scoped(f"seed_{s}")) for s in seeds]
+        else:
+            finished = _in_workers(runs, seeds, jobs, together, progress)
+        records = [record for record, _ in finished]
+        evaluations = [evaluation for _, evaluation in finished]
+        if protocol is not None and None in evaluations:  # lockstep here: evaluated now
             evaluations = [evaluate_run(seed_dir(out, s), protocol) for s in seeds]
         return _summarize_into(out, config, seeds, records, evaluations)
 
 
-def _train_group(config, seeds, out, resume, board, protocol=None) -> list[Run]:
-    """In a worker: one lockstep group of seeds, then (``protocol``) each one's held-out
-    evaluation, in that worker."""
-    dirs = [seed_dir(Path(out), s) for s in seeds]
-    records = train_lockstep(config, seeds, run_dirs=dirs, resume=resume, tensorboard=board)
-    return [
-        (record, None if protocol is None else evaluate_run(path, protocol))
-        for record, path in zip(records, dirs, strict=True)
-    ]
-
-
-def _train_all(config, seeds, out, jobs, resume, progress, board, together, protocol) -> list[Run]:
-    """Every seed's ``(record, evaluation)``: evaluated where it was trained, except in
-    lockstep in this process (evaluation None: evaluated afterwards)."""
-    jobs = min(jobs, len(seeds))
-    if together and jobs == 1:
-        records = train_lockstep(config, seeds, out, progress=progress, resume=resume,
-                                 tensorboard=board)  # fmt: skip
-        return [(record, None) for record in records]
-    count, unit = run_total(config)
-    label = f"{config.algorithm} x{len(seeds)} seeds"
-    if jobs == 1:
-        with watching(progress, (count * len(seeds), unit), label, board) as monitor:
-            bars = [monitor.scoped(f"seed_{s}") for s in seeds]
-            return [
-                _train_one(config, s, str(seed_dir(out, s)), resume, bar, None, protocol)
-                for s, bar in zip(seeds, bars, strict=True)
-            ]
-    if together:  # one lockstep group per process, seeds dealt out in turn
+def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, progress: bool):
+    """Every seed's run in ``jobs`` worker processes (one lockstep group each, seeds dealt out
+    in turn, or one seed at a time), shown on one bar read from their episode logs."""
+    board = runs.tensorboard
+    if together:
         groups = [seeds[j::jobs] for j in range(jobs)]
-        function = _train_group
-        calls = [(config, g, str(out), resume, board, protocol) for g in groups]
-        label = f"lockstep {label}"
+        function, calls = runs.group, [(g, board) for g in groups]
     else:
         boards = [None if board is None else str(seed_dir(Path(board), s)) for s in seeds]
-        function, calls = (
-            _train_one,
-            [
-                (config, s, str(seed_dir(out, s)), resume, False, b, protocol)
-                for s, b in zip(seeds, boards, strict=True)
-            ],
-        )
+        function, calls = runs.one, [(s, False, b) for s, b in zip(seeds, boards, strict=True)]
+    count, unit = run_total(runs.config)
+    label = f"{'lockstep ' if together else ''}{runs.config.algorithm} x{len(seeds)} seeds"
     bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
-    logs = [seed_dir(out, s) / EPISODE_LOG for s in seeds]
     try:
-        with WorkerPool(jobs) as pool, LogFollower(logs, bar):
+        with WorkerPool(jobs) as pool, LogFollower([seed_dir(runs.out, s) / EPISODE_LOG
+                                                    for s in seeds], bar):  # fmt: skip
             try:
                 finished = [future.result() for future in pool.run(function, calls)]
             except KeyboardInterrupt as stop:
                 pool.stop()
-                raise type(stop)(
-                    "interrupted; each seed's checkpoint holds its last completed episode"
-                ) from None
+                raise type(stop)("interrupted; each seed's checkpoint holds its last completed "
+                                 "episode") from None  # fmt: skip
     finally:
         bar.close()
     if together:

@@ -13,6 +13,7 @@ import gymnasium as gym
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
 from acrobot_mj.train.lock import RunLock
+from acrobot_mj.train.model_based import ModelBasedLearner
 from acrobot_mj.train.plan import KIND, PlanConfig, PlanLearner
 from acrobot_mj.train.progress import run_total, watching
 from acrobot_mj.train.records import RUN_FILE, check_fresh
@@ -26,7 +27,8 @@ def learner_for(config: TrainConfig | PlanConfig, seed: int, env: gym.Env | None
         return PlanLearner(config, seed)
     if not isinstance(config, TrainConfig):
         raise TypeError(f"config must be a TrainConfig or a PlanConfig, got {config!r}")
-    return AgentLearner(config, seed, env)
+    kind = ModelBasedLearner if config.identify_decisions > 0 else AgentLearner
+    return kind(config, seed, env)
 
 
 def train(

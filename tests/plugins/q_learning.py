@@ -1,16 +1,24 @@
 """A new algorithm, as a user would add one: tabular Q-learning (Watkins), one file plus one
-registration. It reads the config fields alpha, gamma and epsilon, and the report's grid."""
+registration: its typed config (alpha, gamma, epsilon, with its own defaults), the report's grid."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from acrobot_mj.agents.base import AgentSpec, RandomStream, checked_values, register_agent
 from acrobot_mj.agents.features import StateGrid
-from acrobot_mj.agents.protocol import AgentSpec
-from acrobot_mj.agents.random_stream import RandomStream, checked_values
-from acrobot_mj.agents.registry import register_agent
+
+
+@dataclass(frozen=True)
+class QLearningConfig:
+    """Q-learning's hyperparameters: step size, discount, exploration."""
+
+    alpha: float = 0.5
+    gamma: float = 1.0
+    epsilon: float = 0.001
 
 
 class QLearning:
@@ -59,7 +67,7 @@ register_agent(
     AgentSpec(
         name="q_learning",
         doc="tabular Q-learning (a test plugin)",
-        uses=("alpha", "gamma", "epsilon"),
+        config=QLearningConfig,
         features=("grid",),
         build=lambda grid, c, seed, n: QLearning(grid, n, c.alpha, c.gamma, c.epsilon, seed),
     )

@@ -6,9 +6,10 @@ selection, summaries, plots and videos take it from here.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
-from acrobot_mj.envs.tasks import Outcome, Score, Task, register_task
+from acrobot_mj.envs.tasks import Rule, Score, Task, register_task
 
 
 class TipHeight(Task):
@@ -21,17 +22,18 @@ class TipHeight(Task):
     score = Score(
         "return", lower_is_better=False, label="return per episode", unit="m", best_word="highest"
     )
+    info_keys = ("tip_height",)
     success_label = "HIGH"
     success_text = "ended high"
 
-    def outcome(self, xp: Any) -> Outcome:
-        l1, l2, sin = self.l1, self.l2, xp.sin
+    def rule(self) -> Rule:
+        l1, l2 = self.l1, self.l2
 
-        def outcome(q1: Any, q2: Any, dq1: Any, dq2: Any) -> tuple[Any, Any, dict[str, Any]]:
-            tip = l1 * sin(q1) + l2 * sin(q1 + q2)
-            return tip, False, {"tip_height": tip, "is_success": tip > 1.5}
+        def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
+            tip = l1 * math.sin(q1) + l2 * math.sin(q1 + q2)
+            return tip, False, tip > 1.5, (tip,)
 
-        return outcome
+        return rule
 
     def caption(self, info: dict[str, Any]) -> str:
         return f"tip {float(info['tip_height']):+.2f} m"
