@@ -8,10 +8,17 @@ import pytest
 
 import acrobot_mj
 from acrobot_mj.agents import RandomStream, Sarsa, SarsaLambda
+from acrobot_mj.agents.base import Learning
 from acrobot_mj.agents.features import StateGrid
-from acrobot_mj.agents.registry import make_features
-from acrobot_mj.train.episodes import learn_episode
+from acrobot_mj.envs.rollout import run_episode
+from acrobot_mj.envs.spaces import observation_space
 from acrobot_mj.train.presets import PRESETS
+
+
+def learn_episode(env, agent, seed=None):
+    """One learning episode of ``agent`` on ``env``."""
+    return run_episode(env, Learning(agent), seed)
+
 
 # All values below are dyadic (alpha = 0.5, lambda = 0.5, integer rewards), so the floating-
 # point results are exact and the comparisons use ==.
@@ -133,7 +140,7 @@ def test_sarsa_lambda_with_grid_and_lambda_0_is_tabular_sarsa(epsilon) -> None:
     "make",
     [
         lambda seed: Sarsa(StateGrid(), seed=seed),
-        lambda seed: SarsaLambda(make_features(PRESETS["book"]), seed=seed),
+        lambda seed: SarsaLambda(PRESETS["book"].encoding.build(observation_space()), seed=seed),
     ],
 )
 def test_same_seed_same_learned_values(make) -> None:

@@ -8,8 +8,9 @@ import json
 import pytest
 
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.sweep_trials import complete
+from acrobot_mj.train.sweep import complete
 from acrobot_mj.train.trainer import train
 
 #: Episodes enough that the cap, not the episodes, ends the run.
@@ -59,4 +60,4 @@ def test_bad_caps_are_refused_and_capped_runs_do_not_run_in_lockstep() -> None:
         PRESETS["book"].replace(max_decisions=-1)
     with pytest.raises(ValueError, match=r">= population \(10\)"):
         PRESETS["book"].replace(population=10, max_decisions=5)
-    assert TrainConfig().lockstep and not TrainConfig(max_decisions=100).lockstep
+    assert can_lockstep(TrainConfig()) and not can_lockstep(TrainConfig(max_decisions=100))

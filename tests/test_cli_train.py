@@ -7,8 +7,8 @@ import json
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.train import config as config_module
-from acrobot_mj.train.config import LOCKSTEP_GROUP_FROM
+from acrobot_mj.train import lockstep as lockstep_module
+from acrobot_mj.train.lockstep import LOCKSTEP_GROUP_FROM, can_lockstep, lockstep_pays
 from acrobot_mj.train.presets import PRESETS
 
 
@@ -69,6 +69,8 @@ def test_seeds_write_one_record_per_seed_and_a_summary(tmp_path, capsys) -> None
             "book",
             "--episodes",
             "2",
+            "--max-episode-steps",
+            "100",
             "--seeds",
             "2",
             "--seed",
@@ -98,6 +100,11 @@ def test_resume_continues_a_run(tmp_path, capsys) -> None:
         (["train", "--algorithm", "dqn"], "algorithm must be one of"),
         (["train", "--resume", "--out", "nowhere"], "checkpoint not found"),
         (["evaluate", "nowhere"], "checkpoint not found"),
+        # Removed: the kernel choice (one compiled Sarsa(lambda)) and lockstep populations.
+        (["train", "--preset", "book", "--kernel", "numba"], "--kernel was removed: Sarsa(lambda)"),
+        (["train", "--population", "3", "--lockstep"], "--lockstep trains several seeds together"),
+        (["train", "--population", "2", "--seeds", "2", "--lockstep"], "one learner per run"),
+        (["train", "--preset", "book", "--seeds", "2", "--lockstep"], "got sarsa_lambda"),
     ],
 )
 def test_bad_arguments_give_a_clear_error(argv, message, tmp_path, monkeypatch, capsys) -> None:
@@ -105,7 +112,8 @@ def test_bad_arguments_give_a_clear_error(argv, message, tmp_path, monkeypatch, 
     with pytest.raises(SystemExit) as exit_info:
         main(argv)
     assert exit_info.value.code == 2
-    assert message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
 
 
 def test_corrupt_checkpoint_gives_a_clear_error(tmp_path, capsys) -> None:
@@ -117,30 +125,32 @@ def test_corrupt_checkpoint_gives_a_clear_error(tmp_path, capsys) -> None:
     assert "truncated or corrupt" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("group_from", "lockstep"), [(LOCKSTEP_GROUP_FROM, None), (3, 3)])
+@pytest.mark.parametrize(
+    ("group_from", "asked", "lockstep"),
+    [(LOCKSTEP_GROUP_FROM, [], None), (LOCKSTEP_GROUP_FROM, ["--lockstep"], 2), (2, [], 2)],
+)
 def test_report_seeds_run_in_lockstep_from_a_group_size(
-    tmp_path, monkeypatch, group_from, lockstep
-):
+    tmp_path, monkeypatch, group_from, asked, lockstep
+) -> None:
     # Tabular SARSA's seeds go in lockstep by default only in groups of LOCKSTEP_GROUP_FROM or
-    # more (smaller ones are faster one per process): three seeds one by one, unless the
-    # threshold is three.
-    monkeypatch.setattr(config_module, "LOCKSTEP_GROUP_FROM", group_from)
+    # more (smaller ones are faster one per process): two seeds one by one, unless the
+    # threshold is two, or lockstep is asked for (whatever the group's size).
+    assert LOCKSTEP_GROUP_FROM > 2
+    monkeypatch.setattr(lockstep_module, "LOCKSTEP_GROUP_FROM", group_from)
     out = tmp_path / "many"
     tiny = ["--preset", "report", "--episodes", "2", "--max-episode-steps", "50"]
-    main(["train", *tiny, "--seeds", "3", "--out", str(out)])
+    main(["train", *tiny, "--seeds", "2", *asked, "--out", str(out)])
     record = json.loads((out / "seed_1" / "run.json").read_text())
     assert record.get("lockstep") == lockstep and record["episode_lengths"] == [50, 50]
     assert main(["evaluate", str(out / "seed_1"), "--episodes", "1"]) == 0
-    main(["train", *tiny, "--seeds", "3", "--lockstep", "--out", str(tmp_path / "asked")])
-    record = json.loads((tmp_path / "asked" / "seed_1" / "run.json").read_text())
-    assert record["lockstep"] == 3  # asked for, whatever the group's size
 
 
 def test_the_lockstep_default_follows_the_group_size() -> None:
-    report, book = PRESETS["report"], PRESETS["book"].replace(kernel="numba")
-    assert not report.lockstep_pays(LOCKSTEP_GROUP_FROM - 1)
-    assert report.lockstep_pays(LOCKSTEP_GROUP_FROM)
-    assert book.lockstep and not book.lockstep_pays(1000)  # Sarsa(lambda): only when asked
+    report, book = PRESETS["report"], PRESETS["book"]
+    assert not lockstep_pays(report, LOCKSTEP_GROUP_FROM - 1)
+    assert lockstep_pays(report, LOCKSTEP_GROUP_FROM)
+    # Sarsa(lambda) has no lockstep form (one process per seed is faster): never, at any size.
+    assert not can_lockstep(book) and not lockstep_pays(book, 1000)
 
 
 def test_curves_of_several_seed_runs(tmp_path, capsys) -> None:
@@ -149,9 +159,11 @@ def test_curves_of_several_seed_runs(tmp_path, capsys) -> None:
             [
                 "train",
                 "--preset",
-                "book",
+                "report",
                 "--episodes",
                 "3",
+                "--max-episode-steps",
+                "50",
                 "--seeds",
                 "2",
                 "--out",

@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from acrobot_mj.agents.protocol import Agent
-from acrobot_mj.agents.registry import make_agent
+from acrobot_mj.agents import Agent
+from acrobot_mj.envs.spaces import observation_space
+from acrobot_mj.report.video import RenderSettings
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate, render_run
-from acrobot_mj.train.heldout import Protocol
+from acrobot_mj.train.learners import Protocol
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train
@@ -85,20 +86,22 @@ def test_training_selection_and_summaries_ask_the_new_task(tmp_path) -> None:
     pop = record["population"]
     assert pop["kept"] == int(np.argmax(pop["scores"])) and len(set(pop["scores"])) > 1
     assert pop["rule"] == "highest median of the last 20 training episodes"
-    summary = train_seeds(ON_TIP_HEIGHT, [0, 1], tmp_path / "seeds")  # lockstep SARSA
+    summary = train_seeds(ON_TIP_HEIGHT, [0, 1], tmp_path / "seeds", lockstep=True)
     assert {"last20_median_return", "greedy_from_rest_return"} <= set(summary)
     runs = [json.loads((tmp_path / "seeds" / r / "run.json").read_text()) for r in summary["runs"]]
+    assert [r["lockstep"] for r in runs] == [2, 2]  # lockstep SARSA on the new task's vector env
     assert summary["greedy_from_rest_return"]["max"] == max(
         r["greedy_from_rest"]["return"] for r in runs
     )
-    video = render_run(tmp_path / "pop", tmp_path / "pop.mp4", width=64, height=64, max_steps=5)
+    settings = RenderSettings(width=64, height=64, max_steps=5)
+    video = render_run(tmp_path / "pop", tmp_path / "pop.mp4", settings)
     assert video["frames"] == 6
 
 
 def test_built_in_and_new_agents_follow_the_agent_protocol() -> None:
     for name in ("sarsa", "sarsa_lambda", "q_learning"):
         config = PRESETS["report"].replace(algorithm=name)
-        assert isinstance(make_agent(config, seed=0), Agent), name
+        assert isinstance(config.make_agent(0, observation_space()), Agent), name
 
 
 def test_the_new_agent_trains_checkpoints_resumes_and_evaluates(tmp_path) -> None:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from acrobot_mj.agents.features import StateGrid, TileCoder, book_tile_coder
+from acrobot_mj.envs.spaces import observation_space
 
 PI = math.pi
 
@@ -58,14 +59,14 @@ def test_tile_indices_hand_computed() -> None:
 
 
 def test_wrapping_variables_are_periodic() -> None:
-    coder = book_tile_coder()
+    coder = book_tile_coder(observation_space())
     x = np.array([0.3, -2.0, 1.0, -3.0])
     shifted = x + [2 * PI, -2 * PI, 0.0, 0.0]
     np.testing.assert_array_equal(coder.active(x), coder.active(shifted))
 
 
 def test_book_coder_invariants() -> None:
-    coder = book_tile_coder()
+    coder = book_tile_coder(observation_space())
     assert coder.num_active == 48
     counts = {}
     for variables, n in coder.groups:
@@ -74,7 +75,7 @@ def test_book_coder_invariants() -> None:
     rng = np.random.default_rng(0)
     low, high = coder.low, coder.high
     states = rng.uniform(low, high, (500, 4))
-    blocks = np.append(coder._base, coder.num_features)
+    blocks = np.append(coder.tables[6], coder.num_features)  # each tiling's first index
     for x in states:
         tiles = coder.active(x)
         # One active tile per tiling, inside that tiling's own block of indices.
@@ -89,9 +90,11 @@ def test_book_coder_invariants() -> None:
 
 
 def test_tile_coder_rejects_bad_specs() -> None:
+    space = observation_space()
+    bounds = {"tiles": (6, 6, 7, 7), "low": space.low, "high": space.high}
     with pytest.raises(ValueError, match="variable subset"):
-        TileCoder([((0, 5), 2)])
+        TileCoder([((0, 5), 2)], **bounds)
     with pytest.raises(ValueError, match="n_tilings"):
-        TileCoder([((0,), 0)])
+        TileCoder([((0,), 0)], **bounds)
     with pytest.raises(ValueError, match="tiles"):
-        TileCoder([((0,), 1)], tiles=(0, 6, 7, 7))
+        TileCoder([((0,), 1)], **{**bounds, "tiles": (0, 6, 7, 7)})

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import pytest
 
+from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.heldout import Protocol
+from acrobot_mj.train.learners import Protocol
 from acrobot_mj.train.presets import PRESETS, TUNED_0_2
-from acrobot_mj.train.rundir import load_agent
 from acrobot_mj.train.seeds import train_seeds
-from acrobot_mj.train.trainer import train
+from acrobot_mj.train.trainer import load_learner, train
 
 FIXTURES = Path(__file__).parent / "fixtures"
 GOLDEN = json.loads((FIXTURES / "golden_runs.json").read_text())
@@ -47,11 +47,12 @@ def test_tuned_preset_seed_0_is_unchanged() -> None:
     assert record["population"] == golden
 
 
+@pytest.mark.slow
 def test_report_preset_three_seeds_in_lockstep_are_unchanged(tmp_path) -> None:
     # Frame skip 4, where the report's SARSA reaches the goal: at frame skip 1 every episode of
     # its 200 runs 1000 steps, which any learner that never succeeds would reproduce.
     config = PRESETS["report"].replace(frame_skip=4, episodes=50)
-    train_seeds(config, [0, 1, 2], tmp_path, lockstep=True)
+    train_seeds(config, [0, 1, 2], tmp_path, lockstep=True, protocol=None)  # no evaluation
     for seed, golden in enumerate(GOLDEN["report_fs4_seeds3"]):
         _same_run(json.loads((tmp_path / f"seed_{seed}" / "run.json").read_text()), golden)
 
@@ -66,14 +67,17 @@ def test_run_directories_written_before_still_load_and_evaluate(name, tmp_path) 
     run = tmp_path / name
     shutil.copytree(FIXTURES / "run_dirs" / name, run)
     old_eval = json.loads((run / "eval.json").read_text())
-    config, seed, _ = load_agent(run)
+    learner = load_learner(run)
+    config, seed = learner.config, learner.seed
     # Every setting that applies reads back as written; the old record's values for settings
     # that do not apply (it wrote defaults for them) read as not set.
     applied = {k: v for k, v in config.to_dict().items() if v is not None and k != "task"}
     for new in ("max_decisions", "identify_decisions"):  # new in 0.3.0, read as 0 (off)
         assert applied.pop(new) == 0
-    if config.algorithm == "sarsa_lambda":  # new in 0.3.0: the numpy learner, as then
-        assert applied.pop("kernel") == "numpy"
+    # kernel (new in 0.3.0, the numpy learner as then) is retired: not a setting, and a record
+    # that holds it reads as not set.
+    assert "kernel" not in config.to_dict()
+    assert TrainConfig.from_dict({**old_eval["config"], "kernel": "numpy"}) == config
     assert applied == {k: old_eval["config"][k] for k in applied}
     assert None in config.to_dict().values() and seed == 0
     assert {"eval_episodes", "eval_noise"} <= old_eval["config"].keys()

@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.control.model import HANGING
-from acrobot_mj.envs.episode import SequenceActor, run_episode
-from acrobot_mj.train.episodes import episode_seed, make_env
-from acrobot_mj.train.heldout import DEFAULT, HELDOUT_BRANCH, Protocol
-from acrobot_mj.train.minima import STORED, compute_minima, stored_minima
+from acrobot_mj.envs.rollout import SequenceActor, run_episode
+from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.train.evaluate import STORED, compute_minima, stored_minima
+from acrobot_mj.train.learners import DEFAULT, HELDOUT_BRANCH, Protocol, episode_seed, make_env
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train

@@ -9,18 +9,22 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from acrobot_mj.control.identification import BOOK_STEP, advance, identify, lumped
-from acrobot_mj.envs.model_env import ModelEnv
+from acrobot_mj.control.identification import identify
+from acrobot_mj.envs.identified import IdentifiedEnv
+from acrobot_mj.physics.integrators import Stepping, step_states
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train import model_based
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.heldout import Protocol
+from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.trainer import train
 
 #: The lumped parameters of the report's acrobot, by hand: a = 0.25 + (1 + 0.25) + 1 + 1,
 #: b = 1 * 1 * 0.5, c = 0.25 + 1, d = (0.5 + 1) * 9.8, e = 0.5 * 9.8.
 TRUTH = (3.5, 0.5, 1.25, 14.7, 4.9)
+#: The env's step as the learner is told it: 0.05 s, 4 steps per decision, the velocity limits.
+BOOK_STEP = Stepping(substeps=4)
 SMALL = PRESETS["tuned"].replace(population=2, max_decisions=6000, identify_decisions=300)
 
 
@@ -29,17 +33,22 @@ def data():
     return model_based.collect(gym.make("acrobot_mj/Acrobot-v0", frame_skip=4), 300, 0, 0.05)
 
 
-def test_the_truth_by_hand_and_the_lumped_step_is_the_models() -> None:
-    np.testing.assert_allclose(lumped(AcrobotParams()), TRUTH, rtol=1e-15)
-    from acrobot_mj.control.model import step
+def advance(x, tau, theta, told):
+    """One decision of the lumped model ``theta`` from state ``x`` with torque ``tau``."""
+    return told.advance(theta, np.asarray(x, dtype=float)[None], [tau])[0]
 
+
+def test_the_truth_by_hand_and_the_lumped_step_is_the_models() -> None:
+    np.testing.assert_allclose(AcrobotParams().lumped, TRUTH, rtol=1e-15)
     x = np.array([-1.2, 0.7, 1.5, -3.0])
     for tau in (-1.0, 0.0, 1.0):
-        np.testing.assert_allclose(advance(x, tau, TRUTH, BOOK_STEP), step(x, tau, 4), atol=1e-13)
+        np.testing.assert_allclose(
+            advance(x, tau, TRUTH, BOOK_STEP), step_states(x, tau, substeps=4), atol=1e-13
+        )
 
 
 def test_identification_recovers_the_parameters_from_env_transitions(data) -> None:
-    theta, rms = identify(data)
+    theta, rms = identify(data, BOOK_STEP)
     # MuJoCo's Euler step and the lumped model agree to rounding, so the fit is exact up to it.
     assert rms < 1e-12
     np.testing.assert_allclose(theta, TRUTH, rtol=1e-9)
@@ -50,8 +59,8 @@ def test_identification_recovers_the_parameters_from_env_transitions(data) -> No
 )
 def test_the_model_env_follows_mujoco(data, which, steps, atol) -> None:
     real = gym.make("acrobot_mj/Acrobot-v0", frame_skip=4)
-    theta = TRUTH if which == "truth" else identify(data)[0]
-    model = ModelEnv(theta, real.unwrapped.task)
+    theta = TRUTH if which == "truth" else identify(data, model_based.stepping(real))[0]
+    model = IdentifiedEnv(theta, real.unwrapped.task)
     rng = np.random.default_rng(5)
     a, _ = real.reset(seed=9, options={"start_noise": 0.05})
     b, _ = model.reset(seed=9, options={"start_noise": 0.05})
@@ -76,7 +85,7 @@ def test_the_model_env_follows_mujoco_through_the_velocity_limits() -> None:
     # off by up to 1 rad within these decisions (measured: 1.03); the same order agrees to
     # rounding (1e-12: a few decisions of fast, not yet chaotic, motion).
     real = gym.make("acrobot_mj/Acrobot-v0", frame_skip=4)
-    model = ModelEnv(TRUTH, real.unwrapped.task)
+    model = IdentifiedEnv(TRUTH, real.unwrapped.task)
     clipped = 0
     for start in ([-1.5, 0.3, 4 * np.pi, 9 * np.pi], [0.2, -2.0, -4 * np.pi + 0.01, -9 * np.pi]):
         a, _ = real.reset(options={"state": start})
@@ -92,7 +101,7 @@ def test_a_model_that_breaks_down_stops_with_an_error_not_nan_observations() -> 
     # Finite parameters whose mass matrix overflows: det = inf - inf is NaN from the first step.
     # The step keeps the NaN (its limits do not clip it into a number), the env refuses it.
     task = gym.make("acrobot_mj/Acrobot-v0").unwrapped.task
-    model = ModelEnv((3.5, 1e308, 1.25, 14.7, 4.9), task)
+    model = IdentifiedEnv((3.5, 1e308, 1.25, 14.7, 4.9), task)
     model.reset()
     with pytest.raises(RuntimeError, match="the model reached a non-finite state"):
         model.step(1)
@@ -100,19 +109,19 @@ def test_a_model_that_breaks_down_stops_with_an_error_not_nan_observations() -> 
 
 def test_the_wrong_structure_or_no_data_fails_clearly(data) -> None:
     with pytest.raises(ValueError, match="at least 3 transitions, some with torque"):
-        identify([])
+        identify([], BOOK_STEP)
     with pytest.raises(ValueError, match="some with torque"):
-        identify([(x, 0.0, x2) for x, _, x2 in data])
+        identify([(x, 0.0, x2) for x, _, x2 in data], BOOK_STEP)
     # Data from an acrobot with joint damping (0.3 N m s): no lumped model fits it.
     damped = []
     for x, tau, _ in data:
         y = np.array(x, dtype=float)
         for _ in range(4):
-            y = np.array(advance(y, tau - 0.3 * y[3], TRUTH, BOOK_STEP.__class__(frame_skip=1)))
+            y = np.array(advance(y, tau - 0.3 * y[3], TRUTH, Stepping(substeps=1)))
         damped.append((x, tau, y.tolist()))
-    assert identify(damped)[1] > 1e-4
+    assert identify(damped, BOOK_STEP)[1] > 1e-4
     with pytest.raises(ValueError, match="the identified model does not fit"):
-        model_based.check_fit(identify(damped)[1])
+        model_based.check_fit(identify(damped, BOOK_STEP)[1])
 
 
 def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) -> None:
@@ -141,6 +150,6 @@ def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) 
 def test_model_based_settings_are_checked() -> None:
     with pytest.raises(ValueError, match="identify_decisions must be >= 0"):
         PRESETS["book"].replace(identify_decisions=-1)
-    assert not PRESETS["report"].replace(identify_decisions=10).lockstep
+    assert not can_lockstep(PRESETS["report"].replace(identify_decisions=10))
     with pytest.raises(ValueError, match="give no env"):
         train(SMALL, seed=0, env=gym.make("acrobot_mj/Acrobot-v0", frame_skip=4))

@@ -13,17 +13,22 @@ import pytest
 
 import acrobot_mj  # noqa: F401  registers the tasks
 from acrobot_mj.cli import main
-from acrobot_mj.control.identification import BOOK_STEP, lumped, realise
-from acrobot_mj.control.trajectory import Trajectory
+from acrobot_mj.control.identification import realise
+from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics import dynamics
+from acrobot_mj.physics.integrators import Stepping
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train import plan
-from acrobot_mj.train.heldout import Protocol
-from acrobot_mj.train.plan_config import PlanConfig
-from acrobot_mj.train.plan_eval import evaluate_plan
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.plan import PlanConfig, PlanLearner
+from acrobot_mj.train.trainer import train
 
-TRUTH = lumped(AcrobotParams())
+TRUTH = AcrobotParams().lumped
+#: The env's step as a learner is told it: 0.05 s, 4 per decision (the book's 0.2 s), its
+#: velocity limits.
+BOOK_STEP = Stepping(substeps=4)
 #: The CI budget: one warm start of the search (the default search tries 25 horizons, each with
 #: six targets, about 17 minutes on 2 cores): the one whose family holds the default search's
 #: best (measured: 456 steps towards target 1, (pi/2, 2 pi), shortened to 476).
@@ -33,8 +38,9 @@ TINY = PlanConfig(horizons=(TINY_HORIZON, TINY_HORIZON + 1, 1), targets=(TINY_TA
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
+    """The preset trained at the CI budget (about a minute: its tests are slow)."""
     out = tmp_path_factory.mktemp("balance_run")
-    return out, plan.train_plan(TINY, seed=0, out=out)
+    return out, train(TINY, seed=0, out_dir=out)
 
 
 # -- the model -------------------------------------------------------------------------------
@@ -53,12 +59,12 @@ def test_any_gauge_of_the_lumped_parameters_has_the_same_dynamics() -> None:
     ours = realise(TRUTH, BOOK_STEP)
     # Another realisation of the same five values: m1 = 2 moves lc1 and I1, nothing else.
     other = dataclasses.replace(ours, m1=2.0, lc1=0.25, I1=ours.I1 + 0.25 - 2 * 0.0625)
-    np.testing.assert_allclose(lumped(other), TRUTH, rtol=1e-15)
+    np.testing.assert_allclose(other.lumped, TRUTH, rtol=1e-15)
     rng = np.random.default_rng(0)
     x = rng.uniform(-3, 3, size=(200, 4))
     tau = rng.uniform(-1, 1, size=200)
-    a = dynamics.accelerations(x[:, 0], x[:, 1], x[:, 2], x[:, 3], tau, ours)
-    b = dynamics.accelerations(x[:, 0], x[:, 1], x[:, 2], x[:, 3], tau, other)
+    a = dynamics.forward_dynamics(x[:, :2], x[:, 2:], tau, ours)
+    b = dynamics.forward_dynamics(x[:, :2], x[:, 2:], tau, other)
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)  # rounding of a few terms of ~10
 
 
@@ -87,6 +93,7 @@ def test_the_wrong_structure_or_no_data_fails_clearly(monkeypatch) -> None:
 # -- training and the record -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_the_preset_swings_up_and_balances_at_a_tiny_budget(run) -> None:
     out, record = run
     assert record["kind"] == "identify_and_plan" and record["task"] == "balance"
@@ -105,9 +112,10 @@ def test_the_preset_swings_up_and_balances_at_a_tiny_budget(run) -> None:
     )
 
 
+@pytest.mark.slow
 def test_the_evaluation_record_replays_in_the_env(run) -> None:
     out, _ = run
-    evaluation = evaluate_plan(out, Protocol(episodes=3, start_noise=0.01, seed=4))
+    evaluation = evaluate(out, Protocol(episodes=3, start_noise=0.01, seed=4))
     assert evaluation["summary"]["episodes"] == 3
     starts = Protocol(episodes=3, start_noise=0.01, seed=4).starts(np.array([-np.pi / 2, 0, 0, 0]))
     np.testing.assert_array_equal(evaluation["start_states"], starts)
@@ -127,6 +135,7 @@ def test_the_evaluation_record_replays_in_the_env(run) -> None:
     assert max(np.abs(evaluation["torques"][0])) <= 1.0
 
 
+@pytest.mark.slow
 def test_a_plan_for_another_model_is_refused(run, tmp_path) -> None:
     out, _ = run
     for name in ("run.json", plan.TRAJECTORY_FILE):
@@ -135,10 +144,10 @@ def test_a_plan_for_another_model_is_refused(run, tmp_path) -> None:
     record["model"]["params"]["g"] = 9.81
     (tmp_path / "run.json").write_text(json.dumps(record))
     with pytest.raises(ValueError, match="planned on another model"):
-        plan.load_plan(tmp_path)
+        PlanLearner.load(tmp_path)
     (tmp_path / "run.json").write_text("{}")
     with pytest.raises(ValueError, match="not a balance-preset run"):
-        plan.load_plan(tmp_path)
+        PlanLearner.load(tmp_path)
 
 
 def test_the_command_line_refuses_settings_of_other_presets(tmp_path, capsys) -> None:

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.control.model import HANGING
+from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.report import plots
 from acrobot_mj.report.crosscheck import METHODS, integrator_study
 from acrobot_mj.report.validation import phase_figures
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.rundir import plot_learning_curves
+from acrobot_mj.train.records import plot_learning_curves
 
 
 def exits(argv: list[str]) -> int:

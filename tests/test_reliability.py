@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -18,13 +19,17 @@ from pathlib import Path
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import History
-from acrobot_mj.train.rundir import Checkpoints, load_agent, read_history
-from acrobot_mj.train.sweep_spec import parse_sweep
-from acrobot_mj.train.trainer import train
+from acrobot_mj.train.records import (
+    CheckpointError,
+    Checkpoints,
+    History,
+    load_checkpoint,
+    read_history,
+)
+from acrobot_mj.train.sweep import parse_sweep
+from acrobot_mj.train.trainer import load_learner, train
 
 ROOT = Path(__file__).resolve().parents[1]
 #: A Sarsa(lambda) run long enough (several seconds) to be interrupted in the middle.
@@ -67,8 +72,17 @@ def processes_with(text: str) -> list[int]:
 # -- interruption ---------------------------------------------------------------------------
 
 
+@pytest.fixture(scope="module")
+def book_400() -> dict:
+    """The run record of the book preset's first 400 episodes, without a break."""
+    return train(PRESETS["book"].replace(episodes=400, checkpoint_every=100), seed=0)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_an_interrupted_run_saves_and_resumes_to_the_same_result(tmp_path, sig, code) -> None:
+def test_an_interrupted_run_saves_and_resumes_to_the_same_result(
+    tmp_path, sig, code, book_400
+) -> None:
     # Interrupted soon after its first checkpoint (episode 100 of 5000), then resumed to 400
     # episodes: the same run as 400 episodes without a break.
     args = ["train", "--preset", "book", "--checkpoint-every", "100", "--no-progress"]
@@ -83,10 +97,9 @@ def test_an_interrupted_run_saves_and_resumes_to_the_same_result(tmp_path, sig, 
     assert not list((tmp_path / "run").glob(".*.tmp"))  # no half-written file left
     resume = [*args, "--episodes", "400", "--out", str(tmp_path / "run"), "--resume"]
     assert main(resume) == 0
-    whole = train(PRESETS["book"].replace(episodes=400, checkpoint_every=100), seed=0)
     resumed = json.loads((tmp_path / "run" / "run.json").read_text())
     for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
-        assert resumed[key] == whole[key], key
+        assert resumed[key] == book_400[key], key
 
 
 def complete_lines(path: Path) -> list[dict]:
@@ -95,6 +108,7 @@ def complete_lines(path: Path) -> list[dict]:
     return [json.loads(line) for line in lines if line.endswith(b"\n")]
 
 
+@pytest.mark.slow
 def test_a_killed_run_keeps_every_logged_episode_and_resumes_without_duplicates(tmp_path):
     args = ["train", "--preset", "book", "--checkpoint-every", "100", "--no-progress"]
     child = start([*args, "--episodes", "5000", "--out", "run"], tmp_path)
@@ -137,16 +151,19 @@ def test_a_killed_run_keeps_every_logged_episode_and_resumes_without_duplicates(
     assert record["episode_successes"] == [row["success"] for row in after]
 
 
-#: Four Sarsa(lambda) trials of a few seconds each, two at a time.
+#: Four Sarsa(lambda) trials of a few seconds each, two at a time, checkpointed early (every 10
+#: episodes: a trial is well under way at its first).
 SWEEP = """
 preset = "book"
-episodes = 1500
+episodes = 400
+checkpoint_every = 10
 seeds = [0, 1, 2, 3]
 [grid]
 lam = [0.9]
 """
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_sweep_promptly_and_a_rerun_finishes_it(tmp_path) -> None:
     (tmp_path / "s.toml").write_text(SWEEP)
     args = ["sweep", "s.toml", "--jobs", "2", "--out", "sw"]
@@ -177,8 +194,9 @@ def test_ctrl_c_stops_a_sweep_promptly_and_a_rerun_finishes_it(tmp_path) -> None
     assert summary["unfinished"] == 0 and summary["points"][0]["runs"] == 4
 
 
+@pytest.mark.slow
 def test_workers_stop_with_a_killed_sweep_driver(tmp_path) -> None:
-    (tmp_path / "s.toml").write_text(SWEEP.replace("1500", "5000"))
+    (tmp_path / "s.toml").write_text(SWEEP.replace("episodes = 400", "episodes = 5000"))
     child = start(["sweep", "s.toml", "--jobs", "2", "--out", "sw"], tmp_path)
     wait_for(tmp_path / "sw" / "trials" / "lam=0.9__seed=0" / "checkpoint.npz")
     child.kill()  # kill -9: the driver cannot tell anyone
@@ -195,6 +213,7 @@ def test_workers_stop_with_a_killed_sweep_driver(tmp_path) -> None:
 # -- one owner per run directory -----------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_two_trainers_on_one_directory_one_is_refused(tmp_path) -> None:
     first = start([*LONG, "--episodes", "300", "--out", "run"], tmp_path)
     wait_for(tmp_path / "run" / ".lock")
@@ -204,8 +223,8 @@ def test_two_trainers_on_one_directory_one_is_refused(tmp_path) -> None:
     _, err1 = first.communicate(timeout=120)
     assert first.returncode == 0, err1
     assert second.returncode == 2 and f"is in use by pid {first.pid}" in err2  # --force too
-    config, seed, _ = load_agent(tmp_path / "run")  # run.json and checkpoint agree
-    assert seed == 0 and config.episodes == 300
+    learner = load_learner(tmp_path / "run")  # run.json and checkpoint agree
+    assert learner.seed == 0 and learner.config.episodes == 300
 
 
 def test_a_dead_owners_lock_and_temporaries_are_taken_over(tmp_path, capsys) -> None:
@@ -232,7 +251,7 @@ def test_a_diverging_learner_stops_with_the_cause_and_a_finite_checkpoint(tmp_pa
     assert "sarsa_lambda diverged in episode" in err and "alpha=0.2 is per weight" in err
     assert "48 features are active" in err and len(err.strip().splitlines()) == 1
     # The checkpoint is the last finite state: it loads (agents refuse non-finite values).
-    config, _, _ = load_agent(out)
+    config = load_learner(out).config
     assert load_checkpoint(out / "checkpoint.npz")[0]["episodes_done"] >= 1
     assert config.alpha == 0.2 and not (out / "run.json").exists()
 
@@ -310,12 +329,27 @@ def test_evaluate_refuses_a_checkpoint_that_is_not_the_recorded_run(trained, exi
     assert "disagree on the config (alpha: 0.5 vs 0.25)" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("bad", ["", "[]", '{"config": 5}', '{"config": {"alpha": "x"}}'])
-def test_a_sweep_reruns_unreadable_trial_records_and_says_so(tmp_path, bad, capsys) -> None:
+ONE_TRIAL = 'preset = "report"\nepisodes = 2\nmax_episode_steps = 20\nseeds = [0]\n'
+
+
+@pytest.fixture(scope="module")
+def one_trial_sweep(tmp_path_factory) -> Path:
+    """A finished sweep of one trial (copied by each test that damages it)."""
     from acrobot_mj.train.sweep import run_sweep
 
-    spec = parse_sweep('preset = "report"\nepisodes = 2\nmax_episode_steps = 20\nseeds = [0]\n')
-    run_sweep(spec, tmp_path)
+    out = tmp_path_factory.mktemp("sweep")
+    run_sweep(parse_sweep(ONE_TRIAL), out)
+    return out
+
+
+@pytest.mark.parametrize("bad", ["", "[]", '{"config": 5}', '{"config": {"alpha": "x"}}'])
+def test_a_sweep_reruns_unreadable_trial_records_and_says_so(
+    one_trial_sweep, tmp_path, bad, capsys
+) -> None:
+    from acrobot_mj.train.sweep import run_sweep
+
+    spec = parse_sweep(ONE_TRIAL)
+    shutil.copytree(one_trial_sweep, tmp_path, dirs_exist_ok=True)
     record = tmp_path / "trials" / "base__seed=0" / "run.json"
     record.write_text(bad)  # e.g. a full disk left it empty
     summary = run_sweep(spec, tmp_path)
@@ -379,6 +413,7 @@ def _cli(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("gl", "says"),
     [("nonsense", "MUJOCO_GL='nonsense' is not a backend MuJoCo knows"), ("glfw", "no display")],
@@ -434,7 +469,7 @@ def test_absurd_values_are_refused_with_their_range(argv, message, tmp_path, exi
 
 
 def test_the_env_refuses_an_absurd_frame_skip() -> None:
-    from acrobot_mj.envs.env import AcrobotEnv
+    from acrobot_mj.envs.acrobot import AcrobotEnv
 
     with pytest.raises(ValueError, match=r"frame_skip must be in \[1, 1000\]"):
         AcrobotEnv(frame_skip=10**12)
@@ -467,8 +502,8 @@ def test_checkpoints_stay_small_and_count_their_lines_of_the_episode_log(tmp_pat
 
 
 def test_a_lockstep_checkpoint_missing_arrays_is_refused_not_a_traceback(tmp_path) -> None:
-    from acrobot_mj.train.checkpoint import save_checkpoint
     from acrobot_mj.train.lockstep import train_lockstep
+    from acrobot_mj.train.records import save_checkpoint
 
     config = PRESETS["report"].replace(episodes=2, max_episode_steps=20)
     train_lockstep(config, [0, 1], tmp_path)

@@ -1,4 +1,5 @@
-"""Sweeps: the grid expansion, resume, failing trials, and a tiny sweep on a local Ray."""
+"""Sweeps: the grid expansion, resume, failing trials, grid points' seeds in lockstep, and a tiny
+sweep on a local Ray."""
 
 from __future__ import annotations
 
@@ -8,12 +9,10 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.train import config as config_module
-from acrobot_mj.train.checkpoint import load_checkpoint
-from acrobot_mj.train.config import LOCKSTEP_GROUP_FROM
-from acrobot_mj.train.rundir import CHECKPOINT_FILE
-from acrobot_mj.train.sweep import run_sweep
-from acrobot_mj.train.sweep_spec import load_sweep, parse_sweep
+from acrobot_mj.train import lockstep as lockstep_module
+from acrobot_mj.train.lockstep import LOCKSTEP_GROUP_FROM
+from acrobot_mj.train.records import CHECKPOINT_FILE, load_checkpoint
+from acrobot_mj.train.sweep import load_sweep, parse_sweep, run_sweep
 
 TINY = """
 preset = "report"
@@ -24,6 +23,8 @@ seeds = [0, 1]
 alpha = [0.1, 0.5]
 frame_skip = [1, 4]
 """
+#: Two grid points of two seeds: what most tests need.
+SMALL = TINY.replace("frame_skip = [1, 4]", "frame_skip = [4]")
 
 
 def test_grid_expansion() -> None:
@@ -64,19 +65,19 @@ def test_bad_sweep_files(text, match) -> None:
 
 
 def test_local_sweep_resumes_and_records_failures(tmp_path, figures) -> None:
-    spec = parse_sweep(TINY)
+    spec = parse_sweep(SMALL)
     summary = run_sweep(spec, tmp_path)
     # The summary figure: each grid point's greedy median with its 25-75 % band over seeds.
     (ax,) = figures["summary.png"].axes
     (line,) = ax.get_lines()
-    np.testing.assert_array_equal(line.get_xdata(), range(4))
+    np.testing.assert_array_equal(line.get_xdata(), range(2))
     np.testing.assert_array_equal(line.get_ydata(), [p["greedy_median"] for p in summary["points"]])
     vertices = ax.collections[0].get_paths()[0].vertices
     assert vertices[:, 1].min() == min(p["greedy_q25"] for p in summary["points"])
     assert vertices[:, 1].max() == max(p["greedy_q75"] for p in summary["points"])
     assert ax.get_xlabel().startswith("grid point") and ax.get_ylabel() == "decisions from rest"
     runs = sorted((tmp_path / "trials").glob("*/run.json"))
-    assert len(runs) == 8 and summary["trials"] == 8
+    assert len(runs) == 4 and summary["trials"] == 4
     assert all(row["runs"] == 2 == row["held_out_runs"] for row in summary["points"])
     # Every finished trial has its held-out evaluation, and each point's row is their summary.
     row = summary["points"][0]
@@ -101,71 +102,69 @@ def test_local_sweep_resumes_and_records_failures(tmp_path, figures) -> None:
         assert (tmp_path / name).exists()
 
 
-@pytest.mark.parametrize(("group_from", "lockstep"), [(LOCKSTEP_GROUP_FROM, None), (2, 2)])
-def test_a_grid_points_seeds_go_in_lockstep_from_a_group_size(
-    tmp_path, monkeypatch, group_from, lockstep
-) -> None:
-    # Two seeds a point: one by one at the default threshold, together when it is two.
-    monkeypatch.setattr(config_module, "LOCKSTEP_GROUP_FROM", group_from)
-    summary = run_sweep(parse_sweep(TINY), tmp_path)
-    runs = sorted((tmp_path / "trials").glob("*/run.json"))
-    assert len(runs) == 8 and all(row["runs"] == 2 for row in summary["points"])
-    assert {json.loads(p.read_text()).get("lockstep") for p in runs} == {lockstep}
-
-
-BOOK_NUMBA = """
-preset = "book"
-kernel = "numba"
-episodes = 3
-max_episode_steps = 400
-seeds = [0, 1]
-[grid]
-lam = [0.9, 0.95]
-"""
-
-
 def _trial_records(out) -> dict:
     keys = ("episode_lengths", "episode_returns", "greedy_from_rest", "lockstep")
     runs = sorted((out / "trials").glob("*/run.json"))
     return {p.parent.name: {k: json.loads(p.read_text()).get(k) for k in keys} for p in runs}
 
 
-def test_lockstep_asked_of_a_sweep_gives_the_same_records(tmp_path) -> None:
-    pytest.importorskip("numba", reason="lockstep Sarsa(lambda) is compiled (the fast extra)")
-    spec = parse_sweep(BOOK_NUMBA)
-    run_sweep(spec, tmp_path / "together", lockstep=True)
-    run_sweep(spec, tmp_path / "apart", jobs=1)  # the default for Sarsa(lambda): one by one
-    together, apart = _trial_records(tmp_path / "together"), _trial_records(tmp_path / "apart")
-    assert len(together) == 4 and together.keys() == apart.keys()
-    for name, record in together.items():
-        assert record["lockstep"] == 2 and apart[name]["lockstep"] is None  # each point's seeds
-        assert {**record, "lockstep": None} == apart[name], name
-        weights = [
-            load_checkpoint(tmp_path / way / "trials" / name / CHECKPOINT_FILE)[1]["w"]
-            for way in ("together", "apart")
-        ]
-        np.testing.assert_array_equal(*weights)  # bit for bit
+@pytest.mark.slow
+def test_a_grid_points_seeds_go_in_lockstep_from_a_group_size_or_when_asked(
+    tmp_path, monkeypatch
+) -> None:
+    # Two seeds a point: one by one at the default threshold, together when it is two or when
+    # asked; the same records and weights either way.
+    assert LOCKSTEP_GROUP_FROM > 2
+    spec = parse_sweep(SMALL)
+    summaries = {"apart": run_sweep(spec, tmp_path / "apart", jobs=1)}
+    summaries["asked"] = run_sweep(spec, tmp_path / "asked", lockstep=True)
+    monkeypatch.setattr(lockstep_module, "LOCKSTEP_GROUP_FROM", 2)
+    summaries["threshold"] = run_sweep(spec, tmp_path / "threshold")
+    apart = _trial_records(tmp_path / "apart")
+    assert len(apart) == 4 and {r["lockstep"] for r in apart.values()} == {None}
+    for way in ("asked", "threshold"):
+        together = _trial_records(tmp_path / way)
+        assert together.keys() == apart.keys(), way
+        for name, record in together.items():
+            assert record["lockstep"] == 2  # each point's seeds
+            assert {**record, "lockstep": None} == apart[name], (way, name)
+            weights = [
+                load_checkpoint(tmp_path / run / "trials" / name / CHECKPOINT_FILE)[1]["q"]
+                for run in (way, "apart")
+            ]
+            np.testing.assert_array_equal(*weights)  # bit for bit
+    for summary in summaries.values():
+        assert all(row["runs"] == 2 for row in summary["points"])
+
+
+#: Tabular SARSA has a lockstep form, Sarsa(lambda) none (one process per seed is faster).
+MIXED = SMALL.replace("alpha = [0.1, 0.5]", 'algorithm = ["sarsa", "sarsa_lambda"]')
+MIXED = MIXED.replace("frame_skip = [4]\n", "")
 
 
 def test_a_lockstep_sweep_refuses_what_cannot_go_in_lockstep(tmp_path, capsys) -> None:
-    numpy_point = BOOK_NUMBA.replace("lam = [0.9, 0.95]", 'kernel = ["numba", "numpy"]')
-    numpy_point = numpy_point.replace('kernel = "numba"\n', "")
-    with pytest.raises(ValueError, match=r"grid point kernel=numpy: lockstep training needs"):
-        run_sweep(parse_sweep(numpy_point), tmp_path / "a", lockstep=True)
+    match = r"grid point algorithm=sarsa_lambda: lockstep training needs"
+    with pytest.raises(ValueError, match=match):
+        run_sweep(parse_sweep(MIXED), tmp_path / "a", lockstep=True)
     with pytest.raises(ValueError, match="lockstep sweeps run on the local backend"):
-        run_sweep(parse_sweep(BOOK_NUMBA), tmp_path / "b", backend="ray", lockstep=True)
+        run_sweep(parse_sweep(SMALL), tmp_path / "b", backend="ray", lockstep=True)
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()  # nothing written
-    sweep = tmp_path / "numpy.toml"
-    sweep.write_text(numpy_point)
+    sweep = tmp_path / "mixed.toml"
+    sweep.write_text(MIXED)
     with pytest.raises(SystemExit) as stop:  # the CLI: one line, exit 2
         main(["sweep", str(sweep), "--lockstep", "--out", str(tmp_path / "c")])
-    assert stop.value.code == 2 and "grid point kernel=numpy" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and "grid point algorithm=sarsa_lambda" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "c").exists()
 
 
 def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch) -> None:
-    # Sarsa(lambda) trials run one per process; make seed 1 fail inside its worker.
+    # Sarsa(lambda) trials run one by one (jobs=1: in this process); make seed 1 fail in its own.
     sweep = tmp_path / "s.toml"
-    sweep.write_text('preset = "book"\nepisodes = 1\nseeds = [0, 1, 2]\n[grid]\nlam = [0.9]\n')
+    sweep.write_text(
+        'preset = "book"\nepisodes = 1\nmax_episode_steps = 50\nseeds = [0, 1, 2]\n'
+        "[grid]\nlam = [0.9]\n"
+    )
     spec = load_sweep(sweep)
     import acrobot_mj.train.sweep as sweep_module
 
@@ -190,7 +189,7 @@ def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch
 def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
     pytest.importorskip("ray", reason="needs the ray extra")
     sweep = tmp_path / "tiny.toml"
-    sweep.write_text(TINY.replace("frame_skip = [1, 4]", "frame_skip = [4]"))
+    sweep.write_text(SMALL)
     out = tmp_path / "ray"
     assert (
         main(["sweep", str(sweep), "--backend", "ray", "--num-cpus", "2", "--out", str(out)]) == 0
@@ -207,8 +206,8 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
 
 
 def test_a_changed_sweep_does_not_reuse_another_sweeps_trials(tmp_path) -> None:
-    one = TINY.replace("frame_skip = [1, 4]", "frame_skip = [4]")
-    run_sweep(parse_sweep(one), tmp_path)
+    one = 'preset = "report"\nepisodes = 2\nmax_episode_steps = 30\nseeds = [0]\n'  # one trial
+    run_sweep(parse_sweep(one), tmp_path, jobs=1)
     changed = parse_sweep(one.replace("episodes = 2", "episodes = 3"))
     with pytest.raises(ValueError, match="another sweep's trial"):
         run_sweep(changed, tmp_path)

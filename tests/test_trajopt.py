@@ -6,10 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acrobot_mj.control.trajectory import TOLERANCE, shipped
+from acrobot_mj.control.trajopt import TOLERANCE, shipped
 from acrobot_mj.physics import integrators
 
-RESERVE = shipped("reserve")
 casadi = pytest.importorskip("casadi", reason="trajectory optimisation needs the control extra")
 
 
@@ -24,18 +23,27 @@ def test_the_symbolic_step_is_the_numpy_step(method) -> None:
         state, torque = rng.uniform(-3, 3, 4), rng.uniform(-1, 1)
         # The same formulas in another order of evaluation: rounding only.
         np.testing.assert_allclose(
-            np.array(step(state, torque)).ravel(), integrators.STEPS[method](state, torque),
+            np.array(step(state, torque)).ravel(),
+            integrators.step_states(state, torque, method=method, limits=False),
             rtol=0, atol=1e-12,
         )  # fmt: skip
 
 
+def test_the_shipped_reserve_trajectory_loads() -> None:
+    # What the optimisation below starts from (it was loaded on import of this module before).
+    reserve = shipped("reserve")
+    assert reserve.u_max == 0.8 and reserve.steps == 476 and reserve.residual() < TOLERANCE
+
+
+@pytest.mark.slow
 def test_optimisation_reaches_upright_at_rest_within_its_bounds() -> None:
     from acrobot_mj.control.trajopt import min_effort, optimise
 
-    # Warm-started from the shipped reserve trajectory (two IPOPT solves of 476 steps, a few
-    # seconds). The step is met to the trajectory check's TOLERANCE (IPOPT's constraint
+    # Warm-started from the shipped reserve trajectory (two IPOPT solves of 476 steps, about
+    # 30 s). The step is met to the trajectory check's TOLERANCE (IPOPT's constraint
     # tolerance is 1e-12, so only rounding remains), and the bound to 1e-12 likewise.
-    found = optimise(RESERVE.steps, u_max=0.8, warm=RESERVE)
+    reserve = shipped("reserve")
+    found = optimise(reserve.steps, u_max=0.8, warm=reserve)
     assert found.residual() < TOLERANCE and np.abs(found.torques).max() <= 0.8 + 1e-12
     relaxed = min_effort(found, extra_steps=20)
     assert relaxed.steps == found.steps + 20

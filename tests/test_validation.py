@@ -10,19 +10,21 @@ import pytest
 
 import acrobot_mj
 from acrobot_mj.cli import main
-from acrobot_mj.control import energy, lqr, search
-from acrobot_mj.control.model import UPRIGHT
-from acrobot_mj.control.trajectory import shipped
+from acrobot_mj.control import lqr, policies, search
+from acrobot_mj.control.trajopt import shipped
 from acrobot_mj.physics import dynamics
+from acrobot_mj.physics.dynamics import UPRIGHT
 
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
+    """``acrobot-mj validate --quick``'s folder and record (about 15 s: its tests are slow)."""
     out = tmp_path_factory.mktemp("validation")
     assert main(["validate", "--quick", "--out", str(out)]) == 0
     return out, json.loads((out / "validation.json").read_text())
 
 
+@pytest.mark.slow
 def test_schema(report) -> None:
     out, r = report
     assert r["schema_version"] == 1 and r["quick"] is True
@@ -52,6 +54,7 @@ def test_schema(report) -> None:
         assert f"]({figure})" in markdown
 
 
+@pytest.mark.slow
 def test_balance_section(report) -> None:
     out, r = report
     balance = r["balance"]
@@ -64,6 +67,7 @@ def test_balance_section(report) -> None:
     assert "Swing-up and balance: robustness" in (out / "validation.md").read_text()
 
 
+@pytest.mark.slow
 def test_cross_check_and_errata(report) -> None:
     _, r = report
     relative = r["cross_check"]["relative"]
@@ -74,6 +78,7 @@ def test_cross_check_and_errata(report) -> None:
     assert max(r["cross_check"]["trajectory_1000"].values()) <= 1e-8
 
 
+@pytest.mark.slow
 def test_eigenvalues_agree_to_1e_6(report) -> None:
     _, r = report
     rows = r["linearisation"]["equilibria"]
@@ -94,6 +99,7 @@ def _play(actions, frame_skip):
     return len(actions), False, None
 
 
+@pytest.mark.slow
 def test_minimum_time_sequences_replay_to_the_goal_in_the_env(report) -> None:
     _, r = report
     mt = r["minimum_time"]
@@ -119,7 +125,7 @@ def test_energy_pumping_raises_energy_monotonically() -> None:
     # dE/dt = tau dq2 >= 0 while E < E*: in continuous time the energy never falls. With the
     # torque held over an RK4 step the only losses come from dq2 changing sign inside a step,
     # O(dt^2): measured 2.8e-4 J at dt = 0.01 s and 2.3e-6 J at 0.001 s.
-    coarse, fine = energy.pumping_energies(1e-2), energy.pumping_energies(1e-3)
+    coarse, fine = policies.pumping_energies(1e-2), policies.pumping_energies(1e-3)
     assert fine[0] == pytest.approx(-19.6, abs=0.01) and fine[-1] >= 19.6 - 1e-9
     worst_coarse, worst_fine = -np.diff(coarse).min(), -np.diff(fine).min()
     assert worst_fine <= 1e-5  # |tau| max|ddq2| dt^2 / 2 with |ddq2| < 20 rad/s^2
@@ -127,12 +133,14 @@ def test_energy_pumping_raises_energy_monotonically() -> None:
     assert np.sum(np.diff(fine) < 0) <= 10  # a handful of sign changes of dq2, no trend
 
 
+@pytest.mark.slow
 def test_energy_pumping_swings_up_in_the_env(report) -> None:
     _, r = report
     pumping = r["controllers"]["energy_pumping"]
     assert pumping["reached_goal"] and pumping["steps_to_goal"] < 1000
 
 
+@pytest.mark.slow
 def test_lqr_recovers_inside_its_basin_and_nothing_beats_the_bound(report) -> None:
     _, r = report
     low, high = r["controllers"]["lqr"]["q1_basin_rad"]

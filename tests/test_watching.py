@@ -149,6 +149,7 @@ def _cli(args: list[str], cwd: Path, **kwargs) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_no_bar_on_a_pipe_unless_asked(tmp_path) -> None:
     quiet = _cli(["train", *TINY, "--out", "a"], tmp_path, capture_output=True)
     assert quiet.returncode == 0 and quiet.stderr == ""  # no bar, nothing else either
@@ -188,6 +189,7 @@ def _on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
     return child.wait(timeout=60), shown.decode(errors="replace")
 
 
+@pytest.mark.slow
 def test_a_terminal_gets_one_bar_over_every_learner(tmp_path) -> None:
     code, shown = _on_a_terminal(
         ["train", *TINY, "--seeds", "3", "--lockstep", "--out", "s"], tmp_path
@@ -200,8 +202,10 @@ def test_a_terminal_gets_one_bar_over_every_learner(tmp_path) -> None:
     assert code == 0 and "%|" not in shown  # turned off on a terminal too
 
 
+@pytest.mark.slow
 def test_seeds_in_worker_processes_share_one_bar_read_from_their_logs(tmp_path) -> None:
-    args = ["train", "--preset", "book", "--episodes", "10", "--seeds", "2", "--jobs", "2"]
+    args = ["train", "--preset", "book", "--episodes", "10", "--max-episode-steps", "50"]
+    args += ["--seeds", "2", "--jobs", "2"]
     done = _cli([*args, "--out", "s", "--progress"], tmp_path, capture_output=True)
     assert done.returncode == 0, done.stderr
     assert "sarsa_lambda x2 seeds, 2 processes: 100%|" in done.stderr and "20/20" in done.stderr
@@ -209,8 +213,7 @@ def test_seeds_in_worker_processes_share_one_bar_read_from_their_logs(tmp_path) 
 
 def test_a_followed_log_that_is_cut_back_is_counted_again(tmp_path, capsys) -> None:
     from acrobot_mj.files import write_text
-    from acrobot_mj.train.follow import LogFollower
-    from acrobot_mj.train.progress import Progress
+    from acrobot_mj.train.progress import LogFollower, Progress
 
     def lines(n: int, length: int) -> str:
         row = {"length": length, "return": -1.0, "success": True}
@@ -233,6 +236,7 @@ def test_a_followed_log_that_is_cut_back_is_counted_again(tmp_path, capsys) -> N
     capsys.readouterr()
 
 
+@pytest.mark.slow
 def test_a_sweep_shows_a_bar_over_its_trials_when_asked(tmp_path) -> None:
     sweep = 'preset = "report"\nepisodes = 2\nmax_episode_steps = 20\nseeds = [0, 1]\n'
     (tmp_path / "s.toml").write_text(sweep)
