@@ -1,18 +1,9 @@
-"""acrobot-mj: the Acrobot swing-up on MuJoCo.
-
-``import acrobot_mj`` registers every task's Gymnasium environment (``acrobot_mj/Acrobot-v0``:
-:class:`acrobot_mj.envs.acrobot.AcrobotEnv` with the height goal, truncated at 1000 actions).
-
-The packages, bottom up (each imports only those below it): :mod:`.physics` (parameters,
-dynamics, integrators; no simulator), :mod:`.control` (model-based references), :mod:`.envs`
-(tasks, the MuJoCo env and vector env, the episode loop), :mod:`.agents` (features and
-learners), :mod:`.report` (figures, videos, validation), :mod:`.train` (configs, runs,
-records, sweeps) and :mod:`.cli`.
-"""
+"""acrobot-mj: the Acrobot swing-up on MuJoCo. Importing it registers every task's Gymnasium
+environment (``acrobot_mj/Acrobot-v0``: the height goal, truncated at 1000 actions)."""
 
 from __future__ import annotations
 
-# First, before anything imports mujoco: pick a headless OpenGL backend (envs/gl.py).
+# First, before anything imports mujoco: pick a headless OpenGL backend.
 from acrobot_mj.envs.gl import configure_gl
 
 configure_gl()

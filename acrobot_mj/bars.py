@@ -1,5 +1,4 @@
-"""Progress bars on stderr: tqdm, imported only when a bar is shown. The one place the package
-makes them (training's :mod:`acrobot_mj.train.progress`, sweeps, ``validate``)."""
+"""Progress bars on stderr: tqdm, imported only when a bar is shown."""
 
 from __future__ import annotations
 
@@ -8,11 +7,10 @@ from typing import Any
 
 
 def make_bar(total: int | None, label: str, enabled: bool, unit: str) -> Any | None:
-    """A tqdm bar of ``total`` ``unit`` (None: not known) on stderr, or None when not
-    ``enabled``."""
+    """A tqdm bar of ``total`` (None: unknown) ``unit`` on stderr, or None if not ``enabled``."""
     if not enabled:
         return None
-    from tqdm import tqdm  # only when a bar is shown
+    from tqdm import tqdm
 
     return tqdm(total=total, desc=label, unit=f" {unit}", file=sys.stderr, dynamic_ncols=True)
 
@@ -24,7 +22,6 @@ class Steps:
         self.bar = make_bar(total, label, enabled, unit)
 
     def done(self, what: str = "", count: int = 1) -> None:
-        """``count`` steps finished, the last of them ``what`` (if named)."""
         if self.bar is not None:
             if what:
                 self.bar.set_postfix_str(what, refresh=False)

@@ -1,5 +1,4 @@
-"""Argument checks shared by the environments and their tasks: each error names the
-argument, what it must be and what it got (nothing is clipped or coerced silently)."""
+"""Argument checks: each error names the argument, what it must be and what it got."""
 
 from __future__ import annotations
 
@@ -19,9 +18,8 @@ def check_int(name: str, value: Any, minimum: int, maximum: int | None = None) -
     return int(value)
 
 
-def check_float(
-    name: str, value: Any, minimum: float = -math.inf, maximum: float = math.inf
-) -> float:
+def check_float(name: str, value: Any, minimum: float = -math.inf,
+                maximum: float = math.inf) -> float:  # fmt: skip
     """``value`` as a float, refused unless it is a finite real number in ``[minimum, maximum]``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")

@@ -1,11 +1,5 @@
-"""numba, the package's one compiler: each rule is plain Python, and numba compiles that same
-source where speed matters (the step, the tasks' rules over rows, the learners' updates).
-
-Mark a function ``@jitable`` (numba may compile it, and compiled code may call it) and ask for
-its compiled form with :func:`compiled` where it is used. numba is imported only then. Where it
-cannot load, :func:`compiled` returns the Python function itself, after one line on stderr: the
-same numbers, more slowly.
-"""
+"""numba, the package's one compiler: mark a plain Python function ``@jitable`` and take its
+compiled form with :func:`compiled` (the function itself where numba cannot load)."""
 
 from __future__ import annotations
 
@@ -14,14 +8,12 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-#: Every function marked ``@jitable``, registered with numba when it is first loaded.
 JITABLE: list[Callable[..., Any]] = []
 _COMPILED: dict[tuple[Callable[..., Any], bool], Callable[..., Any]] = {}
-_NUMBA: Any = None  # the numba module once loaded; False where it cannot load
+_NUMBA: Any = None  # False where numba cannot load
 
 
 def jitable(function: Callable[..., Any]) -> Callable[..., Any]:
-    """Mark ``function`` as compilable (it stays a plain Python function)."""
     JITABLE.append(function)
     return function
 
@@ -56,25 +48,18 @@ def compiled(
     cache: bool = True,
     calls: tuple[Callable[..., Any], ...] = (),
 ) -> Callable[..., Any]:
-    """``function`` compiled by numba, or ``function`` itself where numba cannot load.
-
-    ``parallel``: its ``prange`` loops run on numba's threads; ``cache``: kept on disk between
-    processes (not for closures over functions, which numba cannot find again); ``calls``:
-    functions it calls that are not marked ``@jitable`` (closures)."""
+    """``function`` compiled by numba (or itself without numba). ``parallel``: its ``prange``
+    loops run on numba's threads; ``cache``: kept on disk (not for closures, which numba cannot
+    find again); ``calls``: functions it calls that are not ``@jitable`` (closures)."""
     key = (function, parallel)
     if key not in _COMPILED:
         nb = numba()
-        if nb is None:
-            _COMPILED[key] = function
-        else:
-            from numba.extending import register_jitable
-
-            for callee in calls:
-                register_jitable(callee)
-            if parallel:  # not cached: numba's cache keys a function by name, not by this flag
-                function.__globals__["prange"] = nb.prange  # a range to Python as well
-            options = {"cache": cache and not parallel, "parallel": parallel}
-            _COMPILED[key] = nb.njit(**options)(function)
+        for callee in calls if nb else ():
+            nb.extending.register_jitable(callee)
+        if nb and parallel:  # not cached: numba's cache keys a function by name, not this flag
+            function.__globals__["prange"] = nb.prange  # a range to Python as well
+        options = {"cache": cache and not parallel, "parallel": parallel}
+        _COMPILED[key] = nb.njit(**options)(function) if nb else function
     return _COMPILED[key]
 
 
@@ -85,7 +70,6 @@ def available_threads() -> int:
 
 
 def set_threads(n: int) -> None:
-    """Run the parallel kernels on ``n`` of numba's threads."""
     nb = numba()
     if nb is not None:
         nb.set_num_threads(n)

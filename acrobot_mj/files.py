@@ -1,11 +1,11 @@
-"""Writing records: atomically (a temporary file beside the target, flushed, then renamed over
-it, so a crash or a full disk never leaves a half-written record in place), as strict JSON, with
-the versions every record carries."""
+"""Writing records atomically (a temporary file beside the target, renamed over it: never a
+half-written record), as strict JSON, with the versions every record carries."""
 
 from __future__ import annotations
 
 import json
 import os
+import platform
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
@@ -15,20 +15,14 @@ __version__ = "0.4.0"
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on (for every record)."""
-    import platform
-
+    """Versions of Python and the packages a result depends on."""
     import gymnasium
     import mujoco
     import numpy
 
-    return {
-        "python": platform.python_version(),
-        "acrobot_mj": __version__,
-        "mujoco": mujoco.__version__,
-        "gymnasium": gymnasium.__version__,
-        "numpy": numpy.__version__,
-    }
+    return {"python": platform.python_version(), "acrobot_mj": __version__,
+            "mujoco": mujoco.__version__, "gymnasium": gymnasium.__version__,
+            "numpy": numpy.__version__}  # fmt: skip
 
 
 def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
@@ -54,9 +48,7 @@ def write_text(path: str | Path, text: str) -> Path:
 
 
 def write_json(path: str | Path, data: Any) -> Path:
-    """``data`` as indented JSON at ``path``, atomically. Strict JSON: a non-finite number
-    (NaN, infinity) has no JSON form and is refused with an error naming the file (records say
-    "no value" with null)."""
+    """``data`` as indented, strict JSON at ``path``, atomically; ValueError on NaN or inf."""
     try:
         text = json.dumps(data, indent=1, allow_nan=False)
     except ValueError as error:

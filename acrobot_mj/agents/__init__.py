@@ -1,8 +1,5 @@
-"""Learning agents, one algorithm per module, with the features they learn over: tabular SARSA
-(:mod:`.sarsa`, the report's) and Sarsa(lambda) (:mod:`.sarsa_lambda`, the book's), over the
-report's grid or tile coding (:mod:`.features`). Every agent follows
-:class:`~acrobot_mj.agents.base.Agent`; the registry (:data:`AGENTS`) builds them from a config.
-"""
+"""Learning agents, one algorithm per module: tabular SARSA (the report's) and Sarsa(lambda) (the
+book's), over the report's grid or tile coding; the registry :data:`AGENTS` builds them."""
 
 from acrobot_mj.agents.base import (
     AGENTS,

@@ -1,15 +1,6 @@
-"""What an agent is to the rest of the package: its protocol, its own random stream (and the
-draws of an epsilon-greedy policy, written once for Python and compiled learners alike), the
-registry that builds one from a config, and the actors that run it in the episode loop.
-
-An :class:`Agent` has ``begin_episode(obs)``, ``learn(reward, obs, terminated, truncated)``
-(the next action, or None once the episode is over), ``greedy_action(obs, stream)`` (ties broken
-by a stream that is not its own), ``state_dict()`` / ``load_state_dict()`` (plain numpy arrays)
-and its own ``stream``. The registry keeps one :class:`AgentSpec` per algorithm: its typed
-config (with its defaults), the features it takes and how to build one learner (and, for
-tabular SARSA, many in lockstep). Adding an algorithm is one module with a spec and one
-:func:`register_agent` call.
-"""
+"""What an agent is to the package: the :class:`Agent` protocol, its random stream and
+epsilon-greedy draws (one source for Python and compiled learners), the registry that builds it
+from a config (:data:`AGENTS`), and the actors that run it in the episode loop."""
 
 from __future__ import annotations
 
@@ -28,8 +19,7 @@ BLOCK = 1024
 
 @jitable
 def argmax(values, block, position) -> tuple:
-    """The index of the largest of ``values``, ties broken by one draw from ``block`` at
-    ``position`` (only when there is a tie): ``(index, next position)``."""
+    """``(index of the largest of values, next position)``; a tie takes one draw from ``block``."""
     best, first, count = values[0], 0, 1
     for i in range(1, values.shape[0]):
         if values[i] > best:
@@ -49,8 +39,7 @@ def argmax(values, block, position) -> tuple:
 
 @jitable
 def policy(values, epsilon, block, position) -> tuple:
-    """Epsilon-greedy in ``values``: with probability ``epsilon`` (one draw, when ``epsilon >
-    0``) a uniformly random action (one more draw), else :func:`argmax`."""
+    """Epsilon-greedy in ``values`` (one draw when ``epsilon > 0``, one more to explore)."""
     if epsilon > 0.0:
         position += 1
         if block[position - 1] < epsilon:
@@ -60,46 +49,38 @@ def policy(values, epsilon, block, position) -> tuple:
 
 class RandomStream:
     """Uniform draws in [0, 1) from ``numpy.random.default_rng(seed)``, fetched ``BLOCK`` at a
-    time (one Generator call per draw costs more than an agent's whole update). The same seed
-    gives the same draws; :meth:`state_dict` captures the generator and the unread part of the
-    block, so a restored stream goes on exactly where it stopped."""
+    time; :meth:`state_dict` holds the generator and the block, to go on where it stopped."""
 
     def __init__(self, seed: int | np.random.SeedSequence | None = None) -> None:
         self.generator = np.random.default_rng(seed)
         self.block, self.position = np.zeros(0), 0
 
     def reserve(self, count: int = 2) -> None:
-        """At least ``count`` unread draws in :attr:`block` (the next block appended where
-        fewer are left: the same draws in the same order), for a compiled learner to read."""
+        """At least ``count`` unread draws in :attr:`block`, for a compiled learner to read."""
         if len(self.block) - self.position < count:
-            rest = self.block[self.position :]
-            self.block = np.concatenate([rest, self.generator.random(BLOCK)])
+            self.block = np.concatenate([self.block[self.position :], self.generator.random(BLOCK)])
             self.position = 0
 
     def random(self) -> float:
-        """One uniform draw in [0, 1)."""
         self.reserve(1)
         self.position += 1
         return float(self.block[self.position - 1])
 
     def below(self, n: int) -> int:
-        """A uniform integer in ``[0, n)``."""
         return int(self.random() * n)
 
     def argmax(self, values: Any) -> int:
-        """Index of the largest value, ties broken uniformly at random (:func:`argmax`)."""
+        """Index of the largest value, ties broken at random."""
         self.reserve(1)
         index, self.position = argmax(np.asarray(values, dtype=float), self.block, self.position)
         return index
 
     def position_now(self) -> tuple[Any, ...]:
-        """Where the stream is now, cheaply (a block is replaced, never changed): give it to
-        :meth:`state_dict` later for the state as it is now."""
+        """Where the stream is now, cheaply, for :meth:`state_dict` later."""
         return self.generator.bit_generator.state, self.block, self.position
 
     def state_dict(self, prefix: str = "", at: tuple[Any, ...] | None = None) -> dict:
-        """The stream's state (or, ``at``, the state at that :meth:`position_now`) as arrays,
-        their names starting with ``prefix``."""
+        """The state now (or ``at`` a :meth:`position_now`) as arrays named ``prefix...``."""
         bit_state, block, position = self.position_now() if at is None else at
         return {
             f"{prefix}bit_generator": np.array(json.dumps(bit_state)),
@@ -108,7 +89,6 @@ class RandomStream:
         }
 
     def load_state_dict(self, state: dict[str, Any], prefix: str = "") -> None:
-        """Restore what :meth:`state_dict` returned (with the same ``prefix``)."""
         state = {k.removeprefix(prefix): v for k, v in state.items() if k.startswith(prefix)}
         try:
             bit_state = json.loads(str(state["bit_generator"]))
@@ -118,8 +98,7 @@ class RandomStream:
         if kind != type(self.generator.bit_generator).__name__:
             raise ValueError(f"random state is for {kind!r}, not "
                              f"{type(self.generator.bit_generator).__name__}")  # fmt: skip
-        block = np.asarray(state["block"], dtype=np.float64)
-        position = int(state["next"])
+        block, position = np.asarray(state["block"], dtype=np.float64), int(state["next"])
         if block.ndim != 1 or not 0 <= position <= len(block):
             raise ValueError("random state has an inconsistent block position")
         self.generator.bit_generator.state = bit_state
@@ -127,7 +106,7 @@ class RandomStream:
 
 
 def checked_values(state: dict[str, Any], name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """``state[name]`` as float64, refused unless it has ``shape`` and only finite values."""
+    """``state[name]`` as float64; ValueError unless it has ``shape`` and is finite."""
     values = np.asarray(state[name], dtype=np.float64)
     if values.shape != shape:
         raise ValueError(f"{name} has shape {values.shape}, this agent needs {shape}")
@@ -137,8 +116,7 @@ def checked_values(state: dict[str, Any], name: str, shape: tuple[int, ...]) -> 
 
 
 class DivergenceError(ArithmeticError):
-    """A learner's values stopped being finite: a step size too large for its features, or
-    (``rewards``) rewards too large for a float."""
+    """A learner's values stopped being finite (``rewards``: the rewards overflowed)."""
 
     def __init__(self, message: str, rewards: bool = False) -> None:
         super().__init__(message)
@@ -147,13 +125,8 @@ class DivergenceError(ArithmeticError):
 
 @runtime_checkable
 class Agent(Protocol):
-    """A learner with its own random stream. The episode protocol::
-
-    action = agent.begin_episode(obs)
-    while the episode goes on:
-        obs, reward, terminated, truncated, info = env.step(action)
-        action = agent.learn(reward, obs, terminated, truncated)  # None once it is over
-    """
+    """A learner with its own random stream: ``action = agent.begin_episode(obs)``, then after
+    each step ``action = agent.learn(reward, obs, terminated, truncated)`` (None once over)."""
 
     n_actions: int
     stream: RandomStream
@@ -166,81 +139,58 @@ class Agent(Protocol):
 
     def state_dict(self) -> dict[str, np.ndarray]: ...
 
-    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
-        """Restore :meth:`state_dict`'s arrays; ValueError or KeyError if they do not fit."""
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None: ...  # KeyError, ValueError
 
 
 @runtime_checkable
 class Rewinding(Protocol):
-    """An agent that can give its :meth:`Agent.state_dict` as it was after its last completed
-    episode, even in the middle of the next one, so that a checkpoint need not copy the
-    agent's arrays after every episode."""
+    """An agent that can give its state after its last episode even during the next one."""
 
     def checkpoint_state(self) -> Callable[[], dict[str, np.ndarray]]: ...
 
 
-class Group(Protocol):
-    """K learners of one algorithm stepped together (lockstep on a vector env), learner ``k``
-    exactly the single agent with seed ``seeds[k]``; ``ids`` are the learners concerned."""
-
-    def begin_episodes(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray: ...
-
-    def learn(self, ids: np.ndarray, rewards: np.ndarray, obs: np.ndarray,
-              terminated: np.ndarray, truncated: np.ndarray) -> np.ndarray: ...  # fmt: skip
-
-    def state_dict(self, k: int) -> dict[str, np.ndarray]: ...
-
-    def load_state(self, k: int, state: dict[str, np.ndarray]) -> None: ...
-
-
 @dataclass(frozen=True)
 class AgentSpec:
-    """An algorithm: its name, its typed config (``config()`` holds its defaults), the features
-    it takes, how to build one learner ``(features, config, seed, n_actions)`` and, if it has
-    one, its lockstep form ``(features, config, seeds)``."""
+    """An algorithm: its typed config, the features it takes, how to build one learner
+    ``(features, config, seed, n_actions)`` and K in lockstep ``(features, config, seeds)`` (like
+    :class:`~acrobot_mj.agents.sarsa.SarsaGroup`)."""
 
     name: str
     doc: str
     config: type
     features: tuple[str, ...]
     build: Callable[[Any, Any, Any, int], Agent]
-    group: Callable[[Any, Any, Sequence[int]], Group] | None = None
+    group: Callable[[Any, Any, Sequence[int]], Any] | None = None
 
 
 AGENTS: dict[str, AgentSpec] = {}
 
 
 def register_agent(spec: AgentSpec) -> AgentSpec:
-    """Add an algorithm to :data:`AGENTS` (its features must be known)."""
-    known = AGENTS.get(spec.name)
-    if known is not None and known is not spec:
+    """Add an algorithm to :data:`AGENTS`."""
+    if AGENTS.get(spec.name, spec) is not spec:
         raise ValueError(f"algorithm {spec.name!r} is already registered")
-    unknown = sorted(set(spec.features) - set(FEATURES))
-    if unknown:
+    if unknown := sorted(set(spec.features) - set(FEATURES)):
         raise ValueError(f"algorithm {spec.name!r} names unknown features {unknown}")
     AGENTS[spec.name] = spec
     return spec
 
 
 def agent_spec(name: str) -> AgentSpec:
-    """The spec of algorithm ``name``; the error lists the known ones."""
     if name not in AGENTS:
         raise ValueError(f"unknown algorithm {name!r}; known: {sorted(AGENTS)}")
     return AGENTS[name]
 
 
 class Learning:
-    """The agent learning as it acts, as an actor of the episode loop
-    (:func:`acrobot_mj.envs.rollout.run_episode`): ``begin_episode``, then ``learn`` after every
-    step (the bound methods themselves: training's hot loop)."""
+    """The agent learning as it acts, an actor of :func:`acrobot_mj.envs.rollout.run_episode`."""
 
     def __init__(self, agent: Agent) -> None:
         self.begin, self.observe = agent.begin_episode, agent.learn
 
 
 class Greedy:
-    """The agent's greedy policy as an actor, ties broken by ``stream`` (the agent's own stream
-    and values stay untouched)."""
+    """The agent's greedy policy as an actor, ties broken by ``stream``."""
 
     def __init__(self, agent: Agent, stream: RandomStream) -> None:
         self._agent, self._stream = agent, stream
@@ -249,6 +199,4 @@ class Greedy:
         return self._agent.greedy_action(obs, self._stream)
 
     def observe(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
-        if terminated or truncated:
-            return None
-        return self._agent.greedy_action(obs, self._stream)
+        return None if terminated or truncated else self._agent.greedy_action(obs, self._stream)

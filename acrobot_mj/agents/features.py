@@ -1,16 +1,12 @@
-"""State features for the learners: the report's state grid and Sutton's tile coding.
-
-Both map an observation ``(q1, q2, dq1, dq2)`` [rad, rad/s] to the indices of its active binary
-features (the grid has one, a table; tile coding one per tiling), so one linear learner serves
-both. Their ranges come from the observation space an agent is given, not from an env.
-"""
+"""State features: the report's grid and Sutton's tile coding, both mapping an observation to
+the indices of its active binary features (the grid one, tile coding one per tiling)."""
 
 from __future__ import annotations
 
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -21,9 +17,9 @@ from acrobot_mj.compiled import compiled, jitable
 
 @jitable
 def grid_cell(q1, q2, v1, v2, consts) -> int:
-    """The report's grid cell of one state: each variable to its nearest centre (halves to even,
-    as Python's ``round``), row-major over (q1, q2, dq1, dq2); ``consts = (low_angle, cells per
-    rad, angle cells, low_velocity, cells per rad/s, velocity cells)``."""
+    """The grid cell of one state, each variable to its nearest centre (halves to even),
+    row-major; ``consts = (low angle, cells per rad, angle cells, low velocity, cells per rad/s,
+    velocity cells)``."""
     low_a, per_a, n_a, low_v, per_v, n_v = consts
     top_a, top_v = int(n_a) - 1, int(n_v) - 1
     i1, i2 = round((q1 - low_a) * per_a), round((q2 - low_a) * per_a)
@@ -44,10 +40,9 @@ def grid_rows(obs, consts, out) -> None:
 
 @dataclass(frozen=True)
 class StateGrid:
-    """Nearest-centre discretisation, one cell per state (the report's table): angle centres
-    ``-pi/2, -pi/4, 0, pi/4, pi/2`` rad and velocity centres ``-pi/4, 0, pi/4`` rad/s by
-    default, 5 x 5 x 3 x 3 = 225 cells. Values beyond the outer centres fall in the outer cells
-    (the report's rule; every speed above pi/8 rad/s looks alike)."""
+    """Nearest-centre discretisation (the report's table): by default angle centres ``-pi/2 ..
+    pi/2`` rad and velocity centres ``-pi/4, 0, pi/4`` rad/s, 225 cells; values beyond the outer
+    centres fall in the outer cells."""
 
     angle_bins: int = 5
     velocity_bins: int = 3
@@ -74,14 +69,12 @@ class StateGrid:
         """Cell centres per variable (q1, q2, dq1, dq2)."""
 
         def centres(low: float, high: float, n: int) -> tuple[float, ...]:
-            return (
-                ((low + high) / 2,)
-                if n == 1
-                else tuple(low + (high - low) * i / (n - 1) for i in range(n))
-            )
+            if n == 1:
+                return ((low + high) / 2,)
+            return tuple(low + (high - low) * i / (n - 1) for i in range(n))
 
-        a, v = centres(*self.angle_range, self.angle_bins), centres(*self.velocity_range,
-                                                                     self.velocity_bins)  # fmt: skip
+        a = centres(*self.angle_range, self.angle_bins)
+        v = centres(*self.velocity_range, self.velocity_bins)
         return (a, a, v, v)
 
     @property
@@ -93,24 +86,23 @@ class StateGrid:
         return 1
 
     def index(self, obs: Sequence[float]) -> int:
-        """Cell index of ``obs`` in ``[0, num_features)`` (:func:`grid_cell`)."""
+        """Cell index of ``obs`` in ``[0, num_features)``."""
         q1, q2, v1, v2 = obs.tolist() if isinstance(obs, np.ndarray) else obs
         return grid_cell(q1, q2, v1, v2, self._consts)
 
     def indices(self, obs: np.ndarray) -> np.ndarray:
-        """:meth:`index` of each row of ``obs`` ``(n, 4)``, int64 ``(n,)``, compiled."""
+        """:meth:`index` of each row of ``obs`` ``(n, 4)``, int64 ``(n,)``."""
         out = np.empty(len(obs), dtype=np.int64)
         compiled(grid_rows)(np.asarray(obs, dtype=np.float64), self._consts, out)
         return out
 
     def active(self, obs: Sequence[float]) -> np.ndarray:
-        """Active feature indices, shape ``(1,)``."""
         return np.array([self.index(obs)])
 
 
 @jitable
 def tile_active(obs, low, scale, offset, extent, wrap, stride, base, out) -> None:
-    """The active tile of every tiling into ``out`` (see :class:`TileCoder`)."""
+    """The active tile of every tiling into ``out``."""
     n_tilings, n_vars = offset.shape
     for k in range(n_tilings):
         index = base[k]
@@ -127,25 +119,13 @@ def tile_active(obs, low, scale, offset, extent, wrap, stride, base, out) -> Non
 
 
 class TileCoder:
-    """Tile coding in the style of Sutton's tiles3, with dense indices (no hashing).
+    """Tile coding after Sutton's tiles3, dense: ``groups`` of ``(variables, n_tilings)``, tiling
+    ``k`` displaced by ``k * (1, 3, 5, 7)[j] / n_tilings`` of a tile; ``wrap`` variables wrap,
+    the others get one extra tile."""
 
-    ``groups`` lists ``(variables, n_tilings)``: each tiling covers a subset of the variables
-    with ``tiles[j]`` tiles across ``[low_j, high_j]``; tiling ``k`` of a group is displaced by
-    ``k * (1, 3, 5, 7)[j] / n_tilings`` of a tile along variable ``j`` (tiles3's asymmetric
-    displacement). Variables marked ``wrap`` (the angles) wrap around (tiles3's ``tileswrap``);
-    the others get one extra tile so that the displaced tilings cover the range, and values
-    beyond it fall in the edge tiles. One tile per tiling is active; each tiling owns a block of
-    ``[0, num_features)``.
-    """
-
-    def __init__(
-        self,
-        groups: Sequence[tuple[Sequence[int], int]],
-        tiles: Sequence[int],
-        low: Sequence[float],
-        high: Sequence[float],
-        wrap: Sequence[bool] = (True, True, False, False),
-    ) -> None:
+    def __init__(self, groups: Sequence[tuple[Sequence[int], int]], tiles: Sequence[int],
+                 low: Sequence[float], high: Sequence[float],
+                 wrap: Sequence[bool] = (True, True, False, False)) -> None:  # fmt: skip
         n_vars = len(tiles)
         if not (len(low) == len(high) == len(wrap) == n_vars):
             raise ValueError("tiles, low, high and wrap must have one entry per variable")
@@ -161,11 +141,8 @@ class TileCoder:
         extent = [t if w else t + 1 for t, w in zip(self.tiles, self.wrap, strict=True)]
         offsets, strides, bases, base = [], [], [], 0
         for variables, n_tilings in self.groups:
-            if (
-                not variables
-                or len(set(variables)) != len(variables)
-                or not all(0 <= v < n_vars for v in variables)
-            ):
+            distinct = len(set(variables)) == len(variables) > 0
+            if not distinct or not all(0 <= v < n_vars for v in variables):
                 raise ValueError(f"bad variable subset {variables} for {n_vars} variables")
             if n_tilings < 1:
                 raise ValueError(f"n_tilings must be >= 1, got {n_tilings} for {variables}")
@@ -186,7 +163,7 @@ class TileCoder:
                        np.array(bases, dtype=np.int64))  # fmt: skip
 
     def active(self, obs: Sequence[float]) -> np.ndarray:
-        """Indices of the active tile of every tiling, int64 ``(num_active,)``."""
+        """The active tile of every tiling, int64 ``(num_active,)``."""
         out = np.empty(self.num_active, dtype=np.int64)
         compiled(tile_active)(np.asarray(obs, dtype=np.float64), *self.tables, out)
         return out
@@ -196,17 +173,10 @@ class TileCoder:
                 f"tiles={self.tiles}, groups={self.groups})")  # fmt: skip
 
 
-def book_tile_coder(
-    space: Any,
-    tilings: int = 12,
-    subset_tilings: bool = True,
-    angle_tiles: int = 6,
-    velocity_tiles: int = 7,
-) -> TileCoder:
-    """Sutton and Barto's acrobot tile coding over the observation ``space``'s bounds: 48
-    tilings, ``tilings`` (12) over all four variables with ``angle_tiles`` (6) and
-    ``velocity_tiles`` (7) intervals and, with ``subset_tilings``, 3 for each set of three
-    variables, 2 for each pair and 3 for each single variable."""
+def book_tile_coder(space: Any, tilings: int = 12, subset_tilings: bool = True,
+                    angle_tiles: int = 6, velocity_tiles: int = 7) -> TileCoder:  # fmt: skip
+    """Sutton and Barto's acrobot tile coding over ``space``'s bounds: ``tilings`` over all four
+    variables and, with ``subset_tilings``, 3 per three variables, 2 per pair, 3 per variable."""
     groups: list[tuple[tuple[int, ...], int]] = [((0, 1, 2, 3), tilings)]
     if subset_tilings:
         for size, n in ((3, 3), (2, 2), (1, 3)):
@@ -217,8 +187,8 @@ def book_tile_coder(
 
 @dataclass(frozen=True)
 class GridConfig:
-    """The report's grid: cells per angle (centres -pi/2..pi/2), per velocity, and the
-    outermost velocity centre [rad/s]."""
+    """The report's grid: cells per angle and per velocity, the outermost velocity centre
+    [rad/s]."""
 
     angle_bins: int = 5
     velocity_bins: int = 3
@@ -237,8 +207,7 @@ class GridConfig:
 
 @dataclass(frozen=True)
 class TilesConfig:
-    """Sutton and Barto's tile coding: tilings over all four variables, the book's 36 tilings
-    over subsets of them, tiles across the circle per angle and across each velocity's range."""
+    """Sutton and Barto's tile coding (:func:`book_tile_coder`)."""
 
     tilings: int = 12
     subset_tilings: bool = True
@@ -251,9 +220,8 @@ class TilesConfig:
         check_bool("subset_tilings", self.subset_tilings)
 
     def build(self, space: Any) -> TileCoder:
-        return book_tile_coder(space, self.tilings, self.subset_tilings, self.angle_tiles,
-                               self.velocity_tiles)  # fmt: skip
+        return book_tile_coder(space, **asdict(self))
 
 
-#: The kinds of features, by name: their typed configs (with the defaults) and docs.
+#: The kinds of features, by name, with their typed configs.
 FEATURES: dict[str, type] = {"grid": GridConfig, "tiles": TilesConfig}

@@ -1,24 +1,6 @@
-"""Tabular SARSA exactly as the report's pseudocode (Sutton and Barto, section 6.4)::
-
-    Initialise Q(s, a) = 0
-    Repeat for each episode:
-        s = initial state; choose a from s, epsilon-greedy in Q
-        Repeat for each step:
-            take a, observe r, s'
-            choose a' from s', epsilon-greedy in Q
-            Q(s, a) += alpha [r + gamma Q(s', a') - Q(s, a)]
-            s, a = s', a'
-        until s is terminal
-
-Details the report leaves open: epsilon-greedy picks any of the three actions uniformly with
-probability epsilon (one draw per decision when epsilon > 0), else a greedy one with ties broken
-at random; at the goal (terminal, its values 0) the target is the reward alone; at a truncation
-(the time limit, not terminal) the update still bootstraps from ``Q(s', a')``.
-
-The decision is written once (:func:`sarsa_step`, compiled) and serves one learner
-(:class:`Sarsa`) and K learners trained in lockstep on a vector env (:class:`SarsaGroup`, learner
-``k`` exactly the single learner with seed ``seeds[k]``: the same draws, values and checkpoints).
-"""
+"""Tabular SARSA as the report's pseudocode (Sutton and Barto, section 6.4): one compiled decision
+(:func:`sarsa_step`) serves one learner (:class:`Sarsa`) and K in lockstep (:class:`SarsaGroup`,
+learner ``k`` exactly :class:`Sarsa` with seed ``seeds[k]``)."""
 
 from __future__ import annotations
 
@@ -36,39 +18,34 @@ from acrobot_mj.compiled import compiled, jitable
 
 @dataclass(frozen=True)
 class SarsaConfig:
-    """Tabular SARSA's hyperparameters (the report's): step size, discount, exploration."""
+    """Tabular SARSA's hyperparameters (the report's)."""
 
     alpha: float = 0.5
     gamma: float = 1.0
     epsilon: float = 0.001
 
     def __post_init__(self) -> None:
-        check_float("alpha", self.alpha, 0.0, 1.0)
-        if self.alpha == 0.0:
+        if not 0.0 < check_float("alpha", self.alpha, 0.0, 1.0):
             raise ValueError("alpha must be in (0, 1], got 0")
-        check_float("gamma", self.gamma, 0.0, 1.0)
-        check_float("epsilon", self.epsilon, 0.0, 1.0)
+        for name in ("gamma", "epsilon"):
+            check_float(name, getattr(self, name), 0.0, 1.0)
 
 
 @jitable
 def sarsa_step(q, s, a, reward, s2, terminated, config, block, position) -> tuple:
-    """One decision of a learner with table ``q`` ``(S, A)`` that took ``a`` in ``s``: ``a'``
-    epsilon-greedy at ``s2`` (-1 at the goal), then ``Q(s, a)`` toward ``r + gamma Q(s', a')``;
-    ``config = (alpha, gamma, epsilon)``; returns ``(a', next position of the stream)``."""
+    """``Q(s, a)`` toward ``r + gamma Q(s', a')``: ``(a' (-1 at the goal), next position)``."""
     alpha, gamma, epsilon = config
-    a2, target = -1, reward  # the goal is terminal: its values are zero, no bootstrap
+    a2, target = -1, reward  # the goal is terminal: no bootstrap
     if not terminated:
         a2, position = policy(q[s2], epsilon, block, position)
         target = reward + gamma * q[s2, a2]
-    q[s, a] += alpha * (target - q[s, a])  # the TD error, then the step toward the target
+    q[s, a] += alpha * (target - q[s, a])
     return a2, position
 
 
 @jitable
 def group_step(q, ids, s, a, rewards, s2, terminated, config, blocks, positions) -> None:
-    """:func:`sarsa_step` of learners ``ids`` (their rows of ``q`` ``(K, S, A)``, ``s``, ``a``,
-    ``blocks`` and ``positions``; the step's ``rewards``, ``s2``, ``terminated``); the next
-    actions are written into ``a``."""
+    """:func:`sarsa_step` of learners ``ids``, the next actions into ``a``."""
     for j in range(ids.shape[0]):
         i = ids[j]
         a[i], positions[i] = sarsa_step(q[i], s[i], a[i], rewards[j], s2[j], terminated[j],
@@ -78,25 +55,18 @@ def group_step(q, ids, s, a, rewards, s2, terminated, config, blocks, positions)
 
 @jitable
 def group_begin(q, ids, s, a, epsilon, blocks, positions) -> None:
-    """The first action of learners ``ids`` at their states ``s``, into ``a``."""
+    """The first actions of learners ``ids`` into ``a``."""
     for j in range(ids.shape[0]):
         i = ids[j]
         a[i], positions[i] = policy(q[i, s[i]], epsilon, blocks[i], positions[i])
 
 
 class Sarsa:
-    """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``): ``alpha`` step
-    size, ``gamma`` discount, ``epsilon`` exploration, ``seed`` of its own random stream."""
+    """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``)."""
 
-    def __init__(
-        self,
-        grid: StateGrid,
-        n_actions: int = 3,
-        alpha: float = 0.5,
-        gamma: float = 1.0,
-        epsilon: float = 0.001,
-        seed: int | np.random.SeedSequence | None = None,
-    ) -> None:
+    def __init__(self, grid: StateGrid, n_actions: int = 3, alpha: float = 0.5,
+                 gamma: float = 1.0, epsilon: float = 0.001,
+                 seed: int | np.random.SeedSequence | None = None) -> None:  # fmt: skip
         self.grid, self.n_actions = grid, n_actions
         self.config = SarsaConfig(alpha, gamma, epsilon)
         self.stream = RandomStream(seed)
@@ -107,7 +77,7 @@ class Sarsa:
 
     @property
     def q(self) -> np.ndarray:
-        """The action values, shape ``(num_states, n_actions)`` (a copy)."""
+        """The action values ``(num_states, n_actions)``, a copy."""
         return self._q.copy()
 
     def begin_episode(self, obs: Any) -> int:
@@ -119,7 +89,7 @@ class Sarsa:
         return self._a
 
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
-        """Update Q(s, a) from ``(r, s')``; return a' (None once the episode is over)."""
+        """Update Q(s, a) from ``(r, s')``; a' (None once the episode is over)."""
         if self._s < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
         s2 = -1 if terminated else self.grid.index(obs)
@@ -135,7 +105,7 @@ class Sarsa:
         return a2
 
     def greedy_action(self, obs: Any, stream: RandomStream) -> int:
-        """argmax_a Q(s, a), ties broken by ``stream`` (so evaluation leaves ours untouched)."""
+        """argmax_a Q(s, a), ties broken by ``stream``."""
         return stream.argmax(self._q[self.grid.index(obs)])
 
     def state_dict(self) -> dict[str, np.ndarray]:
@@ -148,30 +118,25 @@ class Sarsa:
 
 
 class SarsaGroup:
-    """``len(seeds)`` independent tabular SARSA learners over one grid, stepped together (the
-    report's learner, lockstep on a vector env): learner ``k`` is :class:`Sarsa` with seed
-    ``seeds[k]``. Methods take ``ids``, the learners concerned (sorted, no repeats), and their
-    rows of observations, rewards and flags."""
+    """``len(seeds)`` tabular SARSA learners over one grid stepped together, learner ``k``
+    :class:`Sarsa` with seed ``seeds[k]``; methods take ``ids`` (sorted, no repeats) and rows."""
 
     def __init__(self, grid: StateGrid, config: SarsaConfig, seeds: Sequence[int], n_actions=3):
         self.grid, self.config, k = grid, config, len(seeds)
         self.q = np.zeros((k, grid.num_features, n_actions))
         self.streams = [RandomStream(int(seed)) for seed in seeds]
-        # The streams' blocks side by side (each at most a block and one draw long).
         self.blocks = np.zeros((k, BLOCK + 2))
         self.lengths, self.positions = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
         self.s, self.a = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
         self._rates = (config.alpha, config.gamma, config.epsilon)
 
     def _reserve(self, ids: np.ndarray) -> None:
-        """Two unread draws for each of learners ``ids`` (as :meth:`RandomStream.reserve`)."""
         for i in ids[self.lengths[ids] - self.positions[ids] < 2].tolist():
             stream = self._stream(i)
             stream.reserve(2)
             self._store(i, stream)
 
     def _stream(self, i: int) -> RandomStream:
-        """Learner ``i``'s stream, its block and position as the group has them."""
         stream = self.streams[i]
         stream.block = self.blocks[i, : self.lengths[i]].copy()
         stream.position = int(self.positions[i])
@@ -190,16 +155,9 @@ class SarsaGroup:
                               self.positions)  # fmt: skip
         return self.a[ids]
 
-    def learn(
-        self,
-        ids: np.ndarray,
-        rewards: np.ndarray,
-        obs: np.ndarray,
-        terminated: np.ndarray,
-        truncated: np.ndarray,
-    ) -> np.ndarray:
-        """One SARSA update per learner in ``ids``; their next actions (-1 where the episode
-        ended)."""
+    def learn(self, ids: np.ndarray, rewards: np.ndarray, obs: np.ndarray,
+              terminated: np.ndarray, truncated: np.ndarray) -> np.ndarray:  # fmt: skip
+        """One update per learner in ``ids``; their next actions (-1 where the episode ended)."""
         s2 = self.grid.indices(obs)
         s2[terminated] = -1
         self._reserve(ids)
@@ -209,11 +167,9 @@ class SarsaGroup:
         return np.where(terminated | truncated, -1, self.a[ids])
 
     def state_dict(self, k: int) -> dict[str, np.ndarray]:
-        """Learner ``k``'s state in :class:`Sarsa`'s format."""
         return {"q": self.q[k].copy(), **self._stream(k).state_dict(prefix="stream.")}
 
     def load_state(self, k: int, state: dict[str, np.ndarray]) -> None:
-        """Give learner ``k`` a state in :class:`Sarsa`'s format (from its checkpoint)."""
         q = checked_values(state, "q", self.q.shape[1:])
         stream = self.streams[k]
         stream.load_state_dict(state, prefix="stream.")

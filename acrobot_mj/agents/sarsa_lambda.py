@@ -1,20 +1,6 @@
-"""Linear Sarsa(lambda) over binary features (Sutton and Barto, 2nd ed., section 12.7)::
-
-    Q(s, a) = sum of w[a, i] over the active features i of s
-    per step, with delta = r - Q(s, a):
-        z[a, i] = 1 (replacing) or z[a, i] += 1 (accumulating) for the active features of s
-        if s' is terminal:  w += alpha delta z; the episode ends
-        choose a' epsilon-greedy in Q(s', .);  delta += gamma Q(s', a')
-        w += alpha delta z;  z *= gamma lambda
-
-With the report's grid (one active feature) and lambda = 0 this is tabular SARSA, with the same
-random draws. Traces are sparse: the (action, feature) pairs touched in the episode, those that
-decay below ``trace_cutoff`` dropped (Sutton's own code drops them below 0.01; 0 keeps all).
-
-A decision is one compiled call (:func:`decide`); sums of weights follow numpy's pairwise order
-and every update numpy's order of operations (no fast-math), so the numbers are those of the
-same rule in numpy, and run uncompiled where numba cannot load.
-"""
+"""Linear Sarsa(lambda) over binary features (Sutton and Barto, 2nd ed., section 12.7), with
+sparse traces (those below ``trace_cutoff`` dropped). A decision is one compiled call
+(:func:`decide`) whose sums and updates follow numpy's order of operations."""
 
 from __future__ import annotations
 
@@ -36,9 +22,7 @@ PAIRWISE_BLOCK = 128
 
 @dataclass(frozen=True)
 class SarsaLambdaConfig:
-    """Sarsa(lambda)'s hyperparameters (the book's): step size per weight (0.2 / 48 tilings),
-    discount, exploration, trace decay, ``replacing`` or ``accumulating`` traces, and the trace
-    cutoff (0 keeps every trace: exact)."""
+    """Sarsa(lambda)'s hyperparameters (the book's); a ``trace_cutoff`` of 0 keeps every trace."""
 
     alpha: float = 0.2 / 48
     gamma: float = 1.0
@@ -60,7 +44,7 @@ class SarsaLambdaConfig:
 
 @jitable
 def pairwise_sum(values, n) -> float:
-    """The sum of ``values[:n]`` in numpy's pairwise order (n up to 128: one block)."""
+    """The sum of ``values[:n]`` in numpy's pairwise order (n up to 128)."""
     if n < 8:
         total = 0.0
         for i in range(n):
@@ -90,27 +74,21 @@ def action_values(w, active, num_features, gathered, out) -> None:
 
 @jitable
 def decide(w, a, active, following, outcome, traces, count, settings, stream, scratch) -> tuple:
-    """One Sarsa(lambda) decision of a learner that took ``a`` at the ``active`` features:
-    ``outcome = (reward, terminated, truncated)``, ``following`` the next state's features.
-
-    ``traces = (pairs, values, position, undo pairs, undo values)``: the live traces, each
-    pair's place among them (-1: none), and the log of each newly traced weight's value before
-    the episode changed it (``count = (traces, logged)``; logging off where the log is empty);
-    ``settings = (alpha, gamma, gamma * lambda, cutoff, epsilon, num_features, replacing)``;
-    ``stream = (block, position)``; ``scratch = (gathered, q)``.
-
-    Returns ``(a', traces, logged, position, delta)``: ``a'`` -1 once the episode is over, -2
-    when the TD error ``delta`` is not a finite number (nothing updated)."""
+    """One decision after ``a`` at the ``active`` features; ``following``: the next state's.
+    ``traces = (pairs, values, place, undo pairs, undo values)``: the live traces, each weight's
+    place among them (-1: none) and the log of newly traced weights' old values (off where
+    empty). Returns ``(a', traces, logged, position, delta)``, ``a'`` -1 once the episode is
+    over, -2 if ``delta`` is not finite (nothing updated)."""
     reward, terminated, truncated = outcome
     pairs, values, place, undo_pairs, undo_values = traces
     n, logged = count
     alpha, gamma, factor, cutoff, epsilon, num_features, replacing = settings
     gathered, q = scratch
     block, position = stream
-    for i in range(active.size):  # the TD error's first part, r - Q(s, a)
+    for i in range(active.size):  # delta = r - Q(s, a)
         gathered[i] = w[a * num_features + active[i]]
     delta = reward - pairwise_sum(gathered, active.size)
-    for i in range(active.size):  # mark (s, a): known traces first, then new ones in order
+    for i in range(active.size):  # mark (s, a): known traces first, then new ones
         at = place[a * num_features + active[i]]
         if at >= 0:
             values[at] = 1.0 if replacing else values[at] + 1.0
@@ -123,14 +101,14 @@ def decide(w, a, active, following, outcome, traces, count, settings, stream, sc
             place[pair], pairs[n], values[n] = n, pair, 1.0
             n += 1
     a2 = -1
-    if not terminated:  # bootstrap from Q(s', a'), a' epsilon-greedy
+    if not terminated:
         action_values(w, following, num_features, gathered, q)
         a2, position = policy(q, epsilon, block, position)
         delta = delta + gamma * q[a2]
     if not -math.inf < delta < math.inf:
         return -2, n, logged, position, delta
     step, kept = alpha * delta, 0
-    for i in range(n):  # w += alpha delta z, then z *= gamma lambda, small traces dropped
+    for i in range(n):  # w += alpha delta z, then z *= gamma lambda
         pair = pairs[i]
         w[pair] += step * values[i]
         if terminated or truncated:
@@ -141,47 +119,31 @@ def decide(w, a, active, following, outcome, traces, count, settings, stream, sc
             kept += 1
         else:
             place[pair] = -1
-    return (
-        (a2 if not truncated else -1),
-        (n if terminated or truncated else kept),
-        logged,
-        position,
-        delta,
-    )
+    if terminated or truncated:
+        return -1, n, logged, position, delta
+    return a2, kept, logged, position, delta
 
 
 @jitable
 def clear(pairs, place, n) -> None:
-    """Drop every trace (the start of an episode)."""
     for i in range(n):
         place[pairs[i]] = -1
 
 
 @jitable
 def rewind(w, undo_pairs, undo_values, logged) -> None:
-    """Undo the log on ``w``, latest entry first: the weights as they were when it began."""
+    """Undo the log on ``w``, latest entry first."""
     for u in range(logged - 1, -1, -1):
         w[undo_pairs[u]] = undo_values[u]
 
 
 class SarsaLambda:
-    """Sarsa(lambda) with linear function approximation over binary ``features`` (``active(obs)``
-    and ``num_features``: a StateGrid, a TileCoder or your own); the hyperparameters are
-    :class:`SarsaLambdaConfig`'s; ``seed`` seeds the agent's own random stream."""
+    """Sarsa(lambda) over ``features`` (``active(obs)``, ``num_features``, ``num_active``)."""
 
-    def __init__(
-        self,
-        features: Any,
-        n_actions: int = 3,
-        *,
-        alpha: float = 0.2 / 48,
-        gamma: float = 1.0,
-        lam: float = 0.9,
-        epsilon: float = 0.0,
-        traces: str = "replacing",
-        trace_cutoff: float = 1e-3,
-        seed: int | np.random.SeedSequence | None = None,
-    ) -> None:
+    def __init__(self, features: Any, n_actions: int = 3, *, alpha: float = 0.2 / 48,
+                 gamma: float = 1.0, lam: float = 0.9, epsilon: float = 0.0,
+                 traces: str = "replacing", trace_cutoff: float = 1e-3,
+                 seed: int | np.random.SeedSequence | None = None) -> None:  # fmt: skip
         self.config = SarsaLambdaConfig(alpha, gamma, epsilon, lam, traces, trace_cutoff)
         if features.num_active > PAIRWISE_BLOCK:
             raise ValueError(f"Sarsa(lambda) sums at most {PAIRWISE_BLOCK} active features "
@@ -190,12 +152,10 @@ class SarsaLambda:
         self.num_features = features.num_features
         self.stream = RandomStream(seed)
         self._w = np.zeros(n_actions * self.num_features)  # w[a, i] at a * num_features + i
-        # Room for the live traces, grown as needed (with lambda 0.9 and the cutoff 1e-3 a trace
-        # lives 66 steps: about 3,200 of 48 tilings), not one per weight.
         room = min(self._w.size, 64 * features.num_active)
         self._pairs, self._values = np.zeros(room, dtype=np.int64), np.zeros(room)
         self._place = np.full(self._w.size, -1, dtype=np.int64)
-        self._undo = (np.zeros(0, dtype=np.int64), np.zeros(0))  # no log until one is asked for
+        self._undo = (np.zeros(0, dtype=np.int64), np.zeros(0))  # no log until asked for
         self._count = self._logged = 0
         self._a, self._active = -1, np.zeros(0, dtype=np.int64)
         self._scratch = (np.zeros(features.num_active), np.zeros(n_actions))
@@ -211,18 +171,17 @@ class SarsaLambda:
 
     @property
     def w(self) -> np.ndarray:
-        """The weights, shape ``(n_actions, num_features)`` (a view)."""
+        """The weights ``(n_actions, num_features)``, a view."""
         return self._w.reshape(self.n_actions, self.num_features)
 
     @property
     def traces(self) -> np.ndarray:
-        """The eligibility traces, dense, shape ``(n_actions, num_features)`` (a copy)."""
+        """The eligibility traces, dense ``(n_actions, num_features)``."""
         z = np.zeros(self._w.size)
         z[self._pairs[: self._count]] = self._values[: self._count]
         return z.reshape(self.n_actions, self.num_features)
 
     def q_values(self, obs: Any) -> np.ndarray:
-        """Q(s, a) for every action at ``obs``."""
         return self._values_at(self.features.active(obs))
 
     def _values_at(self, active: np.ndarray) -> np.ndarray:
@@ -244,7 +203,7 @@ class SarsaLambda:
         return self._a
 
     def learn(self, reward: float, obs: Any, terminated: bool, truncated: bool) -> int | None:
-        """One Sarsa(lambda) step from ``(r, s')``; return a' (None once the episode is over)."""
+        """One step from ``(r, s')``; a' (None once the episode is over)."""
         if self._a < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
         following = self._active if terminated else self.features.active(obs)
@@ -264,7 +223,6 @@ class SarsaLambda:
         return None if a2 < 0 else a2
 
     def _make_room(self) -> None:
-        """Room for this decision's new traces (and their log), doubled where needed."""
         need = self._count + self.features.num_active
         if need > len(self._pairs):
             room = min(self._w.size, max(2 * len(self._pairs), need))
@@ -277,11 +235,11 @@ class SarsaLambda:
                                for u in self._undo)  # fmt: skip
 
     def greedy_action(self, obs: Any, stream: RandomStream) -> int:
-        """argmax_a Q(s, a), ties broken by ``stream`` (so evaluation leaves ours untouched)."""
+        """argmax_a Q(s, a), ties broken by ``stream``."""
         return stream.argmax(self.q_values(obs))
 
     def state_dict(self) -> dict[str, np.ndarray]:
-        """Weights and random stream (traces are empty between episodes)."""
+        """Weights and random stream (no traces between episodes)."""
         return {"w": self.w.copy(), **self.stream.state_dict(prefix="stream.")}
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -290,18 +248,16 @@ class SarsaLambda:
         self._w = w.ravel().copy()
         compiled(clear)(self._pairs, self._place, self._count)
         self._count, self._logged = 0, 0
-        self._begun += 2  # a state asked for before the load is gone: say so if called
+        self._begun += 2  # a state asked for before the load is gone
         self._stream_at_start = self.stream.position_now()
 
     def checkpoint_state(self) -> Callable[[], dict[str, np.ndarray]]:
-        """Between episodes: a function that gives the state as it is now, if called before the
-        episode after the next one begins (else RuntimeError), rebuilt then from the weights
-        and the log of what the episode begun since changed (no copy of the weights after
-        every episode: 10 MB for the tuned tiles)."""
+        """Between episodes: a function giving the state as it is now until the episode after
+        the next begins (then RuntimeError), rebuilt from the weights and the undo log."""
         if self._a >= 0:
             raise RuntimeError("checkpoint_state() is for between episodes: one is in progress")
         begun = self._begun
-        if not self._undo[0].size:  # the first time: keep the log from the next episode on
+        if not self._undo[0].size:  # start the log
             room = min(self._w.size, 64 * self.features.num_active)
             self._undo = (np.zeros(room, dtype=np.int64), np.zeros(room))
 

@@ -1,6 +1,5 @@
 """Command line: ``acrobot-mj train | evaluate | render | validate | balance | bench | sweep |
-curves | demo | params``. A thin layer: each command parses its arguments and calls library
-functions (:mod:`.learning`, :mod:`.tools`)."""
+curves | demo | params``. Each command parses its arguments and calls library functions."""
 
 from __future__ import annotations
 
@@ -19,18 +18,13 @@ from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import CheckpointError
 
-COMMANDS = (
-    learning.add_train,
-    learning.add_evaluate,
-    tools.add_render,
-    tools.add_validate,
-    tools.add_balance,
-    learning.add_sweep,
-    learning.add_curves,
-    tools.add_bench,
-    tools.add_demo,
-    tools.add_params,
-)
+COMMANDS = (learning.add_train, learning.add_evaluate, tools.add_render, tools.add_validate,
+            tools.add_balance, learning.add_sweep, learning.add_curves, tools.add_bench,
+            tools.add_demo, tools.add_params)  # fmt: skip
+#: What a command reports in one line: ImportError is an optional extra not installed (the
+#: message names it), ArithmeticError a learner that diverged.
+ERRORS = (ValueError, TypeError, OSError, ImportError, ArithmeticError, CheckpointError,
+          GLBackendError, RunDirectoryBusy)  # fmt: skip
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -57,16 +51,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, _terminate)
     try:
         args.func(args)
-    except (
-        ValueError,
-        TypeError,
-        OSError,
-        ImportError,  # an optional extra not installed (the message names it)
-        ArithmeticError,  # a learner that diverged
-        CheckpointError,
-        GLBackendError,
-        RunDirectoryBusy,
-    ) as error:
+    except ERRORS as error:
         if os.environ.get("ACROBOT_MJ_DEBUG"):
             raise  # the whole traceback, for bug reports
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")

@@ -1,4 +1,4 @@
-"""``python -m acrobot_mj.cli``: the same as the ``acrobot-mj`` command."""
+"""``python -m acrobot_mj.cli``: the ``acrobot-mj`` command."""
 
 import sys
 

@@ -1,4 +1,4 @@
-"""``acrobot-mj train | evaluate | sweep | curves``: parsers and handlers (library calls only)."""
+"""``acrobot-mj train | evaluate | sweep | curves``: parsers and handlers."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.cli.tools import Commands, add_progress, positive_int, seed, show_progress
+from acrobot_mj.cli import tools
+from acrobot_mj.cli.tools import add_command, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
@@ -30,49 +31,45 @@ PLAN_OPTIONS = (
 )
 
 
-def add_train(commands: Commands) -> None:
-    p = commands.add_parser(
-        "train",
-        help="train a learner, write run.json, checkpoint and learning curve",
-        description="Train a preset's learner. Every setting can be overridden with --FIELD "
-        "VALUE (floats may be fractions, e.g. --alpha 0.2/48).",
-    )
+def _flag(name: str) -> str:
+    return f"--{name.replace('_', '-')}"
+
+
+def add_train(commands: tools.Commands) -> None:
+    p = add_command(commands, "train", train_command,
+                    "train a learner, write run.json, checkpoint and learning curve",
+                    "Train a preset's learner. Every setting can be overridden with --FIELD VALUE "
+                    "(floats may be fractions, e.g. --alpha 0.2/48).")  # fmt: skip
     p.add_argument("--preset", choices=sorted(PRESETS), default="report")
     p.add_argument("--seed", type=seed, default=0, help="seed (the first one with --seeds)")
-    p.add_argument("--seeds", type=positive_int,
-                   help="train K seeds and write summary.json; tabular SARSA runs them in "
-                   "lockstep on one batched vector env from 25 a process, else one per process")  # fmt: skip
-    p.add_argument("--jobs", type=positive_int, default=1,
-                   help="processes for --seeds (one seed at a time each, or a lockstep group)")  # fmt: skip
+    p.add_argument("--seeds", type=positive_int, help="train K seeds, write summary.json")
+    p.add_argument("--jobs", type=positive_int, default=1, help="processes for --seeds")
     p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
-                   help="with --seeds: train the seeds together on one vector env (tabular "
-                   "SARSA; the same runs); default: from 25 seeds a process")  # fmt: skip
+                   help="with --seeds: train them together on one vector env (tabular SARSA, "
+                   "the same runs); default: from 25 seeds a process")  # fmt: skip
     p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     add_progress(p)
-    p.add_argument("--tensorboard", metavar="DIR",
-                   help="write each training episode's length, return and success to DIR for "
-                   "TensorBoard (needs the tensorboard extra)")  # fmt: skip
+    p.add_argument("--tensorboard", metavar="DIR", help="episode scalars to DIR for TensorBoard")
     group = p.add_argument_group("settings (defaults: the preset's)")
     for name in field_names():
-        group.add_argument(f"--{name.replace('_', '-')}", dest=name, metavar="VALUE")
+        group.add_argument(_flag(name), dest=name, metavar="VALUE")
     for name in RETIRED:
-        group.add_argument(f"--{name.replace('_', '-')}", dest=name, help=argparse.SUPPRESS)
+        group.add_argument(_flag(name), dest=name, help=argparse.SUPPRESS)
     plan = p.add_argument_group("balance preset (identify, plan, TVLQR)")
     for flag, dest, text in PLAN_OPTIONS:
         plan.add_argument(flag, dest=f"plan_{dest}", metavar="VALUE", help=text)
     plan.add_argument("--discrete", dest="plan_discrete", action="store_true",
-                      help="{-1, 0, +1} N m torques (sigma-delta) instead of continuous ones")  # fmt: skip
-    p.set_defaults(func=train_command)
+                      help="{-1, 0, +1} N m torques (sigma-delta), not continuous")  # fmt: skip
 
 
 def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig:
     """The preset with the settings given on the command line."""
-    given = [name for name in field_names() if getattr(args, name) is not None]
     for name in RETIRED:
         if getattr(args, name) is not None:
-            raise ValueError(f"--{name.replace('_', '-')} was removed: {RETIRED[name]}")
+            raise ValueError(f"{_flag(name)} was removed: {RETIRED[name]}")
+    given = [name for name in field_names() if getattr(args, name) is not None]
     plan = [flag for flag, dest, _ in PLAN_OPTIONS if getattr(args, f"plan_{dest}") is not None]
     plan += ["--discrete"] if args.plan_discrete else []
     preset = PRESETS[args.preset]
@@ -80,23 +77,20 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig:
         if plan:
             raise ValueError(f"{', '.join(plan)}: only the balance preset takes these")
         return preset.replace(**{name: parse_value(name, getattr(args, name)) for name in given})
-    refused = [name for name in given if name != "identify_decisions"]
+    refused = [_flag(name) for name in given if name != "identify_decisions"]
     if refused:
-        flags = ", ".join(f"--{name.replace('_', '-')}" for name in refused)
-        raise ValueError(f"{flags}: not a setting of the balance preset (a planner, not a "
-                         "tabular or tile-coded learner)")  # fmt: skip
+        raise ValueError(f"{', '.join(refused)}: not a setting of the balance preset (a planner, "
+                         "not a tabular or tile-coded learner)")  # fmt: skip
     overrides: dict[str, Any] = {"discrete": True} if args.plan_discrete else {}
-    if args.identify_decisions is not None:
-        overrides["identify_decisions"] = _number(
-            args.identify_decisions, int, "--identify-decisions"
-        )
-    for flag, dest, _ in PLAN_OPTIONS:
-        text = getattr(args, f"plan_{dest}")
+    texts = {"identify_decisions": args.identify_decisions}
+    texts.update((dest, getattr(args, f"plan_{dest}")) for _, dest, _ in PLAN_OPTIONS)
+    for dest, text in texts.items():
         if text is not None and dest in ("horizons", "targets"):
             parts = text.split(":" if dest == "horizons" else ",")
-            overrides[dest] = tuple(_number(v, int, flag) for v in parts)
+            overrides[dest] = tuple(_number(v, int, _flag(dest)) for v in parts)
         elif text is not None:
-            overrides[dest] = _number(text, float, flag)
+            kind = int if dest == "identify_decisions" else float
+            overrides[dest] = _number(text, kind, _flag(dest))
     return preset.replace(**overrides)
 
 
@@ -131,8 +125,7 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     task = get_task(config.task)
     pop = record.get("population")
     kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
-    greedy = record["greedy_from_rest"]
-    label = task.success_label.lower()
+    greedy, label = record["greedy_from_rest"], task.success_label.lower()
     words = f"{label if greedy['success'] else 'no ' + label} in {greedy['length']} decisions"
     if task.score.quantity == "return":
         words += f", return {greedy['return']:g} {task.score.unit}"
@@ -152,8 +145,8 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
                           progress=progress, overwrite=args.force, tensorboard=args.tensorboard,
                           lockstep=args.lockstep)  # fmt: skip
     task = get_task(config.task)
-    score = task.score
-    g, s = summary[f"greedy_from_rest_{score.quantity}"], summary["successes"]
+    score, s = task.score, summary["successes"]
+    g = summary[f"greedy_from_rest_{score.quantity}"]
     print(
         f"{len(seeds)} seeds -> {out}: successes per run median {s['median']:g} "
         f"(min {s['min']:g}, max {s['max']:g}); greedy {score.unit} from rest median "
@@ -183,24 +176,21 @@ def plan_words(record: dict[str, Any]) -> str:
     )
 
 
-def add_evaluate(commands: Commands) -> None:
-    p = commands.add_parser(
-        "evaluate",
-        help="greedy episodes of a trained run from held-out starts -> eval.json",
-        description="Greedy episodes from held-out starts (rest plus U(-S, S) on each angle and "
-        "velocity, drawn with a seed no training uses), and apart from rest. eval.json holds "
-        "every episode's start state and actions, so any simulator can replay it.",
-    )
+def add_evaluate(commands: tools.Commands) -> None:
+    p = add_command(commands, "evaluate", evaluate_command,
+                    "greedy episodes of a trained run from held-out starts -> eval.json",
+                    "Greedy episodes from held-out starts (rest plus U(-S, S) on each angle and "
+                    "velocity, drawn with a seed no training uses), and apart from rest. "
+                    "eval.json holds every episode's start state and actions, to replay "
+                    "anywhere.")  # fmt: skip
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
     p.add_argument("--episodes", type=positive_int, help=f"default {DEFAULT.episodes}")
     p.add_argument("--start-noise", type=float, metavar="S",
                    help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a "
                    "balance-preset run 0.01)")  # fmt: skip
     p.add_argument("--seed", type=seed, help="seed of the held-out starts (default 0)")
-    p.add_argument("--minima", action="store_true",
-                   help="compute the per-start minimum-time references (a beam search, about 4 "
-                   "s per start) where none are stored for this protocol and env")  # fmt: skip
-    p.set_defaults(func=evaluate_command)
+    p.add_argument("--minima", action="store_true", help="compute per-start minimum-time "
+                   "references (beam search, ~4 s a start) where none are stored")  # fmt: skip
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
@@ -212,15 +202,14 @@ def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def evaluation_words(record: dict[str, Any]) -> str:
-    """One line on an evaluation record: held-out scores (and the task's measures), against
-    the minima, and from rest."""
+    """One line on an evaluation record: held-out scores, against the minima, and from rest."""
     summary, rest = record["summary"], record["rest"]
     if "balanced" in summary:  # the balance task's measures
         hold, noise = summary["hold_seconds"], record["protocol"]["start_noise"]
+        held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
         return (f"{summary['episodes']} held-out starts (U(-{noise:g}, {noise:g})): "
                 f"{summary['balanced']} ended balanced, hold median {hold['median']:g} s (min "
-                f"{hold['min']:g} s); from rest: "
-                + ("balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"))  # fmt: skip
+                f"{hold['min']:g} s); from rest: {held}")  # fmt: skip
     task = get_task(record["config"]["task"])
     quantity, unit = task.score.quantity, task.score.unit
     values = summary[quantity]
@@ -235,14 +224,13 @@ def evaluation_words(record: dict[str, Any]) -> str:
     return words + ("" if rest["success"] else " (no goal)")
 
 
-def add_sweep(commands: Commands) -> None:
-    p = commands.add_parser(
-        "sweep",
-        help="seeds x a grid of hyperparameters from a TOML file, resumable",
-        description="Run every trial (grid point x seed) of SWEEP_FILE that has no run.json yet, "
-        "then summarise. Local: lockstep for tabular SARSA, processes otherwise. Ray: one task "
-        "per trial on ray.init(address=...) (a local instance without --address).",
-    )
+def add_sweep(commands: tools.Commands) -> None:
+    p = add_command(commands, "sweep", sweep_command,
+                    "seeds x a grid of hyperparameters from a TOML file, resumable",
+                    "Run every trial (grid point x seed) of SWEEP_FILE without a run.json, then "
+                    "summarise. Local: lockstep for tabular SARSA, processes otherwise. Ray: one "
+                    "task per trial on ray.init(address=...) (a local Ray without "
+                    "--address).")  # fmt: skip
     p.add_argument("sweep_file", help="the sweep's TOML file")
     p.add_argument("--backend", choices=("local", "ray"), default="local")
     p.add_argument("--address", help="Ray cluster address (e.g. auto or ray://host:10001)")
@@ -250,11 +238,9 @@ def add_sweep(commands: Commands) -> None:
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
     p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
-                   help="local: each grid point's seeds together on one vector env, in this "
-                   "process (tabular SARSA; the same records); default: points with 25 seeds "
-                   "left or more")  # fmt: skip
+                   help="local: each grid point's seeds together on one vector env (tabular "
+                   "SARSA, the same records); default: points with 25+ seeds left")  # fmt: skip
     add_progress(p)
-    p.set_defaults(func=sweep_command)
 
 
 def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
@@ -269,17 +255,14 @@ def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
     return summary
 
 
-def add_curves(commands: Commands) -> None:
-    p = commands.add_parser("curves", help="learning curves of several runs, one figure")
+def add_curves(commands: tools.Commands) -> None:
+    p = add_command(commands, "curves", curves_command, "learning curves of runs, one figure")
     p.add_argument("run_dirs", nargs="+",
                    help="directories written by train: of --seeds (their median and band) or "
                    "one run's (a population's learner_K among them)")  # fmt: skip
     p.add_argument("--out", required=True, help="the figure: .png, .svg or .pdf (by its suffix)")
     p.add_argument("--title", default="Learning curves")
-    p.add_argument("--minimum", action="store_true",
-                   help="draw the task's reference (the best known minimum: 63 decisions at "
-                   "frame_skip 4)")  # fmt: skip
-    p.set_defaults(func=curves_command)
+    p.add_argument("--minimum", action="store_true", help="draw the task's best known minimum")
 
 
 def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:

@@ -1,5 +1,5 @@
-"""``acrobot-mj render | validate | balance | bench | demo | params``: parsers and handlers, and
-what every command shares (argument types, the progress flag, writing a command's record)."""
+"""``acrobot-mj render | validate | balance | bench | demo | params``, and what every command
+shares (argument types, the progress flag, writing a command's record)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import argparse
 import importlib.util
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -23,9 +24,18 @@ from acrobot_mj.train.records import History
 
 
 class Commands(Protocol):
-    """What ``ArgumentParser.add_subparsers()`` returns: each command adds its parser to it."""
+    """What ``ArgumentParser.add_subparsers()`` returns."""
 
     def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser: ...
+
+
+def add_command(
+    commands: Commands, name: str, func: Callable, text: str, description: str | None = None
+) -> argparse.ArgumentParser:
+    """Command ``name`` (``text``: its help) that runs ``func(args)``."""
+    p = commands.add_parser(name, help=text, description=description)
+    p.set_defaults(func=func)
+    return p
 
 
 def positive_int(text: str) -> int:
@@ -37,7 +47,7 @@ def positive_int(text: str) -> int:
 
 
 def seed(text: str) -> int:
-    """An argparse type: a seed, an integer >= 0 (numpy's seeding takes no other)."""
+    """An argparse type: an integer >= 0 (numpy's seeding takes no other)."""
     value = int(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"a seed must be an integer >= 0, got {value}")
@@ -45,17 +55,11 @@ def seed(text: str) -> int:
 
 
 def add_progress(p: argparse.ArgumentParser) -> None:
-    """``--progress/--no-progress``: a bar on stderr, by default when stderr is a terminal."""
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: when stderr is a terminal)",
-    )
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction,
+                   help="progress bar on stderr (default: when stderr is a terminal)")  # fmt: skip
 
 
 def show_progress(args: argparse.Namespace) -> bool:
-    """Whether to show a bar: as asked, else when stderr is a terminal."""
     return sys.stderr.isatty() if args.progress is None else args.progress
 
 
@@ -67,11 +71,10 @@ def write_record(path: str | None, data: dict[str, Any]) -> None:
 
 
 def add_render(commands: Commands) -> None:
-    p = commands.add_parser(
-        "render",
-        help="MP4 of a trained run's greedy policy, or of a fixed policy",
-        description="Render an episode from rest to MP4 at real time (EGL or OSMesa, headless).",
-    )
+    p = add_command(commands, "render", render_command,
+                    "MP4 of a trained run's greedy policy, or of a fixed policy",
+                    "Render an episode from rest to MP4 at real time (EGL or OSMesa, "
+                    "headless).")  # fmt: skip
     p.add_argument("run_dir", nargs="?", help="a directory written by acrobot-mj train")
     p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
     p.add_argument("--out", required=True, help="the .mp4 file (a .json record goes beside it)")
@@ -82,14 +85,9 @@ def add_render(commands: Commands) -> None:
     p.add_argument("--height", type=positive_int, default=480)
     p.add_argument("--camera", default="side", help="a camera of the model: side or wide")
     p.add_argument("--strip", metavar="PNG", help="also write a strip of 6 frames")
-    p.add_argument(
-        "--captions",
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help="time, torque and tip height on each frame",
-    )
+    p.add_argument("--captions", action=argparse.BooleanOptionalAction, default=True,
+                   help="time, torque and tip height on each frame")  # fmt: skip
     add_progress(p)
-    p.set_defaults(func=render_command)
 
 
 def render_command(args: argparse.Namespace) -> dict[str, Any]:
@@ -104,21 +102,17 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
     if "balanced" in record:  # the balance task
         outcome = "stays balanced" if record["balanced"] else "does not stay balanced"
-    print(
-        f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
-        f"{outcome} in {record['length']} actions"
-    )
+    print(f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
+          f"{outcome} in {record['length']} actions")  # fmt: skip
     return record
 
 
 def add_validate(commands: Commands) -> None:
-    p = commands.add_parser(
-        "validate", help="check the dynamics against MuJoCo; controllers, bounds, minimum time"
-    )
+    p = add_command(commands, "validate", validate_command, "check the dynamics against "
+                    "MuJoCo; controllers, bounds, minimum time")  # fmt: skip
     p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
     add_progress(p)
-    p.set_defaults(func=validate_command)
 
 
 def validate_command(args: argparse.Namespace) -> dict[str, Any]:
@@ -129,35 +123,26 @@ def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     width = max(len(what) for what, _ in rows)
     for what, value in rows:
         print(f"{what:<{width}}  {value}")
-    print(
-        f"wrote {Path(args.out) / 'validation.json'}, validation.md and "
-        f"{len(report['figures'])} figures ({report['wall_seconds']:.0f} s)"
-    )
+    print(f"wrote {Path(args.out) / 'validation.json'}, validation.md and "
+          f"{len(report['figures'])} figures ({report['wall_seconds']:.0f} s)")  # fmt: skip
     return report
 
 
 def add_bench(commands: Commands) -> None:
-    p = commands.add_parser(
-        "bench", help="steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling"
-    )
+    p = add_command(commands, "bench", bench_command, "steps per second against "
+                    "Gymnasium's Acrobot-v1 and MuJoCo's ceiling")  # fmt: skip
     p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
-    p.add_argument(
-        "--peer-python",
-        metavar="PATH",
-        help="a Python with gymnax and jax (a peer env: see docs/speed.md) for the peers' rows; "
-        "default $ACROBOT_MJ_PEER_PYTHON, else those rows are skipped",
-    )
-    p.set_defaults(func=bench_command)
+    p.add_argument("--peer-python", metavar="PATH",
+                   help="a Python with gymnax and jax (see docs/speed.md) for the peers' rows; "
+                   "default $ACROBOT_MJ_PEER_PYTHON, else those rows are skipped")  # fmt: skip
 
 
 def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     suite_path = Path(__file__).resolve().parents[2] / "benchmarks" / "suite.py"
     if not suite_path.is_file():
-        raise FileNotFoundError(
-            f"acrobot-mj bench runs the benchmarks of a source checkout; "
-            f"{suite_path} is not there (clone the repository)"
-        )
+        raise FileNotFoundError(f"acrobot-mj bench runs the benchmarks of a source checkout; "
+                                f"{suite_path} is not there (clone the repository)")  # fmt: skip
     spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
     suite = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(suite)
@@ -169,20 +154,15 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def add_demo(commands: Commands) -> None:
-    p = commands.add_parser("demo", help="roll out a fixed policy from rest, print the states")
-    p.add_argument(
-        "--policy",
-        choices=POLICY_NAMES,
-        default="pump",
-        help="pump: tau = -sign(dq1); zero: no torque; random: uniform (seeded)",
-    )
+    p = add_command(commands, "demo", demo, "roll out a fixed policy from rest, print the states")
+    p.add_argument("--policy", choices=POLICY_NAMES, default="pump", help="pump: tau = "
+                   "-sign(dq1); zero: no torque; random: uniform (seeded)")  # fmt: skip
     p.add_argument("--steps", type=positive_int, default=1000, help="most actions to take")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env and the random policy")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="physics steps per action")
     p.add_argument("--integrator", choices=("euler", "rk4"), default="euler")
     p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")
     p.add_argument("--json", metavar="FILE", help="also write the run record as JSON")
-    p.set_defaults(func=demo)
 
 
 def demo(args: argparse.Namespace) -> dict[str, Any]:
@@ -190,81 +170,50 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
     env = gym.make(HeightGoal.env_id, frame_skip=args.frame_skip, integrator=args.integrator)
     states, tips = [], []
 
-    def keep(obs: Any, info: dict[str, Any], *_: Any) -> None:
+    def keep(obs: Any, info: dict[str, Any]) -> None:
         states.append(obs.tolist())
         tips.append(info["tip_height"])
 
-    def keep_step(action, obs, reward, terminated, truncated, info) -> None:
-        keep(obs, info)
-
-    policy = PolicyActor(make_policy(args.policy, args.seed))
-    episode = run_episode(env, policy, args.seed, max_steps=args.steps, on_reset=keep,
-                          on_step=keep_step)  # fmt: skip
+    episode = run_episode(env, PolicyActor(make_policy(args.policy, args.seed)), args.seed,
+                          max_steps=args.steps, on_reset=keep,
+                          on_step=lambda action, obs, *rest: keep(obs, rest[-1]))  # fmt: skip
     dt = env.unwrapped.dt
-    print(
-        f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
-        f"integrator {args.integrator}"
-    )
+    print(f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
+          f"integrator {args.integrator}")  # fmt: skip
     print(f"{'step':>5} {'t [s]':>7} {'q1':>8} {'q2':>8} {'dq1':>8} {'dq2':>8} {'tip [m]':>8}")
     for k, (state, tip) in enumerate(zip(states, tips, strict=True)):
         if k % args.every == 0 or k == episode.length:
             print(f"{k:5d} {k * dt:7.2f} " + " ".join(f"{v:8.3f}" for v in state) + f" {tip:8.3f}")
     outcome = "reached the goal" if episode.success else "did not reach the goal"
-    print(
-        f"{outcome} after {episode.length} actions ({episode.length * dt:.2f} s), "
-        f"return {episode.episode_return:g}"
-    )
+    print(f"{outcome} after {episode.length} actions ({episode.length * dt:.2f} s), "
+          f"return {episode.episode_return:g}")  # fmt: skip
     history = History()
     history.add_episode(episode)
-    record = {
-        "command": "demo",
-        "config": {k: v for k, v in vars(args).items() if k not in ("func", "json")},
-        "seed": args.seed,
-        "versions": versions(),
-        **history.to_dict(),
-        "episodes": [{**_episode_dict(episode), "states": states, "tip_heights": tips}],
-    }
+    config = {k: v for k, v in vars(args).items() if k not in ("func", "json")}
+    results = {k: getattr(episode, k) for k in ("length", "episode_return", "success", "truncated")}
+    record = {"command": "demo", "config": config, "seed": args.seed, "versions": versions(),
+              **history.to_dict(),
+              "episodes": [{**results, "states": states, "tip_heights": tips}]}  # fmt: skip
     write_record(args.json, record)
     return record
 
 
-def _episode_dict(episode: Any) -> dict[str, Any]:
-    return {
-        "length": episode.length,
-        "episode_return": episode.episode_return,
-        "success": episode.success,
-        "truncated": episode.truncated,
-    }
-
-
 def add_params(commands: Commands) -> None:
-    p = commands.add_parser("params", help="print the physical parameters, units and sources")
-    p.set_defaults(func=params_command)
-
-
-def params_command(args: argparse.Namespace) -> None:
-    """Print the physical parameters with units and sources."""
-    print(describe())
+    add_command(commands, "params", lambda args: print(describe()),
+                "print the physical parameters, units and sources")  # fmt: skip
 
 
 def add_balance(commands: Commands) -> None:
-    p = commands.add_parser(
-        "balance",
-        help="swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
-        description="Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
-        "re-checked against the dynamics; optimised with CasADi otherwise) with TVLQR, then "
-        "balance with the saturated LQR; write balance.json (every step's torque and state) "
-        "and a video.",
-    )
+    p = add_command(commands, "balance", balance_command,
+                    "swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
+                    "Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
+                    "optimised with CasADi otherwise) with TVLQR, then balance with the "
+                    "saturated LQR; write balance.json (every step's torque and state) and a "
+                    "video.")  # fmt: skip
     p.add_argument("--discrete", action="store_true", help="torques {-1, 0, +1} (sigma-delta)")
-    p.add_argument(
-        "--reserve",
-        type=float,
-        default=0.8,
-        metavar="U",
-        help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest is the "
-        "feedback's (default 0.8; 1 is the minimum-time trajectory, with none)",
-    )
+    p.add_argument("--reserve", type=float, default=0.8, metavar="U",
+                   help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest "
+                   "is the feedback's (default 0.8; 1: minimum time, no reserve)")  # fmt: skip
     p.add_argument("--hold", type=float, default=60.0, help="seconds to balance after it")
     p.add_argument("--out", default="runs/balance", help="folder for balance.json and the video")
     p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
@@ -272,7 +221,6 @@ def add_balance(commands: Commands) -> None:
     p.add_argument("--width", type=positive_int, default=480)
     p.add_argument("--height", type=positive_int, default=480)
     add_progress(p)
-    p.set_defaults(func=balance_command)
 
 
 def balance_command(args: argparse.Namespace) -> dict[str, Any]:
@@ -284,16 +232,11 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
                          progress=show_progress(args))  # fmt: skip
     trajectory = record["trajectory"]
     kind = "{-1, 0, +1}" if args.discrete else "continuous"
-    held = (
-        f"balanced for {record['hold_seconds']:.1f} s (largest error "
-        f"{record['max_error_during_hold']:.2g} rad)"
-        if record["balanced"]
-        else f"NOT balanced: held {record['hold_seconds']:.1f} s of {args.hold:g}"
-    )
-    print(
-        f"swing-up in {record['swing_up_seconds']:.2f} s along the {trajectory['source']} "
-        f"trajectory ({trajectory['steps']} steps, |u| <= {trajectory['u_max']:g} N m), "
-        f"{kind} torques; {held} -> {out / 'balance.json'}"
-        + (f", {record['video']}" if record["video"] else "")
-    )
+    held = (f"balanced for {record['hold_seconds']:.1f} s (largest error "
+            f"{record['max_error_during_hold']:.2g} rad)" if record["balanced"]
+            else f"NOT balanced: held {record['hold_seconds']:.1f} s of {args.hold:g}")  # fmt: skip
+    print(f"swing-up in {record['swing_up_seconds']:.2f} s along the {trajectory['source']} "
+          f"trajectory ({trajectory['steps']} steps, |u| <= {trajectory['u_max']:g} N m), "
+          f"{kind} torques; {held} -> {out / 'balance.json'}"
+          + (f", {record['video']}" if record["video"] else ""))  # fmt: skip
     return record

@@ -1,12 +1,6 @@
-"""System identification: the acrobot's dynamics recovered from observed transitions.
-
-The equations of motion (:mod:`acrobot_mj.physics.dynamics`) are linear in five lumped
-parameters ``theta = (a, b, c, d, e)`` (3.5, 0.5, 1.25, 14.7, 4.9 for the report's acrobot). A
-learner told this structure and the env's step (:class:`~acrobot_mj.physics.integrators.Stepping`:
-dt, steps per decision, velocity limits), but none of the values, identifies them from
-transitions ``(state, torque, next state)``: linear least squares on finite-difference
-accelerations, refined by Levenberg-Marquardt on the exact discrete map.
-"""
+"""System identification: the lumped ``theta = (a, b, c, d, e)`` from transitions ``(state,
+torque, next state)`` and the env's :class:`~acrobot_mj.physics.integrators.Stepping`: least
+squares on finite differences, refined by Levenberg-Marquardt on the exact discrete map."""
 
 from __future__ import annotations
 
@@ -31,8 +25,7 @@ def residuals(theta: Sequence[float], data: Sequence[Transition], told: Stepping
 
 
 def initial_guess(data: Sequence[Transition], told: Stepping) -> np.ndarray:
-    """Least squares on the equations, linear in theta, with accelerations and states taken by
-    finite differences over each decision (rough: a decision is 0.2 s)."""
+    """Least squares on the equations (linear in theta), accelerations by finite differences."""
     rows, rhs, span = [], [], told.dt * told.substeps
     for x, tau, x2 in data:
         q1, q2, v1, v2 = ((np.asarray(x) + np.asarray(x2)) / 2).tolist()
@@ -49,9 +42,7 @@ def initial_guess(data: Sequence[Transition], told: Stepping) -> np.ndarray:
 def identify(
     data: Sequence[Transition], told: Stepping, iterations: int = 50
 ) -> tuple[np.ndarray, float]:
-    """The lumped parameters that best predict ``data`` and the RMS prediction error [rad,
-    rad/s] (Levenberg-Marquardt from :func:`initial_guess`). Fewer than 3 transitions, or data
-    without torque, cannot fix the five values and are refused."""
+    """The lumped parameters that best predict ``data`` and the RMS error [rad, rad/s]."""
     if len(data) < 3 or not any(tau for _, tau, _ in data):
         raise ValueError("identification needs at least 3 transitions, some with torque")
     theta = initial_guess(data, told)
@@ -80,14 +71,8 @@ def identify(
 
 
 def realise(theta: Sequence[float], told: Stepping, max_torque: float = 1.0) -> AcrobotParams:
-    """Physical parameters with the dynamics of the lumped ``theta``, for the tools that take
-    :class:`AcrobotParams` (trajectory optimisation, LQR, TVLQR).
-
-    Five lumped values cannot fix nine physical ones: every choice of gauge gives the same
-    equations of motion, to rounding. The gauge is ``m1 = m2 = l1 = l2 = 1``: then ``lc2 = b``,
-    ``g = e / b``, ``I2 = c - b^2``, ``lc1 = d / g - 1`` and ``I1 = a - lc1^2 - 1 - b^2 - I2``
-    (no claim about the real acrobot's masses or lengths). A value <= 0 is refused: no physical
-    acrobot has that model."""
+    """Physical parameters with the dynamics of the lumped ``theta`` in the gauge ``m1 = m2 =
+    l1 = l2 = 1`` (five values cannot fix nine); ValueError if one comes out <= 0."""
     a, b, c, d, e = (float(v) for v in theta)
     if not (b > 0 and e > 0):
         raise ValueError(f"the identified parameters {list(theta)} have no physical acrobot")

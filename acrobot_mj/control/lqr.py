@@ -1,11 +1,6 @@
-"""Linear feedback: the exact linearisation of the env's step, infinite-horizon discrete LQR at
-upright (its saturated form and basin, and the bound no controller with |tau| <= 1 N m can
-beat), time-varying LQR along a swing-up, and sigma-delta modulation for {-1, 0, +1} torques.
-
-TVLQR runs the discrete Riccati recursion backwards along the trajectory on the exact Jacobians
-of the physics step at each ``(x_k, u_k)`` (:func:`step_jacobians`, no finite differences),
-starting from the infinite-horizon LQR's cost at upright, so the two feedbacks join without a
-seam."""
+"""Linear feedback: exact Jacobians of the env's step, discrete LQR at upright (saturated, its
+basin, and the bound no controller with |tau| <= 1 N m can beat), TVLQR along a swing-up
+(joining the LQR's cost at upright without a seam) and sigma-delta for {-1, 0, +1} torques."""
 
 from __future__ import annotations
 
@@ -19,13 +14,13 @@ from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 
+Controller = Callable[[np.ndarray], np.ndarray]
+
 
 def step_jacobians(
     x: np.ndarray, u: float = 0.0, method: str = "semi_implicit_euler", p: AcrobotParams = REPORT
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Exact Jacobians ``A`` ``(4, 4)`` and ``B`` ``(4, 1)`` of one physics step of ``method``
-    at state ``x`` and torque ``u`` [N m] (limits inactive), from the analytic continuous
-    Jacobian (no finite differences)."""
+    """Exact Jacobians ``A`` (4, 4) and ``B`` (4, 1) of one step at ``x``, torque ``u`` [N m]."""
     x, h = np.asarray(x, dtype=float), p.dt
     if method == "semi_implicit_euler":
         a_c, b_c = dynamics.linearize(x[:2], x[2:], u, p)
@@ -51,8 +46,7 @@ def step_jacobians(
 def discrete_model(
     x0: np.ndarray = UPRIGHT, frame_skip: int = 1, p: AcrobotParams = REPORT
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Exact Jacobians of the env's decision (semi-implicit Euler, ``frame_skip`` steps, the
-    torque held) at ``x0`` with zero torque."""
+    """Exact Jacobians of the env's decision of ``frame_skip`` steps at ``x0``, zero torque."""
     a, b = step_jacobians(x0, 0.0, p=p)
     a_k, b_k = np.eye(4), np.zeros((4, 1))
     for _ in range(frame_skip):
@@ -76,15 +70,13 @@ def dlqr(
 
 @dataclass
 class LQR:
-    """Saturated LQR at upright, ``tau = clip(-K (x - x*), -1, 1)`` N m (angles of ``x - x*``
-    wrapped), designed on the env's discrete model of ``p`` (the report's acrobot, or an
-    identified one)."""
+    """Saturated LQR at upright on the env's discrete model: ``clip(-K (x - x*), -1, 1)`` N m."""
 
     q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0)
     r: float = 1.0
     p: AcrobotParams = REPORT
     gain: np.ndarray = field(init=False)
-    #: The Riccati solution: the infinite-horizon cost-to-go ``x' S x`` of the error.
+    #: The Riccati solution: the cost-to-go ``x' S x`` of the error.
     cost: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
@@ -97,13 +89,9 @@ class LQR:
 
 
 def balances(
-    controller: Callable[[np.ndarray], np.ndarray],
-    starts: np.ndarray,
-    seconds: float = 20.0,
-    tolerance: float = 1e-3,
+    controller: Controller, starts: np.ndarray, seconds: float = 20.0, tolerance: float = 1e-3
 ) -> np.ndarray:
-    """For each start ``(n, 4)``: does ``controller`` bring it within ``tolerance`` of upright
-    (all four coordinates, angles wrapped) and keep it there at the end?"""
+    """For each start ``(n, 4)``: is it within ``tolerance`` of upright after ``seconds``?"""
     x = np.array(starts, dtype=float)
     for _ in range(round(seconds / REPORT.dt)):
         x = integrators.step_states(x, controller(x))
@@ -111,10 +99,9 @@ def balances(
 
 
 def q1_basin(
-    controller: Callable[[np.ndarray], np.ndarray], upper: float = 0.5, resolution: float = 1e-4
+    controller: Controller, upper: float = 0.5, resolution: float = 1e-4
 ) -> tuple[float, float]:
-    """The largest pure q1 offsets (below and above upright, at rest) from which ``controller``
-    balances, by bisection (assuming the basin along q1 is an interval)."""
+    """The largest q1 offsets [rad] below and above upright that ``controller`` balances from."""
     limits = []
     for sign in (-1.0, 1.0):
         good, bad = 0.0, upper
@@ -127,11 +114,8 @@ def q1_basin(
 
 
 def unstable_mode_bound(p: AcrobotParams = REPORT) -> dict[str, float]:
-    """The largest pure q1 offset from upright that any controller with ``|tau| <= max_torque``
-    recovers from, in the linearisation: each unstable mode ``z = w x`` (``w`` a left
-    eigenvector, eigenvalue ``lambda > 0``) obeys ``dz/dt = lambda z + (w B) tau``, so past
-    ``|z| = |w B| max_torque / lambda`` no torque stops it; for ``x = (d, 0, 0, 0)`` that caps
-    ``|d|`` at ``min_i |w_i B| max_torque / (lambda_i |w_i1|)``. Keyed by the eigenvalue."""
+    """Per unstable eigenvalue, the largest q1 offset [rad] any ``|tau| <= max_torque`` recovers
+    from, linearised: ``dz/dt = lambda z + (w B) tau`` is lost past ``|w B| tau_max / lambda``."""
     a, b = dynamics.linearize(UPRIGHT[:2], UPRIGHT[2:], 0.0, p)
     values, left = np.linalg.eig(a.T)
     bounds = {}
@@ -152,16 +136,11 @@ def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
 
 
 class SwingUpController:
-    """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory`` (angles of the error
-    wrapped), then the saturated LQR at upright, both on the trajectory's model
-    (``trajectory.params``). ``q`` and ``r`` weight the state error and the torque in both."""
+    """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory``, then the LQR at
+    upright, both on the trajectory's model; ``q`` and ``r`` weight state error and torque."""
 
-    def __init__(
-        self,
-        trajectory: Trajectory,
-        q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
-        r: float = 1.0,
-    ) -> None:
+    def __init__(self, trajectory: Trajectory, q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
+                 r: float = 1.0) -> None:  # fmt: skip
         self.trajectory, p = trajectory, trajectory.params
         self.lqr = LQR(q, r, p)
         weights, cost, riccati = np.diag(q), np.array([[r]]), self.lqr.cost
@@ -184,14 +163,13 @@ class SwingUpController:
 
 
 class SigmaDelta:
-    """First-order sigma-delta modulation: torques in {-1, 0, +1} N m whose running sum follows
-    that of a continuous torque, the quantisation error carried to the next step."""
+    """First-order sigma-delta: {-1, 0, +1} N m torques summing like a continuous torque."""
 
     def __init__(self) -> None:
         self.carried = 0.0
 
     def __call__(self, u: float) -> int:
-        """The ``Discrete(3)`` action (0, 1, 2) for the continuous torque ``u`` [N m]."""
+        """The ``Discrete(3)`` action for the continuous torque ``u`` [N m]."""
         wanted = u + self.carried
         level = int(np.clip(np.rint(wanted), -1, 1))
         self.carried = wanted - level

@@ -29,24 +29,13 @@ def min_time_search(
     goal_height: float = 1.0,
     start: np.ndarray | None = None,
 ) -> SearchResult:
-    """Beam search over torque sequences in {-1, 0, +1} N m from ``start`` (default: hanging at
-    rest; a state (q1, q2, dq1, dq2) [rad, rad/s]) for the fewest decisions to the goal (tip
-    above ``goal_height``).
-
-    Breadth-first by decision: every state in the beam is expanded by the three torques; states
-    that fall in the same cell (``cell`` [rad, rad, rad/s, rad/s], angles wrapped) are merged,
-    keeping one; if more than ``width`` remain, those with the most energy are kept (pumping
-    energy in is what a swing-up has to do). The first depth where any state reaches the goal
-    is returned with its action sequence: an upper bound on the true minimum, tight when the
-    beam is wide and the cells fine.
-    """
+    """Fewest decisions of {-1, 0, +1} N m to get the tip above ``goal_height`` [m] (an upper
+    bound): breadth-first, one state per ``cell`` [rad, rad/s], the ``width`` most energetic."""
     torques = np.array([-1.0, 0.0, 1.0])
     beam = (HANGING if start is None else np.asarray(start, dtype=np.float64))[None].copy()
     if beam.shape != (1, 4) or not np.all(np.isfinite(beam)):
         raise ValueError(f"start must be a finite state (q1, q2, dq1, dq2), got {start!r}")
-    parents: list[np.ndarray] = []
-    choices: list[np.ndarray] = []
-    expanded = 0
+    parents, choices, expanded = [], [], 0  # per depth: the kept states' parents and actions
     for depth in range(1, max_decisions + 1):
         n = len(beam)
         expanded += 3 * n
@@ -62,16 +51,15 @@ def min_time_search(
                 actions.append(int(choices[level][index]))
                 index = parents[level][index]
             return SearchResult(depth, actions[::-1], expanded)
-        # Merge states in the same cell, then keep the most energetic.
         key = np.concatenate([wrap_angle(children[:, :2]), children[:, 2:]], axis=1)
         _, first = np.unique(
             np.floor(key / np.asarray(cell)).astype(np.int64), axis=0, return_index=True
         )
         if first.size > width:
-            # The most energetic, kept in cell order: argpartition's own order differs between
-            # numpy versions, and the order decides which state the next merge keeps.
+            # A stable sort: argpartition's order (which the beam's merging depends on) varies
+            # between numpy versions.
             energy = dynamics.total_energy(children[first, :2], children[first, 2:])
-            first = first[np.sort(np.argpartition(-energy, width)[:width])]
+            first = first[np.argsort(-energy, kind="stable")[:width]]
         beam = children[first]
         parents.append(parent[first])
         choices.append(choice[first])

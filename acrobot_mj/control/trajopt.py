@@ -1,16 +1,6 @@
-"""Trajectory optimisation to upright at rest on the env's exact discrete map (CasADi + IPOPT).
-
-Multiple shooting: every state ``x_0 .. x_N`` and torque ``u_0 .. u_{N-1}`` is a variable, and
-the constraints are the physics step ``x_{k+1} = step(x_k, u_k)`` (the one step of
-:mod:`acrobot_mj.physics.integrators` on CasADi's symbols: semi-implicit Euler at 0.05 s, or RK4),
-``|u_k| <= u_max``, the velocity limits (so the env's clipping never acts), the start hanging at
-rest and the end upright at rest; a solution is then checked against the numpy step to 1e-9
-(:meth:`Trajectory.check`).
-
-Upright is ``q1 = pi/2`` or ``-3 pi/2`` (a swing either way) with ``q2 = 0`` or ``+-2 pi`` (the
-elbow may turn once): six targets, one pose. :func:`min_time` is a multi-start search for the
-shortest horizon, an upper bound on the true minimum. CasADi is the ``control`` extra.
-"""
+"""Trajectory optimisation to upright at rest (``q1 = pi/2`` or ``-3 pi/2``, ``q2 = 0`` or
+``+-2 pi``) on the env's exact discrete map: multiple shooting with CasADi and IPOPT (the
+``control`` extra); :func:`min_time` searches many starts for the shortest horizon."""
 
 from __future__ import annotations
 
@@ -29,9 +19,8 @@ from acrobot_mj.physics.dynamics import HANGING, state_error
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.physics.xp import symbolic
 
-#: Largest difference [rad, rad/s] between a stored state and the model's step of the one
-#: before: 1e-9 is ~1e5 times the rounding of one step, and any modelling difference (another
-#: integrator, a parameter off by 1e-6) shows at 1e-7 or more.
+#: Largest gap [rad, rad/s] between a stored state and the step of the one before (far above
+#: rounding, far below any modelling difference).
 TOLERANCE = 1e-9
 SHIPPED = Path(__file__).resolve().parent / "trajectories"
 FORMAT = "acrobot_mj.trajectory"
@@ -40,8 +29,7 @@ FORMAT = "acrobot_mj.trajectory"
 @dataclass(frozen=True)
 class Trajectory:
     """``states`` ``(N + 1, 4)`` [rad, rad/s] and ``torques`` ``(N,)`` [N m], one per physics
-    step of ``dt`` [s] under ``method``, with ``|u| <= u_max``, on the model of ``params`` (the
-    report's acrobot, or one identified from data: :mod:`acrobot_mj.train.plan`)."""
+    step of ``dt`` [s] under ``method``, with ``|u| <= u_max``, on the model ``params``."""
 
     states: np.ndarray
     torques: np.ndarray
@@ -60,9 +48,8 @@ class Trajectory:
 
     def residual(self) -> float:
         """Largest gap between each stored state and the model's step of the one before."""
-        nxt = integrators.step_states(
-            self.states[:-1], self.torques, self.params, method=self.method
-        )
+        p, method = self.params, self.method
+        nxt = integrators.step_states(self.states[:-1], self.torques, p, method=method)
         return float(np.abs(nxt - self.states[1:]).max())
 
     def check(self, tolerance: float = TOLERANCE) -> Trajectory:
@@ -90,44 +77,33 @@ class Trajectory:
 
     def to_dict(self) -> dict[str, Any]:
         model = {} if self.params == REPORT else {"params": asdict(self.params)}
-        return {
-            "format": FORMAT,
-            **model,
-            "dt": self.dt,
-            "method": self.method,
-            "u_max": self.u_max,
-            "steps": self.steps,
-            "states": self.states.tolist(),  # JSON floats round-trip exactly
-            "torques": self.torques.tolist(),
-        }
+        return {"format": FORMAT, **model, "dt": self.dt, "method": self.method,
+                "u_max": self.u_max, "steps": self.steps, "states": self.states.tolist(),
+                "torques": self.torques.tolist()}  # fmt: skip
 
     def save(self, path: str | Path) -> Path:
-        """Write the trajectory (checked first) as JSON, atomically."""
+        """Write the trajectory, checked, as JSON."""
         return write_json(path, self.check().to_dict())
 
     @classmethod
     def load(cls, path: str | Path) -> Trajectory:
-        """A stored trajectory, checked (a file that fails any check is refused)."""
+        """A stored trajectory; ValueError if it fails any check."""
         path = Path(path)
         try:
             data = json.loads(path.read_text())
             if data.get("format") != FORMAT:
                 raise ValueError(f"not a trajectory file (format {data.get('format')!r})")
-            trajectory = cls(
-                np.asarray(data["states"], dtype=float),
-                np.asarray(data["torques"], dtype=float),
-                float(data["dt"]),
-                str(data["method"]),
-                float(data["u_max"]),
-                AcrobotParams(**data["params"]) if "params" in data else REPORT,
-            )
-            return trajectory.check()
+            states = np.asarray(data["states"], dtype=float)
+            torques = np.asarray(data["torques"], dtype=float)
+            dt, method, u_max = float(data["dt"]), str(data["method"]), float(data["u_max"])
+            params = AcrobotParams(**data["params"]) if "params" in data else REPORT
+            return cls(states, torques, dt, method, u_max, params).check()
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
             raise ValueError(f"{path} is not a usable trajectory: {error}") from None
 
 
 def shipped(name: str) -> Trajectory:
-    """A trajectory shipped with the package (``"min_time"`` or ``"reserve"``), checked."""
+    """A trajectory shipped with the package (``"min_time"`` or ``"reserve"``)."""
     path = SHIPPED / f"{name}.json"
     if not path.is_file():
         known = sorted(p.stem for p in SHIPPED.glob("*.json"))
@@ -136,19 +112,15 @@ def shipped(name: str) -> Trajectory:
 
 
 #: The six upright-at-rest targets (q1, q2, dq1, dq2).
-TARGETS = tuple(
-    np.array([q1, q2, 0.0, 0.0])
-    for q1 in (np.pi / 2, -3 * np.pi / 2)
-    for q2 in (0.0, 2 * np.pi, -2 * np.pi)
-)
+TARGETS = tuple(np.array([q1, q2, 0.0, 0.0]) for q1 in (np.pi / 2, -3 * np.pi / 2)
+                for q2 in (0.0, 2 * np.pi, -2 * np.pi))  # fmt: skip
 _IPOPT = {"print_level": 0, "max_iter": 3000, "tol": 1e-10, "constr_viol_tol": 1e-12}
 #: A trajectory as arrays: states ``(N + 1, 4)`` and torques ``(N,)``.
 Arrays = tuple[np.ndarray, np.ndarray]
 
 
 def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = REPORT) -> Any:
-    """One physics step of ``method`` on CasADi symbols (state ``x`` (4,), torque ``u``, step
-    ``h`` [s]): :func:`acrobot_mj.physics.integrators.step` itself, without the limits."""
+    """The physics step on CasADi symbols (torque ``u`` [N m], step ``h`` [s]), no limits."""
     import casadi
 
     code = integrators.method_code(method)
@@ -157,27 +129,21 @@ def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = REPORT
     return casadi.vertcat(*new)
 
 
-def check_u_max(u_max: Any, p: AcrobotParams = REPORT) -> float:
-    if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= p.max_torque):
-        raise ValueError(f"u_max must be in (0, {p.max_torque:g}] N m, got {u_max!r}")
-    return float(u_max)
-
-
 @dataclass(frozen=True)
 class Optimiser:
-    """The NLPs of one model: nominal torques ``|u| <= u_max`` [N m], the step ``method``, the
-    model ``p`` (the report's acrobot, or one identified from data)."""
+    """The NLPs of one model ``p``: torques ``|u| <= u_max`` [N m], the step ``method``."""
 
     u_max: float = 1.0
     method: str = "semi_implicit_euler"
     p: AcrobotParams = REPORT
 
     def __post_init__(self) -> None:
-        check_u_max(self.u_max, self.p)
+        u_max, top = self.u_max, self.p.max_torque
+        if not (isinstance(u_max, (int, float)) and 0.0 < u_max <= top):
+            raise ValueError(f"u_max must be in (0, {top:g}] N m, got {u_max!r}")
 
     def problem(self, horizon: int, free_time: bool = False) -> tuple[Any, Any, Any, Any]:
-        """The multiple-shooting NLP without its objective and end: ``(opti, states (4, N + 1),
-        torques (1, N), step length)`` (the step a variable with ``free_time``)."""
+        """``(opti, states (4, N + 1), torques (1, N), step [s])``, without objective and end."""
         import casadi
 
         p, opti = self.p, casadi.Opti()
@@ -195,10 +161,8 @@ class Optimiser:
     def solve(
         self, target: np.ndarray, warm: Arrays, objective: str = "feasible", free_time: bool = False
     ) -> tuple[np.ndarray, np.ndarray, float] | None:
-        """One NLP of ``len(warm[1])`` steps from the warm start: ``objective`` ``"feasible"``
-        (reach ``target`` exactly), ``"effort"`` (reach it with the least ``sum u^2``) or
-        ``"closest"`` (the nearest end state). With ``free_time`` the step length is a variable
-        and the total time is minimised. The states, torques and step length [s], or None."""
+        """States, torques and step [s] from ``warm`` (None if none): reach ``target``, with the
+        least ``sum u^2`` (``"effort"``), or end nearest it (``"closest"``)."""
         import casadi
 
         horizon = len(warm[1])
@@ -225,8 +189,7 @@ class Optimiser:
         return solution.value(xs).T, np.atleast_1d(solution.value(us)), step
 
     def pumping(self, horizon: int) -> Arrays:
-        """The energy-pumping law (clipped to ``u_max``) rolled out for ``horizon`` steps: a
-        dynamically consistent warm start."""
+        """The energy-pumping law rolled out for ``horizon`` steps: a warm start."""
         xs, us = [HANGING.copy()], []
         for _ in range(horizon):
             u = float(np.clip(energy_pumping_torque(xs[-1], p=self.p), -self.u_max, self.u_max))
@@ -235,8 +198,7 @@ class Optimiser:
         return np.array(xs), np.array(us)
 
     def approach(self, target: np.ndarray, warm: Arrays) -> tuple[Arrays | None, Arrays | None]:
-        """From ``warm``, the trajectory of its length whose end is closest to ``target`` and, if
-        that end is within 0.1 of it, the exact one: ``(near, exact)``, None where not found."""
+        """``(nearest to target, exact if the nearest is within 0.1)``, None where not found."""
         near = self.solve(target, warm, "closest")
         if near is None or np.abs(near[0][-1] - target).max() > 0.1:
             return None, None
@@ -244,9 +206,7 @@ class Optimiser:
         return near[:2], None if exact is None else exact[:2]
 
     def shorten(self, target: np.ndarray, start: Arrays) -> Arrays | None:
-        """The shortest fixed-step trajectory near ``start``: the free-time optimum of its family
-        (the step length a variable, so the swings' phase can adjust), rounded up to whole
-        steps."""
+        """The free-time optimum near ``start``, rounded up to whole steps."""
         free = self.solve(target, start, free_time=True)
         if free is None:
             return None
@@ -258,9 +218,7 @@ class Optimiser:
         return None
 
     def candidates(self, horizon: int, target: np.ndarray) -> list[Arrays]:
-        """What one warm start gives: from the pumping rollout of ``horizon`` steps, the closest
-        end; if it is near ``target``, the exact trajectory of that many steps (where there is
-        one) and the shortened one of its family."""
+        """The exact and shortened trajectories from the pumping rollout of ``horizon`` steps."""
         near, exact = self.approach(target, self.pumping(horizon))
         if near is None:
             return []
@@ -273,7 +231,7 @@ class Optimiser:
 
 
 def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> Arrays:
-    """A trajectory stretched to ``horizon`` steps (linear in time): a warm start."""
+    """A trajectory stretched to ``horizon`` steps (linear in time)."""
     old, new = np.linspace(0, 1, len(states)), np.linspace(0, 1, horizon + 1)
     xs = np.stack([np.interp(new, old, states[:, i]) for i in range(4)], 1)
     us = np.interp(np.linspace(0, 1, horizon), np.linspace(0, 1, len(torques)), torques)
@@ -281,24 +239,16 @@ def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> Arrays:
 
 
 def default_horizons(u_max: float) -> range:
-    """The start horizons :func:`min_time` tries: 25, four steps apart, from 300 steps at full
-    torque and 60 more for every 0.1 N m less (less torque, more swings)."""
+    """25 start horizons from 300 steps at full torque, 60 more per 0.1 N m less."""
     start = 300 + round(600 * (REPORT.max_torque - u_max))
     return range(start, start + 100, 4)
 
 
-def min_time(
-    u_max: float = 1.0,
-    method: str = "semi_implicit_euler",
-    horizons: range | None = None,
-    targets: tuple[np.ndarray, ...] = TARGETS,
-    p: AcrobotParams = REPORT,
-    progress: bool = False,
-) -> Trajectory:
-    """The shortest swing-up to upright at rest this multi-start procedure finds: for every start
-    horizon (default :func:`default_horizons`) and target, the candidates of
-    :meth:`Optimiser.candidates`; the shortest kept (ties: the least effort). A local method:
-    an upper bound on the true minimum. ``p``: the model; ``progress``: a bar on stderr."""
+def min_time(u_max: float = 1.0, method: str = "semi_implicit_euler",
+             horizons: range | None = None, targets: tuple[np.ndarray, ...] = TARGETS,
+             p: AcrobotParams = REPORT, progress: bool = False) -> Trajectory:  # fmt: skip
+    """The shortest swing-up found from every start horizon and target (ties: the least effort),
+    an upper bound on the minimum; ``progress``: a bar on stderr."""
     optimiser = Optimiser(u_max, method, p)
     horizons = default_horizons(u_max) if horizons is None else horizons
     best = None
@@ -321,27 +271,21 @@ def _cost(path: Arrays) -> tuple[int, float]:
     return len(path[1]), float(np.sum(path[1] ** 2))
 
 
-def optimise(
-    horizon: int,
-    u_max: float = 1.0,
-    method: str = "semi_implicit_euler",
-    objective: str = "feasible",
-    warm: Trajectory | None = None,
-) -> Trajectory:
-    """A swing-up of exactly ``horizon`` steps to upright at rest with ``|u| <= u_max``
-    (``objective`` ``"feasible"`` or ``"effort"``), warm-started from ``warm`` (stretched) or
-    the pumping law; an infeasible horizon is an error that says so."""
+def optimise(horizon: int, u_max: float = 1.0, method: str = "semi_implicit_euler",
+             objective: str = "feasible",
+             warm: Trajectory | None = None) -> Trajectory:  # fmt: skip
+    """A swing-up of exactly ``horizon`` steps with ``|u| <= u_max`` (``objective``
+    ``"feasible"`` or ``"effort"``), warm-started from ``warm`` or the pumping law."""
     if not isinstance(horizon, int) or isinstance(horizon, bool) or horizon < 1:
         raise ValueError(f"horizon must be an integer >= 1 step, got {horizon!r}")
     optimiser = Optimiser(u_max, method)
     if objective not in ("feasible", "effort"):
         raise ValueError(f"objective must be 'feasible' or 'effort', got {objective!r}")
-    for target in TARGETS if warm is None else (warm.states[-1],):
-        start = (
-            optimiser.pumping(horizon)
-            if warm is None
-            else resample(warm.states, warm.torques, horizon)
-        )
+    if warm is None:
+        targets, start = TARGETS, optimiser.pumping(horizon)
+    else:
+        targets, start = (warm.states[-1],), resample(warm.states, warm.torques, horizon)
+    for target in targets:
         found = optimiser.approach(target, start)[1]
         if found is not None and objective == "effort":
             found = optimiser.solve(target, found, "effort")
@@ -355,8 +299,7 @@ def optimise(
 
 
 def min_effort(reference: Trajectory, extra_steps: int = 0) -> Trajectory:
-    """The least-effort trajectory (``sum u^2``) to the same target as ``reference``, with
-    ``extra_steps`` more steps (warm-started from it, stretched)."""
+    """The least-effort (``sum u^2``) trajectory to ``reference``'s end, ``extra_steps`` longer."""
     optimiser = Optimiser(reference.u_max, reference.method, reference.params)
     warm = resample(reference.states, reference.torques, reference.steps + extra_steps)
     result = optimiser.solve(reference.states[-1], warm, "effort")
@@ -368,10 +311,8 @@ def min_effort(reference: Trajectory, extra_steps: int = 0) -> Trajectory:
 def shortest_to_height(
     torques: np.ndarray, goal_height: float = 1.0, method: str = "semi_implicit_euler"
 ) -> Trajectory:
-    """The fewest steps in which continuous torques reach the height goal (the tip above
-    ``goal_height`` [m] at the last step, at any speed), from a sequence that reaches it:
-    shortened a step at a time, each warm-started from the last, while IPOPT finds one. Seeded
-    with the {-1, 0, +1} minimum (252 steps), this is how much continuous torque saves."""
+    """The fewest steps in which continuous torques get the tip above ``goal_height`` [m],
+    shortening ``torques`` (which do) a step at a time while IPOPT finds a solution."""
     import casadi
 
     optimiser, p = Optimiser(REPORT.max_torque, method), REPORT

@@ -33,25 +33,18 @@ INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtInteg
 
 #: MuJoCo's mjMAXVAL: states beyond it are "huge" (its BADQPOS/BADQVEL warnings).
 HUGE = 1e10
-#: Larger angles [rad] are refused (set_state) or raise (step): at 1e6 rad a double resolves
-#: 1e-10 rad, no finer; spinning at the speed limits takes about ten simulated hours to get there.
+#: Larger angles [rad] are refused (set_state) or raise (step): a double resolves 1e-10 rad there.
 MAX_ANGLE = 1e6
-#: Physics steps per action at most: 1000 is 50 s of simulated time per decision.
-MAX_FRAME_SKIP = 1000
-# Global names are cheaper than module attributes and negations on the hot path.
+MAX_FRAME_SKIP = 1000  # physics steps per action: 50 s
+# Globals are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
 _MIN_Q, _MIN_VEL1, _MIN_VEL2 = -MAX_ANGLE, -MAX_VEL1, -MAX_VEL2
 _PI, _MIN_PI = math.pi, -math.pi
-_BAD_STATE_WARNINGS = (
-    mujoco.mjtWarning.mjWARN_BADQPOS,
-    mujoco.mjtWarning.mjWARN_BADQVEL,
-    mujoco.mjtWarning.mjWARN_BADQACC,
-)
 
 
 def make_task(task: str | type[Task], links: tuple[float, float], options: dict[str, Any]) -> Task:
     """The task ``task`` (a registered name or a Task class) on links ``(l1, l2)`` [m], with its
-    keyword ``options`` (an unknown one raises, naming the task's options)."""
+    keyword ``options`` (an unknown one raises)."""
     cls = task if isinstance(task, type) and issubclass(task, Task) else get_task(task)
     unknown = sorted(set(options) - {"start_noise", *cls.options})
     if unknown:
@@ -63,72 +56,18 @@ def make_task(task: str | type[Task], links: tuple[float, float], options: dict[
 
 
 class AcrobotEnv(gym.Env[np.ndarray, Any]):
-    r"""The acrobot of the IND E 599 report, simulated by MuJoCo, with a task on top.
+    r"""The acrobot of the IND E 599 report simulated by MuJoCo, with a ``task`` on top
+    (:mod:`acrobot_mj.envs.tasks`: rewards, episode end, ``info``).
 
-    Two links hang from a passive shoulder on a bar; a motor at the elbow (the gymnast's hips)
-    applies a torque. The task (``task``, default ``"height_goal"``, :mod:`acrobot_mj.envs.tasks`)
-    says what is rewarded, when an episode ends and what ``info`` reports; for
-    ``acrobot_mj/Acrobot-v0`` it is Sutton and Barto's height goal
-    (:class:`~acrobot_mj.envs.tasks.height_goal.HeightGoal`: -1 per step, +100 and the end of the
-    episode when the tip rises one link length above the bar, truncated at 1000 actions).
-    Physics and conventions: ``models/acrobot.xml`` and ``docs/design.md``; parameters:
-    :class:`acrobot_mj.physics.params.AcrobotParams` (l1 = l2 = 1 m, lc1 = lc2 = 0.5 m,
-    m1 = m2 = 1 kg, I1 = I2 = 1 kg m^2 about each centre of mass, g = 9.8).
+    Actions: ``Discrete(3)``, elbow torques -1, 0, +1 N m held for ``frame_skip`` physics steps
+    of 0.05 s, or with ``continuous=True`` ``Box(-1, 1, (1,))`` [N m]; anything else raises.
+    Observations ``(q1, q2, dq1, dq2)``: q1 from the horizontal, q2 relative to link 1, wrapped
+    into [-pi, pi) [rad]; velocities [rad/s] clipped to ``(4 pi, 9 pi)`` after every physics
+    step. ``model_path``: an MJCF file instead of ``scene.xml``; ``reset`` takes
+    ``options={"start_noise": s}`` or ``{"state": x}``.
 
-    ## Action Space
-    ``Discrete(3)``: the elbow torque, held for ``frame_skip`` physics steps.
-
-    | Num | Action                 | Unit |
-    |-----|------------------------|------|
-    | 0   | torque -1 on the elbow | N m  |
-    | 1   | torque 0               | N m  |
-    | 2   | torque +1 on the elbow | N m  |
-
-    With ``continuous=True`` it is ``Box(-1, 1, (1,), float32)``: the torque in N m. Actions
-    outside the space (3, -1, 1.5, NaN, a wrong type or shape) raise an error; nothing is clipped.
-
-    ## Observation Space
-    ``Box((4,), float64)``: angles in the report's convention (from the horizontal,
-    counter-clockwise positive, q2 relative to link 1), wrapped into [-pi, pi).
-
-    | Num | Observation                        | Min    | Max    | Unit  |
-    |-----|------------------------------------|--------|--------|-------|
-    | 0   | q1, angle of link 1 from +x        | -pi    | pi     | rad   |
-    | 1   | q2, angle of link 2 from link 1    | -pi    | pi     | rad   |
-    | 2   | dq1, shoulder angular velocity     | -4 pi  | 4 pi   | rad/s |
-    | 3   | dq2, elbow angular velocity        | -9 pi  | 9 pi   | rad/s |
-
-    Velocities are clipped to these limits after every physics step (the report's task).
-    Gymnasium's ``Acrobot-v1`` uses ``theta1 = q1 + pi/2``, ``theta2 = q2`` and the same torque
-    sign, and observes cos and sin of the angles instead.
-
-    ## Rewards, Starting State, Episode End
-    The task's (see its class docstring). Every task starts from a model keyframe (``hanging``
-    at rest) plus, with ``start_noise = s > 0``, ``U(-s, s)`` on each angle and velocity.
-
-    ## Arguments
-    | Argument      | Default       | Meaning                                                  |
-    |---------------|---------------|----------------------------------------------------------|
-    | frame_skip    | 1             | physics steps (0.05 s each) per action; 4 gives 0.2 s    |
-    | integrator    | "euler"       | MuJoCo's semi-implicit ``"euler"`` or ``"rk4"``          |
-    | task          | "height_goal" | a registered task name (or a Task subclass)              |
-    | continuous    | False         | ``Box(-1, 1, (1,))`` torques instead of ``Discrete(3)``  |
-    | render_mode   | None          | ``"rgb_array"``: ``render()`` returns frames (EGL/OSMesa) |
-    | width, height | 480, 480      | frame size [pixels], at most the model's offscreen buffer |
-    | camera        | "side"        | name of a camera in the model (``"side"`` or ``"wide"``)  |
-    | model_path    | None          | an MJCF file to use instead of the packaged ``scene.xml`` |
-    | **options     |               | the task's: ``step_reward``, ``goal_reward``,             |
-    |               |               | ``goal_height``, ``start_noise`` for the height goal      |
-
-    ``reset(options={"start_noise": s})`` overrides ``start_noise`` for that episode only.
-    ``env.unwrapped.model`` and ``env.unwrapped.data`` are the live ``MjModel`` and ``MjData``;
-    ``env.unwrapped.task`` is the task. ``render_fps`` in ``metadata`` is
-    ``1 / (timestep * frame_skip)``, real time.
-
-    ## Example
-    Golden values computed independently by the analytic model (``acrobot_mj.physics``,
-    semi-implicit Euler with the same clipping): ten +1 N m steps from rest, rounded to 1e-9,
-    then the bang-bang law ``tau = -sign(dq1)`` reaching the goal on step 300 with +100:
+    Ten +1 N m steps from rest (the analytic model's numbers), then the bang-bang law
+    ``tau = -sign(dq1)`` reaching the goal on step 300:
 
     >>> import gymnasium as gym
     >>> import acrobot_mj
@@ -147,10 +86,6 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     ...         break
     >>> step, reward, terminated, round(info["tip_height"], 9)
     (300, 100.0, True, 1.044545016)
-
-    ## Version History
-    - v0: first version: the report's task on MuJoCo (semi-implicit Euler, 0.05 s steps),
-      with offscreen ``rgb_array`` rendering.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
@@ -175,11 +110,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
         self._integrator = integrator
         self._continuous = check_bool("continuous", continuous)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
+        modes = self.metadata["render_modes"]
+        if render_mode is not None and render_mode not in modes:
+            raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
         if model_path is not None and not isinstance(model_path, (str, os.PathLike)):
             raise TypeError(f"model_path must be a path to an MJCF file, got {model_path!r}")
         self.model = load_model(model_path)
@@ -188,24 +121,32 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
         self.data = mujoco.MjData(self.model)
         self.task = make_task(task, link_lengths(self.model), task_options)
-        self._start_key = mujoco.mj_name2id(
-            self.model, mujoco.mjtObj.mjOBJ_KEY, self.task.start_keyframe
-        )
+        key = self.task.start_keyframe
+        self._start_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, key)
         if self._start_key < 0:
-            raise ValueError(f"the model has no keyframe {self.task.start_keyframe!r}")
+            raise ValueError(f"the model has no keyframe {key!r}")
         self._bind()
-        self._set_up_rendering(render_mode, width, height, camera)
+        offscreen = self.model.vis.global_
+        self.width = check_int("width", width, 1, offscreen.offwidth)
+        self.height = check_int("height", height, 1, offscreen.offheight)
+        if (
+            not isinstance(camera, str)
+            or mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0
+        ):
+            names = [self.model.camera(i).name for i in range(self.model.ncam)]
+            raise ValueError(
+                f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
+            )
+        self.camera, self.render_mode = camera, render_mode
+        self._renderer = None  # created by the first render(), released by close()
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
         self.action_space = action_space(continuous)
         self.observation_space = observation_space()
-        # Fast path of step() for integer actions; empty for continuous actions.
+        # step()'s fast path for integer actions (none for continuous ones)
         self._torque_of = {} if continuous else TORQUE_OF
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
 
-    # -- set-up ----------------------------------------------------------------------------
-
-    def _bind(self) -> None:
-        """Cache views into ``data`` and the task's step rule (redone after unpickling)."""
+    def _bind(self) -> None:  # views into data and the task's rule, redone by unpickling
         m, d = self.model, self.data
         qadr = [int(m.joint(name).qposadr[0]) for name in ("shoulder", "elbow")]
         dadr = [int(m.joint(name).dofadr[0]) for name in ("shoulder", "elbow")]
@@ -218,36 +159,16 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self._ctrl = d.ctrl[motor : motor + 1]
         self._rule, self._info = self.task.rule(), self.task.info()
 
-    def _set_up_rendering(self, render_mode: str | None, width: int, height: int, camera: str):
-        offwidth, offheight = self.model.vis.global_.offwidth, self.model.vis.global_.offheight
-        self.width = check_int("width", width, 1, offwidth)
-        self.height = check_int("height", height, 1, offheight)
-        if (
-            not isinstance(camera, str)
-            or mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0
-        ):
-            names = [self.model.camera(i).name for i in range(self.model.ncam)]
-            raise ValueError(
-                f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
-            )
-        self.camera = camera
-        self.render_mode = render_mode
-        self._renderer = None  # created by the first render() call, released by close()
-
     def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        for key in ("_qpos", "_qvel", "_ctrl", "_rule", "_info"):
-            state.pop(key)
-        state["_renderer"] = None  # a GL context cannot be copied; the copy makes its own
-        return state
+        views = ("_qpos", "_qvel", "_ctrl", "_rule", "_info")
+        state = {key: value for key, value in self.__dict__.items() if key not in views}
+        return {**state, "_renderer": None}  # a GL context cannot be copied
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._bind()
 
-    # -- the acrobot -----------------------------------------------------------------------
-
-    # Read-only: the spaces, metadata and model are built from them at construction.
+    # Read-only: the spaces, metadata and model are built from them.
     frame_skip = property(lambda self: self._frame_skip, doc="Physics steps per action.")
     integrator = property(lambda self: self._integrator, doc='"euler" or "rk4".')
     continuous = property(lambda self: self._continuous, doc="Box actions instead of Discrete.")
@@ -279,8 +200,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             raise ValueError(
                 f"dq={dq} exceeds the velocity limits ({MAX_VEL1:.4g}, {MAX_VEL2:.4g}) rad/s"
             )
-        self._qpos[:] = q
-        self._qvel[:] = dq
+        self._qpos[:], self._qvel[:] = q, dq
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -291,10 +211,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
         if start is not None:
             self.set_state(start[:2], start[2:])
-            offsets = None
-        else:
-            offsets = self.task.start_offsets(self.np_random, noise)
-        if offsets is not None:
+        elif (offsets := self.task.start_offsets(self.np_random, noise)) is not None:
             self._qpos += offsets[0]
             self._qvel += offsets[1]
         q1, q2 = self._qpos.tolist()
@@ -303,20 +220,17 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         return np.array((wrap(q1), wrap(q2), v1, v2)), self._info(values, False)  # no success
 
     def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
-        # The hot path (profiled): names resolved to ids once, views into data cached.
         torque = self._torque_of.get(action) if action.__class__ in INT_TYPES else None
         self._ctrl[0] = action_torque(action, self._continuous) if torque is None else torque
         m, d, qvel = self.model, self.data, self._qvel
         for _ in self._substeps:
             _mj_step(m, d)
-            # The task's velocity limits, after every physics step.
             v1, v2 = qvel.tolist()
             if not (_MIN_VEL1 <= v1 <= MAX_VEL1 and _MIN_VEL2 <= v2 <= MAX_VEL2):  # or NaN
                 v1 = qvel[0] = clip(v1, _MIN_VEL1, MAX_VEL1)
                 v2 = qvel[1] = clip(v2, _MIN_VEL2, MAX_VEL2)
         q1, q2 = self._qpos.tolist()
-        # False for NaN, infinities and angles beyond MAX_ANGLE alike (per coordinate, as
-        # MuJoCo's own mjMAXVAL test); MuJoCo's autoreset is off, so a bad state cannot hide.
+        # False for NaN, infinities and runaway angles (MuJoCo's autoreset is off).
         if not (_MIN_Q < q1 < MAX_ANGLE and _MIN_Q < q2 < MAX_ANGLE and v1 == v1 and v2 == v2):
             self._raise_bad_state()
         reward, terminated, success, values = self._rule(q1, q2, v1, v2)
@@ -327,9 +241,10 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         return obs, reward, terminated, False, self._info(values, success)
 
     def _raise_bad_state(self) -> None:
+        kinds = mujoco.mjtWarning
         reported = [
             f"{w.name.removeprefix('mjWARN_')} (last at index {self.data.warning[w].lastinfo})"
-            for w in _BAD_STATE_WARNINGS
+            for w in (kinds.mjWARN_BADQPOS, kinds.mjWARN_BADQVEL, kinds.mjWARN_BADQACC)
             if self.data.warning[w].number
         ]
         raise RuntimeError(
@@ -339,18 +254,14 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         )
 
     def render(self) -> np.ndarray | None:
-        """The current frame, ``uint8`` of shape ``(height, width, 3)``, from ``camera``.
-
-        The renderer is created on the first call through :func:`acrobot_mj.envs.gl.make_renderer`
-        (headless EGL or OSMesa; a clear error if neither works) and released by :meth:`close`.
-        """
+        """The current frame, ``uint8`` ``(height, width, 3)`` from ``camera`` (headless GL:
+        :func:`acrobot_mj.envs.gl.make_renderer`)."""
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None: nothing is rendered")
             return None
         if self._renderer is None:
             self._renderer = make_renderer(self.model, self.width, self.height)
-        # Positions of bodies, cameras and lights for the current state (mj_step leaves them
-        # at the start of the last step).
+        # mj_step leaves positions, cameras and lights at the start of the last step.
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)
         self._renderer.update_scene(self.data, camera=self.camera)

@@ -1,9 +1,5 @@
-"""Finding and loading the MJCF model, from a source checkout or an installed wheel.
-
-The files live in ``models/`` at the top of the checkout; the wheel carries them as
-``acrobot_mj/models`` (see ``pyproject.toml``). :func:`models_dir` looks in the package first, then
-in the checkout.
-"""
+"""Finding and loading the MJCF model: ``acrobot_mj/models`` in a wheel, ``models/`` in a
+checkout."""
 
 from __future__ import annotations
 
@@ -14,7 +10,7 @@ import numpy as np
 
 _PACKAGE = Path(__file__).resolve().parent.parent  # acrobot_mj/
 
-#: Names the environment and the tests read the model by (``docs/design.md``).
+#: Names the package reads the model by (``docs/design.md``).
 REQUIRED_NAMES: dict[mujoco.mjtObj, tuple[str, ...]] = {
     mujoco.mjtObj.mjOBJ_BODY: ("link1", "link2"),
     mujoco.mjtObj.mjOBJ_JOINT: ("shoulder", "elbow"),
@@ -43,10 +39,7 @@ def model_path(name: str = "scene.xml") -> Path:
 
 def load_model(path: str | Path | None = None) -> mujoco.MjModel:
     """Compile an MJCF file (default: the packaged ``scene.xml``) and check it is an acrobot.
-
-    Raises ``FileNotFoundError`` for a missing file and ``ValueError`` naming the file for one
-    MuJoCo cannot compile or one that lacks the named elements the package reads it by.
-    """
+    Raises ``FileNotFoundError`` for a missing file, ``ValueError`` for a bad one."""
     path = model_path() if path is None else Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"MJCF model file not found: {path}")

@@ -1,10 +1,6 @@
 """The physics of a vector env's acrobots: MuJoCo's C batch (:class:`BatchPhysics`, the
-reference) or the analytic model's one step compiled by numba (:class:`AnalyticPhysics`), both
-with the task's velocity limits after every physics step and the same observation.
-
-Both keep live ``(N, ...)`` views ``qpos``, ``qvel`` and ``ctrl`` and step on as many threads as
-pay for the batch's size (every simulation is the same code on any thread: the numbers do not
-depend on it). The passes between steps (velocity limits, observations) are compiled too.
+reference) or the analytic model compiled by numba (:class:`AnalyticPhysics`), with live
+``(N, ...)`` views ``qpos``, ``qvel``, ``ctrl`` and the velocity limits after every physics step.
 """
 
 from __future__ import annotations
@@ -25,23 +21,18 @@ from acrobot_mj.physics.dynamics import forward_dynamics
 from acrobot_mj.physics.integrators import Stepping, step_rows
 from acrobot_mj.physics.params import AcrobotParams
 
-#: Threads pay from these sizes on (measured on 2 cores): a MuJoCo batch wakes and joins its
-#: threads on every step (tens of microseconds, more under load), against about 1.3 us per
-#: acrobot's mj_step; numba's threads lose 10 to 30 times on a loaded machine below 16384
-#: acrobots and at most 2 times on an idle one.
+#: Sizes from which threads pay: waking them costs tens of microseconds per step (MuJoCo's).
 THREADED_FROM, ANALYTIC_THREADED_FROM = 256, 65536
-#: Largest relative gap between MuJoCo's accelerations and the lumped model's for a model the
-#: analytic backend accepts (rounding is about 1e-15; a wrong parameter is far above).
+#: Largest relative gap between MuJoCo's accelerations and the lumped model's it accepts.
 DYNAMICS_TOLERANCE = 1e-9
 
 
 @jitable
 def limit_rows(qvel, lim1, lim2) -> None:
-    """The velocity limits on every row ``(dq1, dq2)`` of ``qvel`` ``(N, 2)``, in place (the
-    rows inside are not written)."""
+    """The velocity limits on ``qvel`` ``(N, 2)``, in place (rows inside are not written)."""
     for i in range(qvel.shape[0]):
         v1, v2 = qvel[i, 0], qvel[i, 1]
-        if not (-lim1 <= v1 <= lim1):  # outside, or NaN (written back unchanged)
+        if not (-lim1 <= v1 <= lim1):  # or NaN (written back unchanged)
             qvel[i, 0] = xp.clip(v1, -lim1, lim1)
         if not (-lim2 <= v2 <= lim2):
             qvel[i, 1] = xp.clip(v2, -lim2, lim2)
@@ -49,8 +40,8 @@ def limit_rows(qvel, lim1, lim2) -> None:
 
 @jitable
 def observe_rows(qpos, qvel, obs, max_angle, huge) -> bool:
-    """Write each row's observation ``(q1, q2, dq1, dq2)`` (angles wrapped) into ``obs``;
-    False if a row has an angle beyond ``max_angle``, a velocity beyond ``huge`` or a NaN."""
+    """Each row's observation (angles wrapped) into ``obs``; False if a row has an angle beyond
+    ``max_angle``, a velocity beyond ``huge`` or a NaN."""
     ok = True
     for i in range(qpos.shape[0]):
         q1, q2, v1, v2 = qpos[i, 0], qpos[i, 1], qvel[i, 0], qvel[i, 1]
@@ -61,8 +52,7 @@ def observe_rows(qpos, qvel, obs, max_angle, huge) -> bool:
 
 
 def observe(qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-    """Every simulation's observation; raises naming the sub-envs with a non-finite state or
-    angles beyond ``MAX_ANGLE``, as the single env does."""
+    """Every row's observation; raises naming the sub-envs with a bad state."""
     obs = np.empty((len(qpos), 4))
     if compiled(observe_rows)(qpos, qvel, obs, MAX_ANGLE, HUGE):
         return obs
@@ -74,8 +64,8 @@ def observe(qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
 
 
 def threads(num_envs: int, nthread: int | None, threaded_from: int, available: int) -> int:
-    """Threads for ``num_envs`` simulations: ``nthread`` as given (0: all ``available``), or
-    with None one below ``threaded_from`` and all from there; at most one per simulation."""
+    """Threads for ``num_envs`` simulations: ``nthread`` (0: all ``available``; None: one below
+    ``threaded_from``, all from there), at most one per simulation."""
     if nthread is None:
         nthread = 1 if num_envs < threaded_from else 0
     nthread = check_int("nthread", nthread, 0)
@@ -86,12 +76,10 @@ class BatchPhysics:
     """``num_envs`` simulations of ``model`` in one ``mujoco.batch.Batch`` (``batch``)."""
 
     def __init__(self, model: MjModel, num_envs: int, nthread: int | None = None) -> None:
-        # nthread 0: all CPUs (MuJoCo's convention)
         n = 1 if num_envs < THREADED_FROM else 0
         self.batch = Batch(model, num_envs, nthread=n if nthread is None else nthread)
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
         self.ctrl = self.batch.bind("ctrl")
-        #: Live views of the columns ``q1, q2, dq1, dq2``, as the task's rule takes them.
         self.columns = (self.qpos[:, 0], self.qpos[:, 1], self.qvel[:, 0], self.qvel[:, 1])
         self._limit = compiled(limit_rows)
 
@@ -108,21 +96,19 @@ class BatchPhysics:
         return observe(self.qpos, self.qvel)
 
     def snapshot(self) -> np.ndarray:
-        """A copy of every simulation's whole MuJoCo state row (time, qpos, qvel, ctrl, ...)."""
+        """A copy of every simulation's whole MuJoCo state."""
         return self.batch.state.copy()
 
     def restore(self, rows: np.ndarray) -> None:
         self.batch.state[...] = rows
 
     def get_data(self, i: int, data: MjData) -> None:
-        """Copy simulation ``i``'s state into ``data`` (of the same model)."""
         self.batch.get_data(i, data)
 
 
 class AnalyticPhysics:
-    """``num_envs`` acrobots of ``model``'s lumped dynamics (:func:`lumped_parameters`) in one
-    ``(num_envs, 4)`` array ``state``, stepped by :func:`~acrobot_mj.physics.integrators.step`
-    compiled, on :func:`threads` of numba's threads."""
+    """``num_envs`` acrobots of ``model``'s lumped dynamics in one ``(num_envs, 4)`` ``state``,
+    stepped by :func:`~acrobot_mj.physics.integrators.step_rows` compiled."""
 
     def __init__(self, model: MjModel, num_envs: int, nthread: int | None = None) -> None:
         self.model = model
@@ -142,24 +128,22 @@ class AnalyticPhysics:
         return observe(self.qpos, self.qvel)
 
     def snapshot(self) -> np.ndarray:
-        """A copy of every acrobot's state and control, ``(num_envs, 5)``."""
+        """A copy of every state and control, ``(num_envs, 5)``."""
         return np.concatenate((self.state, self.ctrl), axis=1)
 
     def restore(self, rows: np.ndarray) -> None:
         self.state[...], self.ctrl[...] = rows[:, :4], rows[:, 4:]
 
     def get_data(self, i: int, data: MjData) -> None:
-        """Acrobot ``i``'s state and control in ``data``, then ``mj_forward`` (to render it)."""
+        """Acrobot ``i``'s state and control in ``data``, forwarded (to render it)."""
         data.qpos[:], data.qvel[:], data.ctrl[:] = self.qpos[i], self.qvel[i], self.ctrl[i]
         mujoco.mj_forward(self.model, data)
 
 
 def lumped_parameters(model: MjModel) -> tuple[float, ...]:
-    """The lumped parameters of ``model`` (read by name at ``qpos = 0``), or ``ValueError`` for a
-    model they cannot represent: another integrator than Euler, joint damping, armature,
-    friction loss, stiffness, active limits, equality constraints or contacts, or accelerations
-    that miss MuJoCo's by more than :data:`DYNAMICS_TOLERANCE` at random states (whatever else
-    the model holds: gear, gravity's direction, axes, passive or fluid forces)."""
+    """The lumped parameters of ``model``; ``ValueError`` for one they cannot represent (not
+    Euler, damping, armature, friction loss, stiffness, limits, equalities, contacts, or
+    accelerations off MuJoCo's by more than :data:`DYNAMICS_TOLERANCE` at random states)."""
     integrator = mujoco.mjtIntegrator(model.opt.integrator)
     if integrator != mujoco.mjtIntegrator.mjINT_EULER:
         name = integrator.name.removeprefix("mjINT_").lower()
@@ -172,9 +156,8 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
             raise ValueError(f"the model's joints have {field} {values.tolist()}, which the "
                              "analytic backend does not model; use backend='mujoco'")  # fmt: skip
     flags, bits = model.opt.disableflags, mujoco.mjtDisableBit
-    contacts = not flags & bits.mjDSBL_CONTACT and np.any(
-        model.geom_contype | model.geom_conaffinity
-    )
+    colliding = model.geom_contype | model.geom_conaffinity
+    contacts = not flags & bits.mjDSBL_CONTACT and np.any(colliding)
     if not flags & bits.mjDSBL_CONSTRAINT and (np.any(model.jnt_limited) or model.neq or contacts):
         raise ValueError("the model has joint limits, equality constraints or contacts, which "
                          "the analytic backend does not model; use backend='mujoco'")  # fmt: skip
@@ -196,16 +179,14 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
 
 
 def physical_parameters(model: MjModel) -> AcrobotParams:
-    """The model's links as :class:`AcrobotParams`, read by name at ``qpos = 0``: masses [kg],
-    ``l1`` and each link's joint to centre of mass [m], inertia about the hinge axis through
-    the centre of mass [kg m^2] and ``|gravity|`` [m/s^2]."""
+    """The model's links as :class:`AcrobotParams`, read by name at ``qpos = 0``."""
     data = MjData(model)
     mujoco.mj_kinematics(model, data)
     shoulder, elbow = model.joint("shoulder").id, model.joint("elbow").id
     values = {"l1": float(np.linalg.norm(data.xanchor[elbow] - data.xanchor[shoulder]))}
     for k, (body, joint) in enumerate(((model.body("link1").id, shoulder),
                                        (model.body("link2").id, elbow)), 1):  # fmt: skip
-        frame = data.ximat[body].reshape(3, 3)  # the inertia's principal axes, in the world
+        frame = data.ximat[body].reshape(3, 3)  # principal axes of inertia, in the world
         axis = data.xaxis[joint]
         values[f"m{k}"] = float(model.body_mass[body])
         values[f"lc{k}"] = float(np.linalg.norm(data.xipos[body] - data.xanchor[joint]))

@@ -1,20 +1,7 @@
 """Headless OpenGL for MuJoCo: choose EGL or OSMesa before MuJoCo is imported, never a window.
 
-MuJoCo reads ``MUJOCO_GL`` once, when it is imported, so ``import acrobot_mj`` calls
-:func:`configure_gl` first thing:
-
-- if the user set ``MUJOCO_GL``, that choice stands, unless it cannot work here (a name MuJoCo
-  does not know, or EGL or OSMesa without their libraries, which would make ``import mujoco``
-  fail for every command, rendering or not): then MuJoCo is imported with ``disable`` and only
-  rendering fails, saying what was asked, why it cannot work and what would;
-- otherwise, on Linux, EGL and then OSMesa are probed through ``ctypes`` (load the library,
-  open a display or create a context, release it) and the first that works is written to
-  ``MUJOCO_GL``;
-- if none works, nothing is set, and :func:`make_renderer` raises :class:`GLBackendError`
-  saying which backends were tried, why each failed and what to install. MuJoCo's default (a
-  GLFW window) is never used unless the user asks for it.
-
-This module must not import ``mujoco`` at module level.
+MuJoCo reads ``MUJOCO_GL`` once, on import, so ``import acrobot_mj`` calls :func:`configure_gl`
+first; this module must not import ``mujoco`` at module level.
 """
 
 from __future__ import annotations
@@ -32,17 +19,15 @@ INSTALL_HINTS = {
     "driver with EGL",
     "osmesa": "apt-get install libosmesa6",
 }
-
 #: MUJOCO_GL values that turn MuJoCo's GL off, and those that render through a window.
 NO_GL = ("disable", "disabled", "off", "false", "0")
 WINDOWED = ("glfw", "glx", "enable", "enabled", "on", "true", "1", "wgl", "cgl")
-#: Where a replaced MUJOCO_GL's problem is kept, for child processes.
+#: Where a replaced MUJOCO_GL's problem is kept for child processes.
 PROBLEM_VARIABLE = "ACROBOT_MJ_GL_PROBLEM"
-
-#: What configure_gl found: backend -> None (works) or the reason it failed.
+#: What configure_gl found: backend -> None (works) or why it failed.
 ATTEMPTS: dict[str, str | None] = {}
-#: How MUJOCO_GL came to be: "user", "probed", "unset", "late" (mujoco was imported first) or
-#: "broken" (the user's value cannot work; see PROBLEM).
+#: How MUJOCO_GL came to be: "user", "probed", "unset", "late" (mujoco imported first) or
+#: "broken" (the user's value cannot work: PROBLEM).
 CHOICE = "unset"
 PROBLEM: str | None = None
 
@@ -53,9 +38,7 @@ class GLBackendError(RuntimeError):
 
 def _load(names: tuple[str, ...], find: str) -> ctypes.CDLL:
     errors = []
-    for name in (*names, ctypes.util.find_library(find)):
-        if not name:
-            continue
+    for name in filter(None, (*names, ctypes.util.find_library(find))):
         try:
             return ctypes.CDLL(name)
         except OSError as error:
@@ -64,7 +47,7 @@ def _load(names: tuple[str, ...], find: str) -> ctypes.CDLL:
 
 
 def probe_egl() -> str | None:
-    """None if an EGL device display initialises (as MuJoCo's EGL backend opens it)."""
+    """None if an EGL device display initialises (as MuJoCo opens it), else why not."""
     try:
         egl = _load(("libEGL.so.1", "libEGL.so"), "EGL")
     except OSError as error:
@@ -86,9 +69,8 @@ def probe_egl() -> str | None:
         return "EGL finds no device (no GPU driver and no Mesa software device)"
     egl.eglInitialize.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
     egl.eglTerminate.argtypes = [ctypes.c_void_p]
-    platform_device = 0x313F  # EGL_PLATFORM_DEVICE_EXT
     for device in devices[: count.value]:
-        display = get_display(platform_device, device, None)
+        display = get_display(0x313F, device, None)  # EGL_PLATFORM_DEVICE_EXT
         if display and egl.eglInitialize(display, None, None):
             egl.eglTerminate(display)
             return None
@@ -96,7 +78,7 @@ def probe_egl() -> str | None:
 
 
 def probe_osmesa() -> str | None:
-    """None if OSMesa creates a context."""
+    """None if OSMesa creates a context, else why not."""
     try:
         osmesa = _load(("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so"), "OSMesa")
     except OSError as error:
@@ -118,7 +100,7 @@ PROBES: dict[str, Callable[[], str | None]] = {"egl": probe_egl, "osmesa": probe
 def select_backend(
     probes: dict[str, Callable[[], str | None]] | None = None,
 ) -> tuple[str | None, dict[str, str | None]]:
-    """Probe the backends in order; return the first that works and every attempt's result."""
+    """The first backend that works (or None) and every attempt's result."""
     attempts: dict[str, str | None] = {}
     for name, probe in (probes or PROBES).items():
         attempts[name] = _run(probe)
@@ -128,35 +110,28 @@ def select_backend(
 
 
 def _run(probe: Callable[[], str | None]) -> str | None:
-    """What ``probe`` says (None: the backend works); a crash is a failure, never raised."""
     try:
         return probe()
-    except Exception as error:  # a probe must never break the import or the caller
+    except Exception as error:  # a probe must never break the import
         return f"probe crashed: {error!r}"
 
 
 def user_problem(value: str) -> str | None:
-    """Why ``MUJOCO_GL=value`` cannot work on this machine (None if it may): a name MuJoCo does
-    not know (its import would fail), or a headless backend whose library is missing (its import
-    would crash)."""
+    """Why ``MUJOCO_GL=value`` would make ``import mujoco`` fail here (None if it may work): an
+    unknown name, or a headless backend whose library is missing."""
     name = value.strip().lower()
     if name in NO_GL or name in WINDOWED:
         return None
-    known = (*BACKENDS, *NO_GL, *WINDOWED) if platform.system() == "Linux" else (*NO_GL, *WINDOWED)
-    if name not in known:
+    if name not in BACKENDS or platform.system() != "Linux":
         return f"MUJOCO_GL={value!r} is not a backend MuJoCo knows (headless: {list(BACKENDS)})"
     reason = PROBES[name]() if name in PROBES else None
     return None if reason is None else f"MUJOCO_GL={value} cannot work here: {reason}"
 
 
 def configure_gl() -> str | None:
-    """Set ``MUJOCO_GL`` to a working headless backend unless the user set it (see module doc).
-    Returns the backend in force, or None.
-
-    A ``MUJOCO_GL`` that cannot work (an unknown name, a backend whose library is missing) would
-    make ``import mujoco`` fail for every command; it is replaced by ``disable`` (MuJoCo without
-    GL), and the problem is kept (also for child processes, in ``ACROBOT_MJ_GL_PROBLEM``) so that
-    rendering, and only rendering, reports it."""
+    """Set ``MUJOCO_GL`` to a working headless backend unless the user set it; returns the
+    backend in force, or None. A user's value that cannot work becomes ``disable``, its problem
+    kept (also in ``ACROBOT_MJ_GL_PROBLEM``, for child processes) for rendering to report."""
     global CHOICE, PROBLEM
     user = os.environ.get("MUJOCO_GL", "").strip()
     if user:
@@ -165,8 +140,8 @@ def configure_gl() -> str | None:
         if PROBLEM is None:
             CHOICE = "user"
             if user.lower() not in BACKENDS and "mujoco" not in sys.modules:
-                # Not headless: what would work, for rendering's error (probed now, while no
-                # GL is open: a probe after MuJoCo opened EGL would close MuJoCo's display).
+                # For rendering's error; probed now: after MuJoCo opens EGL a probe would
+                # close its display.
                 ATTEMPTS.update(probe_all())
             return user.lower()
         CHOICE = "broken"
@@ -188,15 +163,14 @@ def configure_gl() -> str | None:
 
 
 def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBackendError:
-    """One line that says why there is no headless backend: what was asked, each backend tried
-    and why it failed (with what to install), and what to set instead where one works."""
+    """Why there is no headless backend: what was asked, each backend tried and why it failed
+    (with what to install), and what to set instead."""
     parts = [f"no headless OpenGL backend for MuJoCo{': ' + detail if detail else ''}"]
-    for name in BACKENDS:
-        if name in attempts:
-            reason = attempts[name]
-            hint = f" (to install: {INSTALL_HINTS[name]})" if reason else ""
-            parts.append(f"tried {name}: {reason or 'works'}{hint}")
-    working = [name for name in BACKENDS if name in attempts and attempts[name] is None]
+    tried = [name for name in BACKENDS if name in attempts]
+    for name in tried:
+        hint = f" (to install: {INSTALL_HINTS[name]})" if attempts[name] else ""
+        parts.append(f"tried {name}: {attempts[name] or 'works'}{hint}")
+    working = [name for name in tried if attempts[name] is None]
     if working:
         parts.append(f"set MUJOCO_GL={working[0]} (it works here) or unset MUJOCO_GL")
     else:
@@ -206,20 +180,18 @@ def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBacken
 
 
 def probe_all() -> dict[str, str | None]:
-    """The result of every probe, working or not (only before MuJoCo opens a GL context)."""
+    """Every probe's result (only before MuJoCo opens a GL context)."""
     return {name: _run(probe) for name, probe in PROBES.items()}
 
 
 def make_renderer(model, width: int, height: int):
-    """A ``mujoco.Renderer`` on the headless backend, or :class:`GLBackendError` that says why
-    there is none."""
+    """A ``mujoco.Renderer`` on the headless backend; :class:`GLBackendError` says why not."""
     backend = os.environ.get("MUJOCO_GL", "").strip().lower()
     if CHOICE == "late":
         raise backend_error(
             {},
-            "mujoco was imported before acrobot_mj with MUJOCO_GL unset, "
-            "so it chose a GLFW window; set MUJOCO_GL or import acrobot_mj "
-            "first",
+            "mujoco was imported before acrobot_mj with MUJOCO_GL unset, so it chose a GLFW "
+            "window; set MUJOCO_GL or import acrobot_mj first",
         )
     if CHOICE == "broken":
         raise backend_error(ATTEMPTS, PROBLEM or "")
@@ -238,8 +210,7 @@ def make_renderer(model, width: int, height: int):
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as error:
-        reason = f"{backend} failed to create a context: {error!r}"
         attempts = dict(ATTEMPTS)
         if backend in BACKENDS:
-            attempts[backend] = reason
+            attempts[backend] = f"{backend} failed to create a context: {error!r}"
         raise backend_error(attempts, f"MUJOCO_GL={backend} does not work") from error

@@ -1,8 +1,5 @@
-"""An env over an identified model: the same task, spaces and resets as
-:class:`~acrobot_mj.envs.acrobot.AcrobotEnv`, with the one discrete step of the analytic model
-(:func:`acrobot_mj.physics.integrators.step`, compiled) on the identified parameters instead of
-MuJoCo. What a model-based learner plans in: simulated experience, no env decisions. The task
-is the real env's (its rewards, goal and start noise: what is asked, not how the acrobot moves).
+"""An env over an identified model, where a model-based learner plans: the real env's task,
+spaces and resets, stepped by the analytic model on the identified parameters instead of MuJoCo.
 """
 
 from __future__ import annotations
@@ -30,10 +27,9 @@ from acrobot_mj.physics.xp import wrap
 
 
 class IdentifiedEnv(gym.Env[np.ndarray, Any]):
-    """``Discrete(3)`` torques on the lumped model ``theta`` with ``task`` (a Task object, e.g.
-    ``real_env.unwrapped.task``), stepped as ``stepping`` says (the real env's dt, steps per
-    decision and limits); truncation after ``max_episode_steps`` decisions. ``reset`` takes the
-    single env's options and draws its start offsets from the task, as the single env does."""
+    """``Discrete(3)`` torques on the lumped model ``theta`` with ``task`` (e.g.
+    ``real_env.unwrapped.task``), stepped as ``stepping`` says; truncated after
+    ``max_episode_steps`` decisions. Resets as the single env."""
 
     metadata = {"render_modes": []}
 
@@ -41,7 +37,7 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         self,
         theta: Sequence[float],
         task: Task,
-        stepping: Stepping = Stepping(substeps=4),
+        stepping: Stepping = Stepping(substeps=4),  # noqa: B008 (frozen)
         max_episode_steps: int = 1000,
     ) -> None:
         theta = np.asarray(theta, dtype=np.float64)
@@ -68,8 +64,7 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         start = reset_state(options)
         noise = reset_noise(options, self.task.start_noise, known=RESET_OPTIONS)
         x = HANGING.copy() if start is None else start
-        offsets = None if start is not None else self.task.start_offsets(self.np_random, noise)
-        if offsets is not None:
+        if start is None and (offsets := self.task.start_offsets(self.np_random, noise)):
             x[:2] += offsets[0]
             x[2:] += offsets[1]
         self._x[0], self._t = x, 0
@@ -87,8 +82,7 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
 
     def _observe(self) -> np.ndarray:
         q1, q2, v1, v2 = self._x[0].tolist()
-        # As the MuJoCo env: NaN (kept by the limits), infinities or runaway angles stop the
-        # episode with an error instead of reaching the learner.
+        # As the MuJoCo env: a bad state raises instead of reaching the learner.
         inside = -MAX_ANGLE < q1 < MAX_ANGLE and -MAX_ANGLE < q2 < MAX_ANGLE
         if not (inside and v1 == v1 and v2 == v2):
             raise RuntimeError(

@@ -1,11 +1,5 @@
-"""The one episode loop: training, greedy evaluation, videos, validation replays and the fixed
-policies all run their episodes through :func:`run_episode`.
-
-What acts is an :class:`Actor`: ``begin(obs)`` gives the first action, ``observe(reward, obs,
-terminated, truncated)`` sees each step's result and gives the next action (ignored once the
-episode is over). A learning agent learns in ``observe`` (``acrobot_mj.agents.base``); a fixed
-policy just maps observations to actions (:class:`PolicyActor`). Hooks see the reset and every
-step, for frames or per-step records.
+"""The one episode loop (:func:`run_episode`) that training, evaluation, videos, replays and
+fixed policies run their episodes through, and the :class:`Actor` that chooses the actions.
 """
 
 from __future__ import annotations
@@ -23,28 +17,27 @@ Policy = Callable[[np.ndarray], Any]
 
 
 class Actor(Protocol):
-    """What chooses the actions of an episode."""
+    """What chooses the actions of an episode (a learner learns in ``observe``)."""
 
     def begin(self, obs: np.ndarray) -> Any:
         """The first action, from the reset observation."""
 
     def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
-        """See one step's outcome; return the next action (unused once the episode is over)."""
+        """See one step's outcome; the next action (unused once the episode is over)."""
 
 
 class PolicyActor:
-    """A fixed policy as an actor: it is asked only for actions that will be taken."""
+    """A fixed policy as an actor, asked only for actions that will be taken."""
 
     def __init__(self, policy: Policy) -> None:
-        self.begin = policy
-        self._policy = policy
+        self.begin = self._policy = policy
 
     def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
         return None if terminated or truncated else self._policy(obs)
 
 
 class SequenceActor(PolicyActor):
-    """Plays a fixed sequence of actions (episodes longer than it must be cut by max_steps)."""
+    """Plays a fixed sequence of actions (cut longer episodes with ``max_steps``)."""
 
     def __init__(self, actions: Sequence[Any]) -> None:
         self._actions = iter(actions)
@@ -53,9 +46,8 @@ class SequenceActor(PolicyActor):
 
 @dataclass
 class Episode:
-    """What one episode did: decisions taken, return (the task's reward, before any shaping:
-    ``info["unshaped_reward"]`` where a shaping wrapper provides it), whether it succeeded
-    (``info["is_success"]``), whether the env truncated it, and the last step's ``info``."""
+    """What one episode did: decisions, return (before shaping: ``info["unshaped_reward"]``
+    where given), success (``info["is_success"]``), the env's truncation and the last ``info``."""
 
     length: int = 0
     episode_return: float = 0.0
@@ -70,12 +62,11 @@ StepHook = Callable[[Any, np.ndarray, float, bool, bool, dict[str, Any]], None]
 
 
 class _HookedStep:
-    """``env.step`` with the hooks of an episode: ``on_step`` after each step, and the episode
-    cut after ``max_steps`` actions (reported to the actor as a truncation; ``env_truncated``
-    keeps the env's own flag for the record)."""
+    """``env.step`` calling ``on_step`` after each step and truncating after ``max_steps``
+    actions (``env_truncated`` keeps the env's own flag)."""
 
-    def __init__(self, step: Callable, on_step: StepHook | None, max_steps: int | None) -> None:
-        self._step, self._on_step = step, on_step
+    def __init__(self, env: gym.Env, on_step: StepHook | None, max_steps: int | None) -> None:
+        self._step, self._on_step = env.step, on_step
         self._limit = sys.maxsize if max_steps is None else max_steps
         self.steps, self.env_truncated = 0, False
 
@@ -98,18 +89,16 @@ def run_episode(
     on_reset: ResetHook | None = None,
     on_step: StepHook | None = None,
 ) -> Episode:
-    """Run one episode of ``actor`` on ``env``: from ``env.reset(seed, options)`` until it
-    terminates, truncates or has taken ``max_steps`` actions (then the actor sees it as
-    truncated, and the Episode records the env's own flag)."""
+    """Run one episode of ``actor`` on ``env`` from ``env.reset(seed, options)`` until it ends
+    or has taken ``max_steps`` actions (the actor sees a truncation; the Episode the env's
+    flag)."""
     obs, info = env.reset(seed=seed, options=options)
     if on_reset is not None:
         on_reset(obs, info)
     action = actor.begin(obs)
-    hooked = (
-        None if on_step is None and max_steps is None else _HookedStep(env.step, on_step, max_steps)
-    )
+    hooked = None if on_step is None and max_steps is None else _HookedStep(env, on_step, max_steps)
     step = env.step if hooked is None else hooked
-    observe = actor.observe  # the hot loop of training: locals only, nothing more per step
+    observe = actor.observe  # training's hot loop: locals only
     length, total = 0, 0.0
     while True:
         obs, reward, terminated, truncated, info = step(action)

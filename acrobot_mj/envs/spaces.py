@@ -1,6 +1,5 @@
-"""What every acrobot task shares: the action and observation spaces, actions turned into
-torques, and the reset options, each validated: anything outside the space or unknown raises
-an error that names it (nothing is clipped)."""
+"""What every acrobot task shares: the spaces, actions as torques and the reset options, each
+validated (anything outside the space or unknown raises; nothing is clipped)."""
 
 from __future__ import annotations
 
@@ -15,22 +14,19 @@ from acrobot_mj.checks import check_float
 from acrobot_mj.compiled import compiled, jitable
 from acrobot_mj.physics.params import REPORT
 
-#: Velocity limits [rad/s] (the report's, after Sutton and Barto), applied after every step.
+#: Velocity limits [rad/s], applied after every physics step.
 MAX_VEL1, MAX_VEL2 = REPORT.max_vel
-#: Torque [N m] of each discrete action.
-TORQUES = (-1.0, 0.0, 1.0)
+TORQUES = (-1.0, 0.0, 1.0)  # [N m] of each discrete action
 TORQUE_ARRAY = np.array(TORQUES)
 #: Integer types whose values index TORQUES directly (the env's fast path).
 INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
 TORQUE_OF = dict(enumerate(TORQUES))
-#: Reset options of the single env: ``start_noise`` (this episode's) or ``state`` (an exact start
-#: ``(q1, q2, dq1, dq2)`` [rad, rad/s], as evaluation records store them); the vector env takes
-#: the first.
+#: The single env's reset options: this episode's noise, or an exact start state.
 RESET_OPTIONS = ("start_noise", "state")
 
 
 def observation_space() -> spaces.Box:
-    """``(q1, q2, dq1, dq2)``: angles on the circle [-pi, pi), velocities to their limits."""
+    """``(q1, q2, dq1, dq2)``: angles in [-pi, pi), velocities to their limits."""
     high = np.array([math.pi, math.pi, MAX_VEL1, MAX_VEL2])
     return spaces.Box(-high, high, dtype=np.float64)
 
@@ -70,8 +66,8 @@ def action_torque(action: Any, continuous: bool) -> float:
 
 @jitable
 def discrete_torques(actions, torques, ctrl) -> int:
-    """``ctrl[i, 0] = torques[actions[i]]`` for every row and -1, or, if any action is outside
-    ``0 .. len(torques) - 1``, the first such row, with nothing written."""
+    """``ctrl[i, 0] = torques[actions[i]]`` for every row and -1, or the first row whose action
+    is out of range, writing nothing."""
     for i in range(actions.shape[0]):
         if not (0 <= actions[i] < torques.shape[0]):
             return i
@@ -81,8 +77,8 @@ def discrete_torques(actions, torques, ctrl) -> int:
 
 
 def write_torques(actions: Any, continuous: bool, ctrl: np.ndarray) -> None:
-    """Write the torques [N m] of a batch of actions into the controls ``ctrl`` ``(N, 1)``;
-    anything outside the space raises, and nothing is written."""
+    """Write the torques [N m] of a batch of actions into ``ctrl`` ``(N, 1)``; anything outside
+    the space raises, writing nothing."""
     n, a = len(ctrl), np.asarray(actions)
     if continuous:
         if a.dtype.kind not in "fiu" or a.shape != (n, 1):
@@ -105,8 +101,8 @@ def write_torques(actions: Any, continuous: bool, ctrl: np.ndarray) -> None:
 
 
 def reset_noise(options: Any, default: float, known: tuple[str, ...] = ("start_noise",)) -> float:
-    """The start noise of a reset: ``options["start_noise"]`` (validated), else ``default``;
-    a non-dict or an option outside ``known`` raises."""
+    """A reset's ``options["start_noise"]`` (validated), else ``default``; a non-dict or an
+    option outside ``known`` raises."""
     if options is not None and not isinstance(options, Mapping):
         raise TypeError(f"reset options must be a dict, got {options!r}")
     unknown = sorted(set(options or ()) - set(known))
@@ -118,8 +114,8 @@ def reset_noise(options: Any, default: float, known: tuple[str, ...] = ("start_n
 
 
 def reset_state(options: Any) -> np.ndarray | None:
-    """The exact start ``options["state"]`` of a reset, as 4 floats (None without); giving
-    ``start_noise`` as well is refused (the state is the whole start)."""
+    """A reset's exact start ``options["state"]`` as 4 floats (or None); not with
+    ``start_noise``."""
     if not isinstance(options, Mapping) or options.get("state") is None:
         return None
     if "start_noise" in options:

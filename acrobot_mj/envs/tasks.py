@@ -1,13 +1,5 @@
-"""Tasks: what the acrobot is asked to do on the shared physics, actions and observations, and
-the registry of them, each registered with Gymnasium.
-
-A task is a :class:`Task` subclass (its start, its step rule, what ``info`` reports, how its
-results are scored) plus one :func:`register_task` call, which registers its Gymnasium id. The
-step rule is written once, in :meth:`Task.rule`, on Python floats and ``math``: the single env
-calls it as it is, and the vector env runs it over its rows compiled by numba
-(:meth:`Task.outcomes`); the two cannot drift apart. Built in: :class:`HeightGoal` (Sutton and
-Barto's swing-up, ``acrobot_mj/Acrobot-v0``) and :class:`Balance` (swing up and stay upright, the
-report's own objective, ``acrobot_mj/AcrobotBalance-v0``).
+"""Tasks: what the acrobot is asked to do (start, step rule, ``info``, scoring) and their registry.
+The single env calls a task's :meth:`Task.rule`; the vector env runs it compiled over rows.
 """
 
 from __future__ import annotations
@@ -25,8 +17,8 @@ from acrobot_mj.checks import check_float
 from acrobot_mj.compiled import compiled
 from acrobot_mj.physics.xp import maximum, wrap
 
-#: ``rule(q1, q2, dq1, dq2) -> (reward, terminated, success, values)`` on the angles [rad] and
-#: velocities [rad/s] after a step; ``values``: a tuple of floats named by ``Task.info_keys``.
+#: ``rule(q1, q2, dq1, dq2) -> (reward, terminated, success, values)`` on the state [rad, rad/s]
+#: after a step; ``values``: floats named by ``Task.info_keys``.
 Rule = Callable[[float, float, float, float], tuple[float, bool, bool, tuple[float, ...]]]
 #: The compiled form of each task's rule over rows, by the task's type and settings.
 _ROWS: dict[tuple, Callable[..., None]] = {}
@@ -34,16 +26,15 @@ _ROWS: dict[tuple, Callable[..., None]] = {}
 
 @dataclass(frozen=True)
 class Score:
-    """How a task's episodes are scored: ``quantity`` ``"length"`` (decisions) or ``"return"``
-    (the field of a greedy result and, as ``episode_{quantity}s``, of a run record) and which
-    way is better."""
+    """How episodes are scored: ``quantity`` ``"length"`` or ``"return"`` (a run record's
+    ``episode_{quantity}s``) and which way is better."""
 
     quantity: str
     lower_is_better: bool
-    label: str  # what the number is, e.g. "decisions per episode"
+    label: str  # e.g. "decisions per episode"
     unit: str  # e.g. "decisions"
-    best_word: str  # "shortest", "highest": the best of several, in words
-    log_scale: bool = False  # plots of it read better on a log axis
+    best_word: str  # the best of several, in words: "shortest", "highest"
+    log_scale: bool = False  # plots read better on a log axis
 
     def __post_init__(self) -> None:
         if self.quantity not in ("length", "return"):
@@ -59,25 +50,17 @@ class Score:
 
 
 class Task(ABC):
-    """One acrobot task on the shared physics, actions and observations.
+    """One acrobot task on the shared physics. Subclasses set the class attributes and implement
+    :meth:`rule` and :meth:`caption`; the constructor takes ``links`` (l1, l2 [m]),
+    ``start_noise`` and the keyword :attr:`options`."""
 
-    Subclasses set the class attributes and implement :meth:`rule` and :meth:`caption`; their
-    constructor takes ``links`` (l1, l2 [m], measured on the model by the env), ``start_noise``
-    and the keyword :attr:`options`, each validated.
-    """
-
-    #: Short name: ``TrainConfig.task`` and the ``task`` argument of the envs.
-    name: ClassVar[str]
-    #: The Gymnasium id it is registered under.
-    env_id: ClassVar[str]
-    #: Truncation (Gymnasium's TimeLimit, and the vector env's default).
-    max_episode_steps: ClassVar[int]
+    name: ClassVar[str]  # TrainConfig.task and the envs' task argument
+    env_id: ClassVar[str]  # the Gymnasium id
+    max_episode_steps: ClassVar[int]  # truncation
     score: ClassVar[Score]
     #: The mean return that counts as solved with the registered defaults (or None).
     reward_threshold: ClassVar[float | None] = None
-    #: Keyword options of the constructor besides ``start_noise``.
-    options: ClassVar[tuple[str, ...]] = ()
-    #: The model keyframe episodes start from.
+    options: ClassVar[tuple[str, ...]] = ()  # constructor keywords besides start_noise
     start_keyframe: ClassVar[str] = "hanging"
     #: Names of the rule's ``values`` in ``info``, and the names success is reported under.
     info_keys: ClassVar[tuple[str, ...]] = ()
@@ -93,49 +76,50 @@ class Task(ABC):
     def start_offsets(
         self, rng: np.random.Generator, noise: float
     ) -> tuple[np.ndarray, np.ndarray] | None:
-        """What a reset adds to the keyframe's ``qpos`` and ``qvel`` [rad, rad/s]: ``U(-noise,
-        noise)`` for each angle, then each velocity (None without noise)."""
+        """What a reset adds to the keyframe's ``qpos`` and ``qvel``: ``U(-noise, noise)`` for
+        each angle, then each velocity (None without noise)."""
         if noise <= 0.0:
             return None
         return rng.uniform(-noise, noise, 2), rng.uniform(-noise, noise, 2)
 
     @abstractmethod
     def rule(self) -> Rule:
-        """The step rule (see :data:`Rule`): plain arithmetic on floats and ``math``, so that
-        numba compiles it; the task's numbers are read once, outside the returned function."""
+        """The step rule: plain float arithmetic and ``math`` (numba compiles it), with the
+        task's numbers read outside the returned function."""
 
     @abstractmethod
     def caption(self, info: dict[str, Any]) -> str:
         """A few words on a frame's state for video captions, e.g. ``tip +0.53 m``."""
 
     def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
-        """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart
-        (``swing_up``: the steps a planned swing-up takes), for evaluations: none here."""
+        """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart."""
         return {}
 
     @staticmethod
     def summarise(assessments: list[dict[str, Any]], spread: Callable) -> dict[str, Any]:
-        """What :meth:`assess` says over many episodes (``spread``: the statistics of a list)."""
+        """What :meth:`assess` says over many episodes (``spread``: statistics of a list)."""
         return {}
 
     @classmethod
     def reference(cls, frame_skip: int) -> tuple[float, str] | None:
-        """A reference score and its label for plots (e.g. the best known), or None."""
+        """A reference score and its label for plots, or None."""
         return None
 
     def info(self) -> Callable[[tuple, Any], dict[str, Any]]:
-        """``info(values, success)``: a step's ``info``, the rule's values by
-        :attr:`info_keys`, then success by :attr:`success_keys` (a dict literal where there is
-        one value: the single env's hot path)."""
+        """``info(values, success)``: a step's ``info`` (a dict literal where there is one value:
+        the single env's hot path)."""
         keys, names = self.info_keys, self.success_keys
         if len(keys) == 1 and len(names) in (1, 2):
             key, first, last = keys[0], names[0], names[-1]
             return lambda values, success: {key: values[0], first: success, last: success}
-        return lambda values, success: {**dict(zip(keys, values)), **dict.fromkeys(names, success)}
+        return lambda values, success: {
+            **dict(zip(keys, values, strict=False)),
+            **dict.fromkeys(names, success),
+        }
 
     def outcomes(self, q1: np.ndarray, q2: np.ndarray, dq1: np.ndarray, dq2: np.ndarray) -> tuple:
-        """The rule over rows (arrays ``(N,)``), compiled: rewards, terminations and ``info``
-        (one new array per entry, none sharing memory with another)."""
+        """The rule over rows ``(N,)``, compiled: rewards, terminations and ``info`` (each entry
+        a new array)."""
         n = len(q1)
         reward, flags = np.empty(n), np.empty((2, n), bool)
         values = np.empty((len(self.info_keys), n))
@@ -168,49 +152,15 @@ class Task(ABC):
 
 
 class HeightGoal(Task):
-    r"""Swing the tip of link 2 above a line one link length over the bar (the report's task).
-
-    ## Rewards
-    ``step_reward`` (-1) on every step and ``goal_reward`` (+100) instead on the step that
-    reaches the goal (the report).
-
-    ## Starting State
-    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)`` (the ``hanging`` keyframe). With
-    ``start_noise = s > 0`` each angle and velocity gets ``U(-s, s)`` added (from the env's
-    ``np_random``, angles first).
-
-    ## Episode End
-    - Termination: the tip is more than ``goal_height`` above the pivot, ``l1 sin(q1) +
-      l2 sin(q1 + q2) > goal_height``, tested once per action, after its last physics step
-      (with ``frame_skip > 1`` a swing that crosses the line and falls back within one action
-      is not counted).
-    - Truncation: 1000 actions, by the ``TimeLimit`` that ``gymnasium.make`` adds.
-
-    ``info`` holds ``tip_height`` [m above the pivot] and ``is_success`` (the goal was reached).
-
-    ## Options
-    | Option      | Default | Meaning                                                         |
-    |-------------|---------|-----------------------------------------------------------------|
-    | step_reward | -1.0    | reward of a step that does not reach the goal                   |
-    | goal_reward | 100.0   | reward of the step that reaches the goal                        |
-    | goal_height | 1.0     | tip height above the pivot that ends the episode [m], < l1 + l2 |
-    | start_noise | 0.0     | half-width of the uniform start noise [rad, rad/s], in [0, 1]   |
-
-    ## Score
-    Decisions to the goal (fewer is better; 1000 when it is not reached). The registered spec's
-    ``reward_threshold`` is -300: the goal within 401 steps of 0.05 s (20 s, Acrobot-v1's -100
-    carried over in time) on average, with the default rewards and ``frame_skip=1``.
-    """
+    """Swing the tip above ``goal_height`` (1 m) over the bar, the report's task: ``step_reward``
+    (-1) per step, ``goal_reward`` (+100) on the step whose end reaches it, which terminates.
+    Starts hanging at rest, plus ``U(-start_noise, start_noise)`` on each angle and velocity.
+    Truncated at 1000 actions; ``info``: ``tip_height`` [m] and ``is_success``."""
 
     name = "height_goal"
     env_id = "acrobot_mj/Acrobot-v0"
     max_episode_steps = 1000
-    # Gymnasium's Acrobot-v1 counts as solved at a mean return of -100: the goal within about
-    # 100 decisions of 0.2 s, 20 s. The same 20 s are 400 steps of 0.05 s here (the registered
-    # frame_skip=1), and an episode reaching the goal on step T returns -(T - 1) + 100 = 101 - T:
-    # -300 is the goal by step 401 on average (the best known minimum, 252 steps, returns -151;
-    # a truncated episode -1000). With frame_skip=4 it is as loose as 400 decisions; with other
-    # rewards it means nothing (the spec has one number for every keyword argument).
+    # Acrobot-v1's -100 (the goal within 20 s): the goal at step 401 of 0.05 s returns -300.
     reward_threshold = -300.0
     score = Score(
         "length",
@@ -251,7 +201,6 @@ class HeightGoal(Task):
         goal_reward, step_reward = self.goal_reward, self.step_reward
 
         def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
-            # Tip height above the pivot [m], then the goal test.
             tip = l1 * math.sin(q1) + l2 * math.sin(q1 + q2)
             reached = tip > height
             return (goal_reward if reached else step_reward), reached, reached, (tip,)
@@ -268,49 +217,17 @@ class HeightGoal(Task):
 
 
 class Balance(Task):
-    r"""Swing up from hanging and stay balanced upright, ``(q1, q2) = (pi/2, 0)``.
+    """Swing up from hanging and stay balanced upright, ``(q1, q2) = (pi/2, 0)``.
 
-    ## Rewards
-    ``(1 + sin q1) (1 + cos q2) / 4`` on every step: 1 balanced upright, 0 with link 1 hanging or
-    link 2 folded back, smooth in between. dm_control's acrobot ``swingup`` rewards the tip's
-    distance to the target with a tolerance band; this is the same idea on the two angles, with
-    no flat region (a learner always sees which way is up) and no velocity term (a swing-up must
-    pass through fast states).
-
-    ## Starting State
-    Hanging at rest, exactly ``(-pi/2, 0, 0, 0)``; with ``start_noise = s > 0`` each angle and
-    velocity gets ``U(-s, s)`` added (angles first).
-
-    ## Episode End
-    No termination: balancing is staying up. Truncation at 2000 actions by the ``TimeLimit``
-    that ``gymnasium.make`` adds (100 s at 0.05 s steps: a swing-up of up to 40 s and 60 s of
-    balance).
-
-    ``info`` holds ``upright_error`` (the larger of the two angles' distances from upright,
-    wrapped [rad]) and ``is_balanced`` (that error below ``tolerance``, 0.05 rad), which is also
-    ``is_success``.
-
-    ## Options
-    | Option      | Default | Meaning                                                       |
-    |-------------|---------|---------------------------------------------------------------|
-    | tolerance   | 0.05    | largest angle error [rad] that counts as balanced, in (0, pi) |
-    | start_noise | 0.0     | half-width of the uniform start noise [rad, rad/s], in [0, 1] |
-
-    ## Score
-    The return (higher is better; at most 1 per step). The registered spec's
-    ``reward_threshold`` is 1200: 60 s (1200 steps of 0.05 s) balanced, the report's objective.
-
-    ## Example
-    Golden values computed by hand from the formulas above (``math`` only), at the state after
-    ten +1 N m steps from rest that ``AcrobotEnv``'s own example gives, ``(q1, q2) =
-    (-1.647489786, 0.204950005)``: reward ``(1 + sin q1)(1 + cos q2) / 4 = 0.00145437``, error
-    ``|q1 - pi/2 + 2 pi| = 3.064899`` rad:
+    Rewards ``(1 + sin q1) (1 + cos q2) / 4`` per step (1 upright, no flat region, no velocity
+    term); no termination, truncated at 2000 actions. ``info``: ``upright_error`` (the larger
+    wrapped angle error [rad]) and ``is_balanced`` (below ``tolerance`` rad), also
+    ``is_success``. Ten +1 N m steps from rest reach ``(q1, q2) = (-1.647489786, 0.204950005)``,
+    reward ``0.00145437`` and error ``|q1 - pi/2 + 2 pi| = 3.064899`` rad by hand:
 
     >>> import gymnasium as gym
     >>> import acrobot_mj
     >>> env = gym.make("acrobot_mj/AcrobotBalance-v0")
-    >>> env.spec.max_episode_steps
-    2000
     >>> obs, info = env.reset(seed=0)
     >>> info
     {'upright_error': 3.141592653589793, 'is_balanced': False, 'is_success': False}
@@ -323,11 +240,7 @@ class Balance(Task):
     name = "balance"
     env_id = "acrobot_mj/AcrobotBalance-v0"
     max_episode_steps = 2000
-    # The report's objective is 60 s balanced after the swing-up: 1200 steps of 0.05 s at a
-    # reward of nearly 1 each. Rewards are at most 1, so a mean return of 1200 needs at least
-    # 1200 steps' worth of upright; spinning through every angle earns about 1/4 a step (500 in
-    # all). Measured: the shipped controller (476-step swing-up, then balance) returns 1610; the
-    # minimum-time swing-up with {-1, 0, +1} torques, which falls, 592.
+    # The report's objective: 60 s (1200 steps of 0.05 s) balanced.
     reward_threshold = 1200.0
     score = Score(
         "return", lower_is_better=False, label="return per episode", unit="", best_word="highest"
@@ -350,7 +263,6 @@ class Balance(Task):
         tolerance, up = self.tolerance, math.pi / 2
 
         def rule(q1: float, q2: float, dq1: float, dq2: float) -> tuple:
-            # Closeness to upright, then the larger angle error from it (wrapped).
             reward = (1.0 + math.sin(q1)) * (1.0 + math.cos(q2)) / 4.0
             error = maximum(abs(wrap(q1 - up)), abs(wrap(q2)))
             return reward, False, error < tolerance, (error,)
@@ -358,10 +270,8 @@ class Balance(Task):
         return rule
 
     def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
-        """How long states ``(T + 1, 4)`` [rad, rad/s] ``dt`` [s] apart stayed balanced from the
-        end of the swing-up (``swing_up`` steps; default: where the last balanced stretch
-        begins) to the end: its time, the error on arrival, the hold time [s], whether it held
-        to the end, the largest error while it held, and the final error [rad]."""
+        """How long ``states`` stayed balanced after ``swing_up`` steps (default: where the last
+        balanced stretch begins): times [s], errors [rad], and whether it held to the end."""
         _, _, info = self.outcomes(*np.ascontiguousarray(states, dtype=np.float64).T)
         error, balanced = info["upright_error"], info["is_balanced"]
         if swing_up is None:
@@ -369,7 +279,7 @@ class Balance(Task):
             swing_up = min(int(out[-1]) + 1 if out.size else 0, len(states) - 1)
         after = error[swing_up:]
         out = np.flatnonzero(~balanced[swing_up:])
-        inside = after if out.size == 0 else after[: out[0]]  # the steps within tolerance
+        inside = after if out.size == 0 else after[: out[0]]
         return {
             "swing_up_seconds": swing_up * dt,
             "arrival_error": float(after[0]),
@@ -381,8 +291,8 @@ class Balance(Task):
 
     @staticmethod
     def summarise(assessments: list[dict[str, Any]], spread: Callable) -> dict[str, Any]:
-        """How many episodes ended balanced, the ``spread`` of the hold times [s], and the
-        largest error while balanced [rad]."""
+        """Episodes that ended balanced, the ``spread`` of hold times [s], and the largest error
+        while balanced [rad]."""
         balanced = [a for a in assessments if a["balanced"]]
         return {
             "balanced": len(balanced),
@@ -397,21 +307,19 @@ class Balance(Task):
 
 
 TASKS: dict[str, type[Task]] = {}
-_REQUIRED = ("name", "env_id", "max_episode_steps", "score")
 
 
 def register_task(task: type[Task]) -> type[Task]:
-    """Add ``task`` to :data:`TASKS` and register its Gymnasium id (``gymnasium.make`` with its
-    TimeLimit, and ``gymnasium.make_vec``). Returns the class, so it can decorate it."""
+    """Add ``task`` to :data:`TASKS` and register its Gymnasium id (``make`` and ``make_vec``);
+    returns the class, so it can decorate it."""
     if not (isinstance(task, type) and issubclass(task, Task)):
         raise TypeError(f"a task must be a subclass of acrobot_mj.envs.tasks.Task, got {task!r}")
-    missing = [attribute for attribute in _REQUIRED if not hasattr(task, attribute)]
+    missing = [a for a in ("name", "env_id", "max_episode_steps", "score") if not hasattr(task, a)]
     if missing:
         raise TypeError(f"task {task.__name__} lacks the class attributes {missing}")
-    known = TASKS.get(task.name)
-    if known is not None and known is not task:
+    known = TASKS.setdefault(task.name, task)
+    if known is not task:
         raise ValueError(f"a task named {task.name!r} is already registered ({known.__name__})")
-    TASKS[task.name] = task
     if task.env_id not in gymnasium.registry:
         gymnasium.register(
             id=task.env_id,

@@ -1,8 +1,5 @@
-"""Many acrobots stepped together: a ``gymnasium.vector.VectorEnv`` whose sub-envs have exactly
-:class:`~acrobot_mj.envs.acrobot.AcrobotEnv`'s semantics, the physics of all of them advanced in
-one call per physics step (:mod:`acrobot_mj.envs.batch`) and the task's rule run over the rows,
-compiled (:meth:`~acrobot_mj.envs.tasks.Task.outcomes`).
-``gymnasium.make_vec("acrobot_mj/Acrobot-v0", num_envs=N)`` returns it.
+"""Many acrobots stepped together: a ``VectorEnv`` whose sub-envs have
+:class:`~acrobot_mj.envs.acrobot.AcrobotEnv`'s semantics, ``gymnasium.make_vec``'s for our ids.
 """
 
 from __future__ import annotations
@@ -22,72 +19,27 @@ from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import reset_noise, write_torques
 
-#: The physics a vector env can step on: MuJoCo's batch (the default and the reference), or the
-#: lumped analytic model compiled with numba.
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
-#: Sub-env attributes with one value per sub-env (get_attr), and those of them set_attr sets.
+#: Sub-env attributes with one value per sub-env (get_attr), and those set_attr sets.
 PER_ENV = ("state", "np_random", "np_random_seed")
 SETTABLE = ("np_random",)
-#: Sub-env attributes every sub-env of a batch shares (get_attr repeats the one value); fixed
-#: when the env is built, so set_attr refuses them.
+#: Sub-env attributes the batch shares (get_attr repeats the one value; set_attr refuses them).
 SHARED = ("frame_skip", "integrator", "continuous", "start_noise", "dt", "task", "model",
           "metadata", "render_mode", "width", "height", "camera", "action_space",
           "observation_space")  # fmt: skip
-#: Sub-env methods call() runs (with the same arguments for every sub-env).
 METHODS = ("set_state", "render")
 
 
 class AcrobotVectorEnv(VectorEnv):
-    """``num_envs`` acrobots with the single env's task, stepped together.
+    """``num_envs`` acrobots with the single env's arguments, stepped together; sub-env ``i``
+    reset with seed ``s + i`` behaves bit for bit as a single env with that seed.
 
-    Arguments: ``num_envs``; ``max_episode_steps`` (default: the task's, 1000 for the height
-    goal: the truncation the single env gets from ``gymnasium.make``); ``autoreset_mode``
-    (``"next_step"``, Gymnasium's default, or ``"disabled"``); ``nthread`` (threads: by default
-    one below :data:`~acrobot_mj.envs.batch.THREADED_FROM` sub-envs and all CPUs from there; 0
-    for all CPUs, or a number, always honoured; the numbers do not depend on it); ``backend``
-    (below); ``render_envs`` (below); and the single env's ``frame_skip``,
-    ``integrator``, ``task``, ``continuous``, ``model_path``, ``render_mode``, ``width``,
-    ``height``, ``camera`` and task options (validated by the single env's rules).
-
-    Autoreset (``AutoresetMode.NEXT_STEP``): when a sub-env terminates or truncates, the next
-    ``step`` ignores its action, resets it and returns the reset observation with reward 0 and
-    both flags False. With ``"disabled"``, a finished sub-env is reset only by
-    ``reset(options={"reset_mask": mask})``, as in Gymnasium.
-
-    Seeding follows Gymnasium's vector envs: ``reset(seed=s)`` seeds sub-env ``i`` with
-    ``s + i`` (or takes a list of seeds); each sub-env owns its generator for start noise, so
-    sub-env ``i`` behaves bit for bit like a single env reset with the same seed.
-
-    ``info`` holds the task's entries as arrays (for the height goal ``tip_height`` and
-    ``is_success``), each with Gymnasium's ``_`` mask. ``unwrapped.model`` is the shared
-    ``MjModel``, ``unwrapped.task`` the task.
-
-    Sub-env attributes (``get_attr``, ``set_attr``, ``call``, as ``SyncVectorEnv``'s, tuples of
-    one value per sub-env): :data:`PER_ENV` ones differ per sub-env (``state``, ``np_random``,
-    ``np_random_seed``; only ``np_random`` can be set, one Generator per sub-env or one for
-    all); :data:`SHARED` ones (``frame_skip``, ``task``, ``model``, the single spaces, ...) are
-    one value for the whole batch, repeated, and ``set_attr`` refuses them (build a new env).
-    ``call`` runs :data:`METHODS` (``set_state(q, dq)`` on every sub-env, ``render`` for every
-    sub-env's frame) or returns an attribute. Unknown names raise ``AttributeError``.
-
-    Rendering (``render_mode="rgb_array"``, the single env's ``width``, ``height``, ``camera``):
-    ``render()`` returns one frame, sub-env 0's, identical to a single env's in the same state;
-    with ``render_envs=k`` the first ``k`` sub-envs' frames tiled row by row in a grid of
-    ``ceil(sqrt(k))`` columns (black where the grid has no sub-env); with ``render_envs=None``
-    a tuple of every sub-env's frame, as ``SyncVectorEnv.render`` (Gymnasium's vector
-    ``RecordVideo`` and ``HumanRendering`` wrappers need that form).
-
-    Pickling (and ``copy.deepcopy``) rebuilds the batch and restores every sub-env's full
-    MuJoCo state (the analytic backend: its states and controls), elapsed steps, pending
-    autoresets and generators: the copy steps identically.
-
-    Backends (``backend``): ``"mujoco"`` (the default and the reference) steps ``mujoco.batch``;
-    ``"analytic"`` steps the lumped manipulator model (parameters derived from the loaded model)
-    compiled, on one thread below :data:`~acrobot_mj.envs.batch.ANALYTIC_THREADED_FROM`
-    sub-envs. Everything else (task, resets, seeding, info, pickling, rendering) is the same code.
-    It refuses what the lumped model cannot represent (``rk4``, damping, armature, a model whose
-    dynamics differ); its trajectories match MuJoCo's to rounding, which the acrobot's chaos
-    amplifies over long episodes. ``batch`` is the ``mujoco.batch.Batch`` (None: analytic).
+    ``nthread``: None for one thread below :data:`~acrobot_mj.envs.batch.THREADED_FROM`
+    sub-envs and all CPUs from there, 0 for all (the numbers do not depend on it). ``backend``:
+    ``"mujoco"`` (``mujoco.batch``, the reference) or ``"analytic"`` (the lumped model compiled,
+    matching MuJoCo to rounding). ``render()`` gives sub-env 0's frame, the first
+    ``render_envs`` frames in a grid, or with None a tuple of all. ``get_attr``, ``set_attr`` and
+    ``call`` work as ``SyncVectorEnv``'s. ``batch`` is the ``mujoco.batch.Batch`` (or None).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["rgb_array"]}
@@ -112,19 +64,14 @@ class AcrobotVectorEnv(VectorEnv):
         self.render_envs = (
             None if render_envs is None else check_int("render_envs", render_envs, 1, self.num_envs)
         )
-        # One single env validates the options and builds the model (integrator, no autoreset);
-        # it also renders, one sub-env's state at a time.
+        # One single env validates the options, builds the model and renders each sub-env.
         self._template = AcrobotEnv(render_mode=render_mode, **env_kwargs)
         self.task = self._template.task
-        if max_episode_steps is None:
-            max_episode_steps = self.task.max_episode_steps
-        self.max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
+        steps = self.task.max_episode_steps if max_episode_steps is None else max_episode_steps
+        self.max_episode_steps = check_int("max_episode_steps", steps, 1)
         self.model = self._template.model
-        self.metadata = {
-            **self.metadata,
-            "autoreset_mode": mode,
-            "render_fps": self._template.metadata["render_fps"],
-        }
+        fps = self._template.metadata["render_fps"]
+        self.metadata = {**self.metadata, "autoreset_mode": mode, "render_fps": fps}
         self.render_mode = render_mode
         self._frame_skip = self._template.frame_skip
         self._continuous = self._template.continuous
@@ -132,14 +79,11 @@ class AcrobotVectorEnv(VectorEnv):
         self._build_batch()
         start = self.model.key(self.task.start_keyframe)
         self._start_qpos, self._start_qvel = start.qpos.copy(), start.qvel.copy()
-
         self.single_action_space = self._template.action_space
         self.single_observation_space = self._template.observation_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-
-        # Steps of the env so far, and the step each sub-env's episode began at (cheaper than
-        # counting every sub-env's steps at every step): see _elapsed.
+        # Steps so far, and the step each episode began at: cheaper than counting per sub-env.
         self._steps, self._began = 0, np.zeros(self.num_envs, dtype=np.int64)
         self._every, self._none = np.ones(self.num_envs, dtype=bool), np.zeros(self.num_envs, bool)
         self._mask_names: dict[str, str] = {}  # info key -> its mask's key
@@ -150,20 +94,16 @@ class AcrobotVectorEnv(VectorEnv):
         )
         self._reset_envs(np.ones(self.num_envs, dtype=bool), self.task.start_noise)
 
-    def _build_batch(self) -> None:
-        """The batch of ``num_envs`` simulations and the views into it (redone by unpickling)."""
-        physics = BACKENDS[self.backend](self.model, self.num_envs, self._nthread)
-        self._physics = physics
+    def _build_batch(self) -> None:  # also on unpickling
+        #: The backend's physics stepping the sub-envs.
+        self.physics = physics = BACKENDS[self.backend](self.model, self.num_envs, self._nthread)
         self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
         self._qpos, self._qvel, self._ctrl = physics.qpos, physics.qvel, physics.ctrl
 
     def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        for key in ("_physics", "batch", "_qpos", "_qvel", "_ctrl"):
-            state.pop(key)
-        # Every simulation's whole state row (MuJoCo's: time, qpos, qvel, ctrl, warm start, ...).
-        state["batch_state"] = self._physics.snapshot()
-        return state
+        views = ("physics", "batch", "_qpos", "_qvel", "_ctrl")
+        state = {key: value for key, value in self.__dict__.items() if key not in views}
+        return {**state, "batch_state": self.physics.snapshot()}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         state = dict(state)
@@ -171,17 +111,14 @@ class AcrobotVectorEnv(VectorEnv):
         state.setdefault("backend", "mujoco")  # pickled before there were backends
         self.__dict__.update(state)
         self._build_batch()
-        self._physics.restore(rows)
-
-    # -- resets ----------------------------------------------------------------------------
+        self.physics.restore(rows)
 
     def _reset_envs(self, mask: np.ndarray, noise: float) -> None:
-        """Put the masked sub-envs at the task's start keyframe, plus their own start noise."""
         ids = np.flatnonzero(mask)
         self._qpos[ids] = self._start_qpos
         self._qvel[ids] = self._start_qvel
         self._ctrl[ids] = 0.0
-        for i in ids:  # the single env's draws, from each sub-env's own generator
+        for i in ids:  # the single env's draws
             offsets = self.task.start_offsets(self._rngs[i], noise)
             if offsets is not None:
                 self._qpos[i] += offsets[0]
@@ -208,13 +145,12 @@ class AcrobotVectorEnv(VectorEnv):
                 if s is not None:
                     self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
-        obs = self._physics.observe()  # raises on a bad state
-        _, _, info = self.task.outcomes(*self._physics.columns)
+        obs = self.physics.observe()  # raises on a bad state
+        _, _, info = self.task.outcomes(*self.physics.columns)
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
         return obs, self._masked(info)
 
     def _seeds(self, seed: int | Sequence[int | None]) -> np.ndarray:
-        """One seed (or None) per sub-env: ``seed + i``, or the given list."""
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             seeds = [int(seed) + i for i in range(self.num_envs)]
         elif isinstance(seed, (list, tuple, np.ndarray)):
@@ -225,14 +161,12 @@ class AcrobotVectorEnv(VectorEnv):
             raise ValueError(f"give one seed per sub-env ({self.num_envs}), got {len(seeds)}")
         return np.array(seeds, dtype=object)
 
-    # -- stepping --------------------------------------------------------------------------
-
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        physics = self._physics
+        physics = self.physics
         write_torques(actions, self._continuous, self._ctrl)  # raises, writing nothing
-        physics.step(self._frame_skip)  # with the task's velocity limits after each
+        physics.step(self._frame_skip)
         self._steps += 1
         # count_nonzero: a fraction of any()'s cost on small batches
         resetting = self._pending.copy() if np.count_nonzero(self._pending) else None
@@ -240,11 +174,10 @@ class AcrobotVectorEnv(VectorEnv):
             self._reset_envs(resetting, self.task.start_noise)
         obs = physics.observe()
         reward, terminated, info = self.task.outcomes(*physics.columns)
-        # As gymnasium's TimeLimit: truncated at the limit even on the step that terminates;
-        # none can be before the oldest episode reaches it.
+        # As TimeLimit: truncated at the limit even when terminating; none before the oldest.
         limit = self._steps - self.max_episode_steps
         truncated = self._began <= limit if limit >= self._first else self._none.copy()
-        if resetting is not None:  # sub-envs being reset report their reset state
+        if resetting is not None:  # these report their reset state
             going = ~resetting
             reward[resetting] = 0.0
             terminated &= going
@@ -255,22 +188,16 @@ class AcrobotVectorEnv(VectorEnv):
         return obs, reward, terminated, truncated, self._masked(info)
 
     @property
-    def physics(self) -> BatchPhysics | AnalyticPhysics:
-        """The physics stepping the sub-envs (the backend's), for measurements and tests."""
-        return self._physics
-
-    @property
     def nthread(self) -> int:
         """Threads the batch steps on (at most one per sub-env)."""
-        return self._physics.nthread
+        return self.physics.nthread
 
     @property
     def _elapsed(self) -> np.ndarray:
-        """Steps of each sub-env's episode so far."""
         return self._steps - self._began
 
     def _masked(self, info: dict[str, Any]) -> dict[str, Any]:
-        """``info`` with Gymnasium's ``_name`` mask beside each entry (every sub-env has it)."""
+        """``info`` with Gymnasium's (all True) ``_name`` mask beside each entry."""
         every, names = self._every.copy(), self._mask_names
         out: dict[str, Any] = {}
         for key, value in info.items():
@@ -281,11 +208,9 @@ class AcrobotVectorEnv(VectorEnv):
             out[name] = every
         return out
 
-    # -- sub-env attributes, as SyncVectorEnv's ------------------------------------------
-
     @property
     def np_random(self) -> tuple[np.random.Generator, ...]:
-        """Each sub-env's generator (as ``SyncVectorEnv.np_random``)."""
+        """Each sub-env's generator."""
         return tuple(self._rngs)
 
     @property
@@ -294,7 +219,7 @@ class AcrobotVectorEnv(VectorEnv):
         return tuple(self._rng_seeds)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
-        """One value of attribute ``name`` per sub-env (see AcrobotVectorEnv's docstring)."""
+        """One value of attribute ``name`` per sub-env."""
         if name == "state":
             return tuple(np.concatenate([self._qpos, self._qvel], axis=1))  # copies
         if name in PER_ENV:
@@ -307,8 +232,8 @@ class AcrobotVectorEnv(VectorEnv):
         )
 
     def set_attr(self, name: str, values: Any) -> None:
-        """Set ``name`` on every sub-env: a list or tuple of one value per sub-env, or one value
-        for all (as ``SyncVectorEnv.set_attr``). Only :data:`SETTABLE` names can be set."""
+        """Set :data:`SETTABLE` ``name`` on every sub-env: one value per sub-env, or one for
+        all."""
         if name in SHARED:
             raise AttributeError(
                 f"{name!r} is shared by all {self.num_envs} sub-envs of the batch and fixed when "
@@ -331,10 +256,9 @@ class AcrobotVectorEnv(VectorEnv):
         self._rngs, self._rng_seeds = list(values), [-1] * self.num_envs
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
-        """Run method ``name`` of every sub-env with the same arguments (``set_state``,
-        ``render``), or return attribute ``name`` (as ``SyncVectorEnv.call``)."""
+        """Run :data:`METHODS` ``name`` on every sub-env, or return attribute ``name``."""
         if name == "set_state":
-            self._template.set_state(*args, **kwargs)  # the single env's checks
+            self._template.set_state(*args, **kwargs)  # validates
             self._qpos[...] = self._template.data.qpos
             self._qvel[...] = self._template.data.qvel
             return (None,) * self.num_envs
@@ -344,11 +268,8 @@ class AcrobotVectorEnv(VectorEnv):
             return tuple(self._frame(i) for i in range(self.num_envs))
         return self.get_attr(name)
 
-    # -- rendering -------------------------------------------------------------------------
-
     def render(self) -> np.ndarray | tuple[np.ndarray, ...] | None:
-        """Sub-env 0's frame, the first ``render_envs`` sub-envs' frames in a grid, or (with
-        ``render_envs=None``) every sub-env's frame."""
+        """Sub-env 0's frame, ``render_envs`` frames in a grid, or (None) every frame."""
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None: nothing is rendered")
             return None
@@ -357,34 +278,21 @@ class AcrobotVectorEnv(VectorEnv):
         frames = [self._frame(i) for i in range(self.render_envs)]
         if len(frames) == 1:
             return frames[0]
-        h, w, c = frames[0].shape
         cols = math.ceil(math.sqrt(len(frames)))
-        rows = math.ceil(len(frames) / cols)
-        grid = np.zeros((rows * h, cols * w, c), dtype=frames[0].dtype)
-        for k, frame in enumerate(frames):
-            r, col = divmod(k, cols)
-            grid[r * h : (r + 1) * h, col * w : (col + 1) * w] = frame
-        return grid
+        frames += [np.zeros_like(frames[0])] * (-len(frames) % cols)  # black where none
+        return np.vstack([np.hstack(frames[r : r + cols]) for r in range(0, len(frames), cols)])
 
     def _frame(self, i: int) -> np.ndarray:
-        """Sub-env ``i``'s frame, rendered by the single env put in its state."""
-        self._physics.get_data(i, self._template.data)
+        self.physics.get_data(i, self._template.data)
         return self._template.render()
 
     def close_extras(self, **kwargs: Any) -> None:
         self._template.close()
 
 
-def _autoreset_mode(autoreset_mode: Any) -> AutoresetMode:
-    """``"next_step"``, ``"disabled"`` or an AutoresetMode of those two, as AutoresetMode."""
+def _autoreset_mode(mode: Any) -> AutoresetMode:
     names = {"next_step": AutoresetMode.NEXT_STEP, "disabled": AutoresetMode.DISABLED}
-    mode = (
-        names.get(autoreset_mode, autoreset_mode)
-        if isinstance(autoreset_mode, (str, AutoresetMode))
-        else None
-    )
-    if mode not in names.values():
-        raise ValueError(
-            f"autoreset_mode must be 'next_step' or 'disabled', got {autoreset_mode!r}"
-        )
-    return mode
+    found = names.get(mode, mode) if isinstance(mode, (str, AutoresetMode)) else None
+    if found not in names.values():
+        raise ValueError(f"autoreset_mode must be 'next_step' or 'disabled', got {mode!r}")
+    return found

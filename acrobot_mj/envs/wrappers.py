@@ -1,17 +1,7 @@
-"""Wrappers: potential-based reward shaping with the acrobot's energy, and Gymnasium's
-``Acrobot-v1`` in the report's convention.
+"""Wrappers: reward shaping with the acrobot's energy, and Acrobot-v1 in the report's convention.
 
-Shaping (Ng, Harada and Russell, 1999): adding ``F = gamma phi(s') - phi(s)`` to every reward leaves the
-optimal policies unchanged (the shaping terms of an episode telescope to ``-phi(s0)``, the same
-for every policy from ``s0``), while it changes what a learner tries first. Here
-
-    phi(s) = scale * (E(s) - E_hanging) / (E_upright - E_hanging)
-
-with ``E`` the mechanical energy [J]: 0 hanging at rest, ``scale``
-balanced upright at rest, ``scale / 2`` at rest with both links horizontal. Swinging up means
-pumping energy in, so the shaping rewards every step that adds energy and charges every step that
-takes it out. The terminal state has ``phi = 0`` (Grzes, 2017: otherwise the telescoping breaks
-and so does the policy invariance).
+Potential-based shaping (Ng, Harada and Russell, 1999) leaves the optimal policies unchanged; a
+terminal state needs ``phi = 0`` for that (Grzes, 2017).
 """
 
 from __future__ import annotations
@@ -29,11 +19,9 @@ from acrobot_mj.physics.xp import wrap
 
 
 class EnergyShaping(gym.Wrapper):
-    """Adds ``scale * (gamma phi(s') - phi(s))`` to each reward (``phi``: the energy normalised
-    to 0 hanging and 1 upright at rest, :func:`acrobot_mj.physics.dynamics.energies` on
-    ``params``). ``info["unshaped_reward"]`` keeps the env's own reward, so returns can be
-    reported on the task's scale. Observations must be ``(q1, q2, dq1, dq2)`` (this package's
-    env, or Acrobot-v1 through :class:`ReportObservation`)."""
+    """Adds ``gamma phi(s') - phi(s)`` to each reward, ``phi`` the energy of ``params`` scaled to
+    0 hanging and ``scale`` upright at rest (pumping energy in pays); ``info["unshaped_reward"]``
+    keeps the env's. Observations must be ``(q1, q2, dq1, dq2)``."""
 
     def __init__(
         self, env: gym.Env, scale: float, gamma: float = 1.0, params: AcrobotParams = REPORT
@@ -45,11 +33,11 @@ class EnergyShaping(gym.Wrapper):
             raise ValueError(f"energy shaping gamma must be in [0, 1], got {gamma!r}")
         self.scale, self.gamma, self.params = float(scale), float(gamma), params
         self._phi: float | None = None
-        self._of: AcrobotParams | None = None  # the params the constants below are of
+        self._of: AcrobotParams | None = None  # whose constants are cached (params may change)
 
     def potential(self, obs: Any) -> float:
         """``scale`` times the normalised energy of ``obs = (q1, q2, dq1, dq2)``."""
-        if self._of is not self.params:  # (params replaced since: their constants)
+        if self._of is not self.params:
             self._of, self._theta = self.params, self.params.lumped
             self._rest = [sum(energies(*x.tolist(), self._theta)) for x in (HANGING, UPRIGHT)]
         kinetic, potential = energies(*np.asarray(obs, dtype=np.float64).tolist(), self._theta)
@@ -72,9 +60,8 @@ class EnergyShaping(gym.Wrapper):
 
 
 class ReportObservation(gym.ObservationWrapper):
-    """Gymnasium's ``Acrobot-v1`` observed in the report's convention: its ``(cos theta1,
-    sin theta1, cos theta2, sin theta2, dtheta1, dtheta2)`` with ``theta1`` from hanging become
-    ``(q1, q2, dq1, dq2)``, ``q1 = theta1 - pi/2`` wrapped (the same agents run on both)."""
+    """Gymnasium's ``Acrobot-v1`` observed as ``(q1, q2, dq1, dq2)``, ``q1 = theta1 - pi/2``
+    wrapped."""
 
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)

@@ -1,8 +1,8 @@
-"""The acrobot's equations of motion in manipulator form, as in the report (corrected).
+"""The acrobot's equations of motion in manipulator form: the report's, its errata fixed.
 
-``q = (q1, q2)``: q1 is the angle of link 1 from the horizontal +x axis, q2 the angle of link 2
-relative to link 1, counter-clockwise positive; hanging at rest is ``(-pi/2, 0)``. Heights are
-measured up from the pivot. The elbow torque ``tau`` [N m] is the only input::
+``q = (q1, q2)``: q1 is link 1's angle from the horizontal +x axis, q2 link 2's relative to link
+1, counter-clockwise positive; hanging at rest is ``(-pi/2, 0)``; heights are up from the pivot.
+The elbow torque ``tau`` [N m] is the only input::
 
     M(q) ddq + h(q, dq) + phi(q) = (0, tau)
 
@@ -11,15 +11,10 @@ measured up from the pivot. The elbow torque ``tau`` [N m] is the only input::
     phi1 = d cos q1 + phi2,  phi2 = e cos(q1 + q2)                   phi      [N m]
 
 with the lumped constants ``(a, b, c, d, e)`` of :attr:`AcrobotParams.lumped
-<acrobot_mj.physics.params.AcrobotParams.lumped>` (``a = m1 lc1^2 + m2 (l1^2 + lc2^2) + I1 +
-I2`` and so on): the report's equations (1) to (8) with its two errata fixed (the second row of
-``M`` is ``(d12, d22)``, and ``d12 = m2 (lc2^2 + l1 lc2 cos q2) + I2``). ``h + phi`` is what
-MuJoCo calls ``qfrc_bias``.
-
-:func:`terms`, :func:`accelerations` and :func:`energies` are written once over a math namespace
-(:mod:`acrobot_mj.physics.xp`: floats by default, numpy arrays, CasADi symbols; numba compiles
-them). The functions below them take one state or arrays of states: ``q`` and ``dq`` of shape
-``(..., 2)``, ``tau`` of shape ``(...)``.
+<acrobot_mj.physics.params.AcrobotParams.lumped>`; ``h + phi`` is MuJoCo's ``qfrc_bias``.
+:func:`terms`, :func:`accelerations` and :func:`energies` are written over a math namespace
+(:mod:`acrobot_mj.physics.xp`); the functions below them take ``q``, ``dq`` ``(..., 2)`` and
+``tau`` ``(...)``.
 """
 
 from __future__ import annotations
@@ -39,8 +34,7 @@ UPRIGHT = np.array([np.pi / 2, 0.0, 0.0, 0.0])
 
 @jitable
 def terms(q1, q2, dq1, dq2, theta: Lumped, xp=FLOATS) -> tuple:
-    """``d11, d12, d22`` [kg m^2], ``h1, h2`` and ``phi1, phi2`` [N m] at ``(q1, q2, dq1, dq2)``
-    [rad, rad/s] (see the module docstring)."""
+    """``d11, d12, d22`` [kg m^2], ``h1, h2``, ``phi1, phi2`` [N m] at ``(q1, q2, dq1, dq2)``."""
     a, b, c, d, e = theta
     c2, s2 = xp.cos(q2), xp.sin(q2)
     d11, d12, d22 = a + 2.0 * b * c2, c + b * c2, c
@@ -53,8 +47,7 @@ def terms(q1, q2, dq1, dq2, theta: Lumped, xp=FLOATS) -> tuple:
 
 @jitable
 def accelerations(q1, q2, dq1, dq2, tau, theta: Lumped, xp=FLOATS) -> tuple:
-    """``ddq1, ddq2`` [rad/s^2] under elbow torque ``tau`` [N m]: ``M ddq = (0, tau) - h - phi``
-    solved by Cramer's rule."""
+    """``ddq1, ddq2`` [rad/s^2] under elbow torque ``tau`` [N m], by Cramer's rule."""
     d11, d12, d22, h1, h2, phi1, phi2 = terms(q1, q2, dq1, dq2, theta, xp)
     f1, f2 = -(h1 + phi1), tau - (h2 + phi2)
     det = d11 * d22 - d12 * d12
@@ -63,8 +56,7 @@ def accelerations(q1, q2, dq1, dq2, tau, theta: Lumped, xp=FLOATS) -> tuple:
 
 @jitable
 def energies(q1, q2, dq1, dq2, theta: Lumped, xp=FLOATS) -> tuple:
-    """Kinetic ``T = dq^T M dq / 2`` and gravitational ``V = d sin q1 + e sin(q1 + q2)`` [J]
-    (zero at the pivot's height); ``T + V`` is conserved when ``tau = 0``."""
+    """Kinetic ``T = dq^T M dq / 2`` and gravitational ``V = d sin q1 + e sin(q1 + q2)`` [J]."""
     d11, d12, d22 = terms(q1, q2, dq1, dq2, theta, xp)[:3]
     kinetic = 0.5 * (d11 * dq1 * dq1 + 2.0 * d12 * dq1 * dq2 + d22 * dq2 * dq2)
     return kinetic, theta[3] * xp.sin(q1) + theta[4] * xp.sin(q1 + q2)
@@ -77,27 +69,25 @@ def _split(x: ArrayLike) -> tuple[NDArray, NDArray]:
     return x[..., 0], x[..., 1]
 
 
-def _terms(q: ArrayLike, dq: ArrayLike, p: AcrobotParams) -> tuple:
-    q1, q2 = _split(q)
-    dq1, dq2 = _split(dq)
-    return terms(q1, q2, dq1, dq2, p.lumped, ARRAY)
+def _over_arrays(function, q: ArrayLike, dq: ArrayLike, p: AcrobotParams) -> tuple:
+    return function(*_split(q), *_split(dq), p.lumped, ARRAY)
 
 
 def mass_matrix(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """Joint-space inertia ``M(q)`` [kg m^2], shape ``(..., 2, 2)``."""
-    d11, d12, d22 = _terms(q, np.zeros_like(q, dtype=float), p)[:3]
+    d11, d12, d22 = _over_arrays(terms, q, np.zeros_like(q, dtype=float), p)[:3]
     d22 = np.broadcast_to(d22, np.shape(d11))
     return np.stack([np.stack([d11, d12], -1), np.stack([d12, d22], -1)], -2)
 
 
 def coriolis_forces(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """Coriolis and centrifugal terms ``h(q, dq)`` [N m], shape ``(..., 2)``."""
-    return np.stack(np.broadcast_arrays(*_terms(q, dq, p)[3:5]), -1)
+    return np.stack(np.broadcast_arrays(*_over_arrays(terms, q, dq, p)[3:5]), -1)
 
 
 def gravity_forces(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """Gravity terms ``phi(q) = dV/dq`` [N m], shape ``(..., 2)``."""
-    return np.stack(_terms(q, np.zeros_like(q, dtype=float), p)[5:], -1)
+    return np.stack(_over_arrays(terms, q, np.zeros_like(q, dtype=float), p)[5:], -1)
 
 
 def bias_forces(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
@@ -122,45 +112,31 @@ def forward_dynamics(
     q: ArrayLike, dq: ArrayLike, tau: ArrayLike = 0.0, p: AcrobotParams = REPORT
 ) -> NDArray:
     """Joint accelerations ``ddq`` [rad/s^2], shape ``(..., 2)``."""
-    q1, q2 = _split(q)
-    dq1, dq2 = _split(dq)
-    ddq = accelerations(q1, q2, dq1, dq2, np.asarray(tau, dtype=float), p.lumped, ARRAY)
+    ddq = accelerations(*_split(q), *_split(dq), np.asarray(tau, dtype=float), p.lumped, ARRAY)
     return np.stack(np.broadcast_arrays(*ddq), -1)
-
-
-def _energies(q: ArrayLike, dq: ArrayLike, p: AcrobotParams) -> tuple:
-    q1, q2 = _split(q)
-    dq1, dq2 = _split(dq)
-    return energies(q1, q2, dq1, dq2, p.lumped, ARRAY)
 
 
 def kinetic_energy(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """``T = dq^T M(q) dq / 2`` [J], shape ``(...)``."""
-    return _energies(q, dq, p)[0]
+    return _over_arrays(energies, q, dq, p)[0]
 
 
 def potential_energy(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """Gravitational energy ``V(q)`` [J], zero at the pivot's height, shape ``(...)``."""
-    return _energies(q, np.zeros_like(q, dtype=float), p)[1]
+    return _over_arrays(energies, q, np.zeros_like(q, dtype=float), p)[1]
 
 
 def total_energy(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """``T + V`` [J], shape ``(...)``; conserved when ``tau = 0``."""
-    kinetic, potential = _energies(q, dq, p)
+    kinetic, potential = _over_arrays(energies, q, dq, p)
     return kinetic + potential
 
 
-def elbow_position(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
-    """Elbow ``(x, z)`` [m] relative to the pivot, shape ``(..., 2)``."""
-    q1, _ = _split(q)
-    return np.stack([p.l1 * np.cos(q1), p.l1 * np.sin(q1)], -1)
-
-
 def tip_position(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
-    """Tip of link 2 ``(x, z)`` [m] relative to the pivot, shape ``(..., 2)``; the height goal
-    is ``tip_position(q)[..., 1] > l1``."""
+    """Tip of link 2 ``(x, z)`` [m] relative to the pivot, shape ``(..., 2)``."""
     q1, q2 = _split(q)
-    return elbow_position(q, p) + np.stack([p.l2 * np.cos(q1 + q2), p.l2 * np.sin(q1 + q2)], -1)
+    x = p.l1 * np.cos(q1) + p.l2 * np.cos(q1 + q2)
+    return np.stack([x, p.l1 * np.sin(q1) + p.l2 * np.sin(q1 + q2)], -1)
 
 
 def tip_height(x: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
@@ -169,18 +145,14 @@ def tip_height(x: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
 
 
 def state_error(x: np.ndarray, reference: np.ndarray = UPRIGHT) -> np.ndarray:
-    """``x - reference`` [rad, rad/s], shape ``(..., 4)``, the angle differences wrapped to
-    ``[-pi, pi)`` (a state one turn away is the same state)."""
+    """``x - reference`` [rad, rad/s], shape ``(..., 4)``, angles wrapped to ``[-pi, pi)``."""
     error = np.asarray(x, dtype=float) - reference
     error[..., :2] = wrap_angle(error[..., :2])
     return error
 
 
 def equilibria() -> NDArray:
-    """The four zero-torque equilibria ``(q1, q2)`` [rad], shape ``(4, 2)``: hanging
-    ``(-pi/2, 0)`` (stable), upright ``(pi/2, 0)`` (the balancing target), ``(-pi/2, pi)`` and
-    ``(pi/2, pi)`` (link 2 folded). Gravity vanishes when both links are vertical, whatever the
-    parameters."""
+    """The zero-torque equilibria ``(q1, q2)`` [rad]: hanging, upright, and link 2 folded."""
     h = np.pi / 2
     return np.array([[-h, 0.0], [h, 0.0], [-h, np.pi], [h, np.pi]])
 
@@ -188,9 +160,8 @@ def equilibria() -> NDArray:
 def linearize(
     q: ArrayLike, dq: ArrayLike = (0.0, 0.0), tau: ArrayLike = 0.0, p: AcrobotParams = REPORT
 ) -> tuple[NDArray, NDArray]:
-    """Continuous-time Jacobians ``A`` ``(..., 4, 4)`` and ``B`` ``(..., 4, 1)`` [per N m] of
-    ``dx/dt = f(x, tau)`` at ``x = (q, dq)``, from the analytic derivatives of the equations of
-    motion: ``d(M^-1 f)/dx = M^-1 (df/dx - dM/dx M^-1 f)``."""
+    """Jacobians ``A`` ``(..., 4, 4)`` and ``B`` ``(..., 4, 1)`` [per N m] of ``dx/dt = f(x,
+    tau)`` at ``x = (q, dq)``: ``d(M^-1 f)/dx = M^-1 (df/dx - dM/dx M^-1 f)``."""
     q1, q2 = _split(q)
     dq1, dq2 = _split(dq)
     _, b, _, d, e = p.lumped

@@ -1,11 +1,5 @@
-"""The report's equations of motion exactly as printed, kept to show why they are wrong.
-
-The report (IND E 599) prints its equation (2) as ``d12 ddq1 + d12 ddq2 + h2 + phi2 = tau``: the
-second coefficient should be ``d22``. It also uses ``d12`` without defining it; here it is given
-its correct value ``m2 (lc2^2 + l1 lc2 cos q2) + I2`` so that equation (2) is the only error
-left. :mod:`acrobot_mj.physics.dynamics` has the corrected model; ``tests/test_errata.py``
-shows that only the corrected one agrees with MuJoCo.
-"""
+"""The report's equation (2) as printed, ``d12 ddq1 + d12 ddq2 + h2 + phi2 = tau`` (the second
+``d12`` should be ``d22``), kept to show that only the corrected model agrees with MuJoCo."""
 
 from __future__ import annotations
 

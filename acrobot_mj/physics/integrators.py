@@ -1,20 +1,6 @@
-"""The acrobot's discrete step, written once: every simulation of the analytic model goes
-through :func:`step` (numpy arrays, CasADi's symbols for trajectory optimisation, numba for the
-vector env's analytic backend and for planning in an identified model).
-
-One physics step of ``dt`` [s] holds the torque and advances ``(q1, q2, dq1, dq2)`` by
-:data:`METHODS`:
-
-- ``semi_implicit_euler``: ``dq' = dq + dt ddq``, then ``q' = q + dt dq'`` (MuJoCo's ``Euler``,
-  which the environments use);
-- ``rk4``: classical Runge-Kutta, weights 1/6, 1/3, 1/3, 1/6 (MuJoCo's ``RK4``);
-- ``explicit_euler``: ``q' = q + dt dq``, ``dq' = dq + dt ddq`` (the report's "forward Euler",
-  which MuJoCo does not offer; it pumps energy into the pendulum);
-
-then clips the velocities to the task's limits ``max_vel`` [rad/s], as the envs do after every
-``mj_step`` (a NaN is kept, so a diverged state is seen). A decision of ``frame_skip`` steps is
-``substeps=frame_skip``.
-"""
+"""The acrobot's discrete step, written once for numpy, CasADi symbols and numba: the torque
+held, ``(q1, q2, dq1, dq2)`` advanced by one of :data:`METHODS`, then the velocities clipped to
+their limits as the envs do (a NaN is kept, so divergence shows)."""
 
 from __future__ import annotations
 
@@ -31,7 +17,8 @@ from acrobot_mj.physics.dynamics import accelerations
 from acrobot_mj.physics.params import REPORT, AcrobotParams, Lumped
 from acrobot_mj.physics.xp import ARRAY
 
-#: The integration methods, by the code :func:`step` takes.
+#: By the code :func:`step` takes: ``dq += dt ddq`` then ``q += dt dq`` (MuJoCo's Euler, the
+#: envs'); classical RK4; ``q += dt dq`` with ``dq += dt ddq`` (the report's, gaining energy).
 METHODS = ("semi_implicit_euler", "rk4", "explicit_euler")
 #: No velocity limits.
 UNLIMITED = (math.inf, math.inf)
@@ -39,9 +26,8 @@ UNLIMITED = (math.inf, math.inf)
 
 @jitable
 def step(q1, q2, dq1, dq2, tau, theta: Lumped, dt, max_vel, substeps=1, method=0, xp=FLOATS):
-    """``substeps`` physics steps of ``dt`` [s] from ``(q1, q2, dq1, dq2)`` [rad, rad/s] with
-    the elbow torque ``tau`` [N m] held, on the dynamics of ``theta`` (lumped), by method
-    ``METHODS[method]``, each followed by the velocity limits ``max_vel = (|dq1|, |dq2|)``."""
+    """``substeps`` steps of ``dt`` [s] from ``(q1, q2, dq1, dq2)`` [rad, rad/s] with torque
+    ``tau`` [N m] held, by ``METHODS[method]``, each clipped to ``max_vel = (|dq1|, |dq2|)``."""
     for _ in range(substeps):
         if method == 0:
             a1, a2 = accelerations(q1, q2, dq1, dq2, tau, theta, xp)
@@ -72,9 +58,8 @@ def step(q1, q2, dq1, dq2, tau, theta: Lumped, dt, max_vel, substeps=1, method=0
 
 @jitable
 def step_rows(state, tau, constants, substeps, method):
-    """:func:`step` of every row ``(q1, q2, dq1, dq2)`` of ``state`` ``(N, 4)``, in place, with
-    torques ``tau`` ``(N,)`` and ``constants = (a, b, c, d, e, dt, |dq1|, |dq2|)`` (arrays:
-    numba's fastest call from Python)."""
+    """:func:`step` of every row of ``state`` ``(N, 4)`` in place, torques ``tau`` ``(N,)``,
+    ``constants = (a, b, c, d, e, dt, |dq1|, |dq2|)``."""
     theta = (constants[0], constants[1], constants[2], constants[3], constants[4])
     dt, max_vel = constants[5], (constants[6], constants[7])
     for i in prange(state.shape[0]):
@@ -85,9 +70,8 @@ def step_rows(state, tau, constants, substeps, method):
 
 @dataclass(frozen=True)
 class Stepping:
-    """A decision besides the dynamics: the physics step ``dt`` [s], ``substeps`` of them per
-    decision, the velocity limits ``max_vel`` [rad/s] and the ``method`` (what a learner that
-    identifies the dynamics is told of the env's step)."""
+    """A decision but for the dynamics: ``substeps`` steps of ``dt`` [s] by ``method``, the
+    velocity limits ``max_vel`` [rad/s] (what an identifying learner is told of the env)."""
 
     dt: float = REPORT.dt
     substeps: int = 1
@@ -95,20 +79,17 @@ class Stepping:
     method: str = "semi_implicit_euler"
 
     def constants(self, theta: Sequence[float]) -> np.ndarray:
-        """What :func:`step_rows` takes for the dynamics ``theta``."""
         return np.array([*theta, self.dt, *self.max_vel], dtype=np.float64)
 
     def advance(self, theta: Sequence[float], states: ArrayLike, torques: ArrayLike) -> NDArray:
         """One decision of every state ``(N, 4)`` under ``torques`` ``(N,)``: new states."""
-        new = np.array(states, dtype=np.float64)
-        tau = np.asarray(torques, dtype=np.float64)
+        new, tau = np.array(states, dtype=np.float64), np.asarray(torques, dtype=np.float64)
         code = method_code(self.method)
         compiled(step_rows)(new, tau, self.constants(theta), self.substeps, code)
         return new
 
 
 def method_code(method: str) -> int:
-    """The code of integration method ``method`` (one of :data:`METHODS`)."""
     if method not in METHODS:
         raise ValueError(f"unknown integrator {method!r}; choose one of {list(METHODS)}")
     return METHODS.index(method)
@@ -129,11 +110,10 @@ def step_states(
     method: str = "semi_implicit_euler",
     limits: bool = True,
 ) -> NDArray:
-    """:func:`step` on states ``x`` of shape ``(..., 4)`` with torques ``tau`` ``(...)`` on the
-    model ``p`` (its ``dt`` and, with ``limits``, its velocity limits); new states ``(..., 4)``."""
-    x = _states(x)
+    """:func:`step` of states ``x`` ``(..., 4)`` under torques ``tau`` ``(...)`` on ``p`` (its
+    ``dt`` and, with ``limits``, its velocity limits)."""
+    x, code = _states(x), method_code(method)
     max_vel = p.max_vel if limits else UNLIMITED
-    code = method_code(method)
     tau = np.asarray(tau, dtype=np.float64)
     new = step(*np.moveaxis(x, -1, 0), tau, p.lumped, p.dt, max_vel, substeps, code, ARRAY)
     return np.stack(np.broadcast_arrays(*new), -1)
@@ -153,8 +133,7 @@ def simulate(
     p: AcrobotParams = REPORT,
     limits: bool = True,
 ) -> NDArray:
-    """States from ``x0`` ``(..., 4)`` under ``torques`` ``(T, ...)``, one physics step each:
-    shape ``(T + 1, ..., 4)``, the first being ``x0``."""
+    """States ``(T + 1, ..., 4)`` from ``x0`` ``(..., 4)``, one step per torque ``(T, ...)``."""
     states = [_states(x0)]
     for tau in np.asarray(torques, dtype=np.float64):
         states.append(step_states(states[-1], tau, p, method=method, limits=limits))

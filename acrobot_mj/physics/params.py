@@ -1,9 +1,5 @@
-"""Physical parameters of the acrobot, in the report's symbols.
-
-Every field carries its unit and source in its metadata (``"unit"``, ``"source"``, ``"doc"``).
-The defaults are the report's table (IND E 599, after Sutton and Barto); ``models/acrobot.xml``
-holds the same numbers and ``tests/test_model.py`` ties the two together.
-"""
+"""The acrobot's physical parameters in the report's symbols, each field's unit, source and
+meaning in its metadata; the defaults (the report's table) match ``models/acrobot.xml``."""
 
 from __future__ import annotations
 
@@ -13,8 +9,8 @@ from dataclasses import dataclass, field, fields
 _REPORT = "report, parameter table"
 _SUTTON_BARTO = "Sutton and Barto (1998/2018), acrobot; Gymnasium Acrobot-v1"
 
-#: The five lumped parameters ``(a, b, c, d, e)`` the equations of motion depend on
-#: (:attr:`AcrobotParams.lumped`): ``a, b, c`` [kg m^2], ``d, e`` [N m].
+#: The lumped parameters ``(a, b, c, d, e)`` of the equations of motion: ``a, b, c`` [kg m^2],
+#: ``d, e`` [N m].
 Lumped = tuple[float, float, float, float, float]
 
 
@@ -53,10 +49,8 @@ class AcrobotParams:
 
     @property
     def lumped(self) -> Lumped:
-        """``(a, b, c, d, e)``: the constants of the equations of motion
-        (:mod:`acrobot_mj.physics.dynamics`), ``a = m1 lc1^2 + m2 (l1^2 + lc2^2) + I1 + I2``,
-        ``b = m2 l1 lc2``, ``c = m2 lc2^2 + I2``, ``d = (m1 lc1 + m2 l1) g``, ``e = m2 lc2 g``
-        (3.5, 0.5, 1.25, 14.7, 4.9 for the report's acrobot)."""
+        """``a = m1 lc1^2 + m2 (l1^2 + lc2^2) + I1 + I2``, ``b = m2 l1 lc2``, ``c = m2 lc2^2 +
+        I2``, ``d = (m1 lc1 + m2 l1) g``, ``e = m2 lc2 g`` (3.5, 0.5, 1.25, 14.7, 4.9 here)."""
         p = self
         a = p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2) + p.I1 + p.I2
         b, c = p.m2 * p.l1 * p.lc2, p.m2 * p.lc2**2 + p.I2
@@ -64,11 +58,10 @@ class AcrobotParams:
 
     @property
     def max_vel(self) -> tuple[float, float]:
-        """The velocity limits ``(|dq1|, |dq2|)`` [rad/s], applied after every physics step."""
+        """The velocity limits ``(|dq1|, |dq2|)`` [rad/s]."""
         return (self.max_vel1, self.max_vel2)
 
 
-#: The report's acrobot.
 REPORT = AcrobotParams()
 
 

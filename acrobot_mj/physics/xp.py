@@ -1,16 +1,6 @@
-"""The math namespaces the rules are written over, so that one source serves every kind of number.
-
-This module is itself the namespace of Python floats (``FLOATS``): ``cos``, ``sin``, ``sqrt``,
-``abs``, ``clip``, ``where``, ``maximum`` and ``wrap``, plain Python that numba also compiles.
-:data:`ARRAY` gives numpy's functions under the same names (any array shape), and
-:func:`symbolic` CasADi's, for trajectory optimisation. A rule takes ``xp=FLOATS`` by default::
-
-    def tip(q1, q2, xp=FLOATS):
-        return xp.sin(q1) + xp.sin(q1 + q2)
-
-    tip(0.1, 0.2)                         # floats (and compiled by numba)
-    tip(np.zeros(5), np.ones(5), ARRAY)   # arrays
-"""
+"""Math namespaces, so that one rule serves every kind of number: this module (:data:`FLOATS`,
+Python floats, which numba compiles too), :data:`ARRAY` (numpy) and :func:`symbolic` (CasADi)
+give ``cos``, ``sin``, ``clip``, ``maximum`` and ``wrap``; a rule takes ``xp=FLOATS``."""
 
 from __future__ import annotations
 
@@ -23,8 +13,7 @@ import numpy as np
 
 from acrobot_mj.compiled import jitable
 
-cos, sin, sqrt, exp = math.cos, math.sin, math.sqrt, math.exp
-abs = abs  # the builtin, as a name of this namespace
+cos, sin = math.cos, math.sin
 TWO_PI = 2.0 * math.pi
 
 
@@ -39,11 +28,6 @@ def clip(value: float, low: float, high: float) -> float:
 
 
 @jitable
-def where(condition: bool, if_true: float, if_false: float) -> float:
-    return if_true if condition else if_false
-
-
-@jitable
 def maximum(a: float, b: float) -> float:
     """The larger of ``a`` and ``b``; NaN if either is (as ``np.maximum``)."""
     return a if (a >= b or a != a) else b
@@ -51,16 +35,20 @@ def maximum(a: float, b: float) -> float:
 
 @jitable
 def wrap(angle: float) -> float:
-    """``angle`` [rad] wrapped into ``[-pi, pi)``: unchanged when inside, else
-    ``(a + pi) mod 2 pi - pi`` (a result that rounds to ``pi`` becomes ``-pi``)."""
+    """``angle`` [rad] wrapped into ``[-pi, pi)`` (unchanged when inside)."""
     if -math.pi <= angle < math.pi:
         return angle
     wrapped = (angle + math.pi) % TWO_PI - math.pi
     return wrapped - TWO_PI if wrapped >= math.pi else wrapped
 
 
-def wrap_array(angle: np.ndarray) -> np.ndarray:
-    """:func:`wrap` of every element, in a new array (the same numbers)."""
+Angle = TypeVar("Angle", float, np.ndarray)
+
+
+def wrap_angle(angle: Angle) -> Angle:
+    """``angle`` [rad] wrapped into ``[-pi, pi)`` as :func:`wrap` does: a float, or a new array."""
+    if not isinstance(angle, np.ndarray):
+        return wrap(angle)
     inside = (angle >= -math.pi) & (angle < math.pi)
     if inside.all():
         return angle.copy()
@@ -69,35 +57,18 @@ def wrap_array(angle: np.ndarray) -> np.ndarray:
     return np.where(inside, angle, wrapped)
 
 
-Angle = TypeVar("Angle", float, np.ndarray)
-
-
-def wrap_angle(angle: Angle) -> Angle:
-    """``angle`` [rad] wrapped into ``[-pi, pi)``, the one definition of wrapping: a float for a
-    float, an array for an array."""
-    return wrap_array(angle) if isinstance(angle, np.ndarray) else wrap(angle)
-
-
-#: This module: the namespace of Python floats, the default of every rule.
 FLOATS: ModuleType = sys.modules[__name__]
-#: numpy's functions under the same names, for arrays of any shape.
-ARRAY = SimpleNamespace(
-    cos=np.cos, sin=np.sin, sqrt=np.sqrt, exp=np.exp, abs=np.abs, clip=np.clip,
-    where=np.where, maximum=np.maximum, wrap=wrap_array,
-)  # fmt: skip
+ARRAY = SimpleNamespace(cos=np.cos, sin=np.sin, clip=np.clip, maximum=np.maximum, wrap=wrap_angle)
 
 
 def symbolic() -> Any:
-    """CasADi's functions under the same names (trajectory optimisation: ``pip install
-    acrobot-mj[control]``). ``clip`` leaves a value as it is: an optimisation states the
-    velocity limits as constraints, and a clipped step is not smooth."""
+    """CasADi's functions (the ``control`` extra); ``clip`` is the identity, as an optimisation
+    states the velocity limits as constraints."""
     try:
         import casadi
     except ImportError as error:
-        raise ImportError(
-            "trajectory optimisation needs CasADi: pip install acrobot-mj[control]"
-        ) from error
+        message = "trajectory optimisation needs CasADi: pip install acrobot-mj[control]"
+        raise ImportError(message) from error
     return SimpleNamespace(
-        cos=casadi.cos, sin=casadi.sin, sqrt=casadi.sqrt, exp=casadi.exp, abs=casadi.fabs,
-        clip=lambda value, low, high: value, where=casadi.if_else, maximum=casadi.fmax,
-    )  # fmt: skip
+        cos=casadi.cos, sin=casadi.sin, maximum=casadi.fmax, clip=lambda value, low, high: value
+    )

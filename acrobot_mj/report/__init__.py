@@ -1,2 +1,1 @@
-"""What the package shows: figures (:mod:`.plots`), MP4 videos (:mod:`.video`) and the validation
-report (:mod:`.validation`: the dynamics against MuJoCo, and the physics references)."""
+"""What the package shows: figures, MP4 videos and the validation report."""

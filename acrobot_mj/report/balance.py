@@ -1,15 +1,10 @@
-"""Swing up and balance in the MuJoCo env: the model-based controller of :mod:`acrobot_mj.control`
-(a trajectory to upright at rest, TVLQR along it, then the saturated LQR; sigma-delta for
-``Discrete(3)`` torques) run closed loop on ``acrobot_mj/AcrobotBalance-v0``, with what it did
-at every physics step.
-
-Balanced means within the task's tolerance (0.05 rad in both angles) from the end of the swing-up
-to the end of the run; the hold time is how long that lasted. :func:`robustness` runs it under
-start offsets, model errors and torque noise it was not designed for.
-"""
+"""Swing up and balance in MuJoCo: the controller of :mod:`acrobot_mj.control` closed loop on
+``acrobot_mj/AcrobotBalance-v0``, and its :func:`robustness` to what it does not know. Balanced:
+within the task's tolerance (0.05 rad) from the end of the swing-up to the end of the run."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
-from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
 from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import versions, write_json
@@ -30,9 +25,8 @@ INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
 
 @dataclass(frozen=True)
 class Perturbation:
-    """What the controller does not know: an offset of the start state [rad, rad/s], link
-    masses and inertias scaled in MuJoCo's model, and Gaussian torque noise on the elbow
-    [N m], drawn from ``seed``."""
+    """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
+    scaled in MuJoCo's model, and Gaussian torque noise on the elbow [N m] drawn from ``seed``."""
 
     start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
     mass_scale: float = 1.0
@@ -42,12 +36,10 @@ class Perturbation:
 
 
 class BalanceActor:
-    """The controller as an actor of the episode loop; it records every physics step's state
-    (at full precision, from the env) and the torque MuJoCo applied."""
+    """The controller as an episode-loop actor; records each step's state and applied torque."""
 
-    def __init__(
-        self, env: gym.Env, controller: SwingUpController, discrete: bool, noise: Any = None
-    ) -> None:
+    def __init__(self, env: gym.Env, controller: SwingUpController, discrete: bool,
+                 noise: Any = None) -> None:  # fmt: skip
         self.env, self.controller = env.unwrapped, controller
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
@@ -55,14 +47,11 @@ class BalanceActor:
         self.torques: list[float] = []
 
     def _act(self) -> Any:
-        k, x = len(self.torques), self.env.state
-        u = self.controller(k, x)
+        u = self.controller(len(self.torques), self.env.state)
         if self.noise is not None:
             rng, sigma = self.noise
             self.env.data.qfrc_applied[1] = sigma * rng.standard_normal()
-        if self.modulator is not None:
-            return self.modulator(u)
-        return np.array([u], dtype=np.float32)
+        return np.array([u], dtype=np.float32) if self.modulator is None else self.modulator(u)
 
     def begin(self, obs: np.ndarray) -> Any:
         self.states.append(self.env.state.tolist())
@@ -77,38 +66,20 @@ class BalanceActor:
 def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: Any) -> gym.Env:
     """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more."""
     steps = trajectory.steps + math.ceil(hold / trajectory.dt - 1e-9)
-    return gym.make(
-        Balance.env_id,
-        continuous=not discrete,
-        integrator=INTEGRATOR_OF[trajectory.method],
-        max_episode_steps=steps,
-        **kwargs,
-    )
+    return gym.make(Balance.env_id, continuous=not discrete, max_episode_steps=steps,
+                    integrator=INTEGRATOR_OF[trajectory.method], **kwargs)  # fmt: skip
 
 
-def perturb(env: gym.Env, perturbation: Perturbation) -> None:
-    """Scale the links' masses and inertias in the env's MuJoCo model."""
+def closed_loop(trajectory: Trajectory, discrete: bool = False, hold: float = 60.0,
+                perturbation: Perturbation = Perturbation(), env: gym.Env | None = None,
+                record: Any = None) -> dict[str, Any]:  # fmt: skip
+    """:meth:`Balance.assess` of the controller on ``env``, with per-step ``torques`` and
+    ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead (videos)."""
+    env = env or balance_env(trajectory, discrete, hold)
     model = env.unwrapped.model
     for name in ("link1", "link2"):
-        body = model.body(name).id
-        model.body_mass[body] *= perturbation.mass_scale
-        model.body_inertia[body] *= perturbation.inertia_scale
-
-
-def closed_loop(
-    trajectory: Trajectory,
-    discrete: bool = False,
-    hold: float = 60.0,
-    perturbation: Perturbation = Perturbation(),
-    env: gym.Env | None = None,
-    record: Any = None,
-) -> dict[str, Any]:
-    """Run the controller on the balance env (``env``, or one made for ``trajectory`` and
-    ``hold``); ``record(env, actor)`` runs the episode instead of the plain loop (videos).
-    Returns the task's assessment (:meth:`Balance.assess`) with the per-step ``torques`` and
-    ``states``."""
-    env = env or balance_env(trajectory, discrete, hold)
-    perturb(env, perturbation)
+        model.body_mass[model.body(name).id] *= perturbation.mass_scale
+        model.body_inertia[model.body(name).id] *= perturbation.inertia_scale
     rng = np.random.default_rng(perturbation.seed)
     noise = (rng, perturbation.torque_noise) if perturbation.torque_noise > 0 else None
     actor = BalanceActor(env, SwingUpController(trajectory), discrete, noise)
@@ -119,89 +90,55 @@ def closed_loop(
             state = env.unwrapped.state + offset
             env.unwrapped.set_state(state[:2], state[2:])
 
-    if record is None:
-        run_episode(env, actor, seed=perturbation.seed, on_reset=start)
-    else:
-        record(env, actor, start)
-    task = env.unwrapped.task
-    result = task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
+    record = record or functools.partial(run_episode, seed=perturbation.seed)
+    record(env, actor, on_reset=start)
+    result = env.unwrapped.task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
     return {**result, "torques": actor.torques, "states": actor.states}
 
 
-def load_trajectory(
-    reserve: float, cache: Any = None, optimise: bool = False, progress: bool = False
-) -> tuple:
-    """The swing-up for nominal torques ``|u| <= reserve`` N m, and where it came from: the
-    package's (1.0 and 0.8), a cached one in ``cache`` (re-checked), or a new optimisation
-    (which needs CasADi, and minutes)."""
-    from acrobot_mj.control.trajopt import shipped
-
+def load_trajectory(reserve: float, cache: Any = None, optimise: bool = False,
+                    progress: bool = False) -> tuple:  # fmt: skip
+    """The swing-up for ``|u| <= reserve`` N m and where it came from: the package's (1.0, 0.8),
+    one cached in ``cache``, or a new optimisation (CasADi, minutes)."""
     if not (isinstance(reserve, (int, float)) and 0.0 < reserve <= 1.0):
         raise ValueError(f"the torque reserve must be in (0, 1] N m, got {reserve!r}")
-    names = {1.0: "min_time", 0.8: "reserve"}
-    if not optimise and float(reserve) in names:
-        return shipped(names[float(reserve)]), f"shipped ({names[float(reserve)]})"
+    name = {1.0: "min_time", 0.8: "reserve"}.get(float(reserve))
+    if not optimise and name:
+        return shipped(name), f"shipped ({name})"
     if not optimise and cache is not None and cache.is_file():
         trajectory = Trajectory.load(cache)
         if trajectory.u_max == reserve:
             return trajectory, f"cached ({cache})"
-    from acrobot_mj.control.trajopt import min_time
-
     trajectory = min_time(float(reserve), progress=progress)
     if cache is not None:
         trajectory.save(cache)
     return trajectory, "optimised now"
 
 
-def run_balance(
-    out: Path,
-    *,
-    discrete: bool = False,
-    reserve: float = 0.8,
-    hold: float = 60.0,
-    optimise: bool = False,
-    video: bool = True,
-    size: tuple[int, int] = (480, 480),
-    progress: bool = False,
-) -> dict[str, Any]:
-    """``acrobot-mj balance``: the swing-up for ``reserve``, the closed loop in MuJoCo for
-    ``hold`` seconds after it, ``out/balance.json`` (with the per-step torques and states) and,
-    with ``video``, ``out/swing_up.mp4`` and a strip ``out/swing_up.png``."""
+def run_balance(out: Path, *, discrete: bool = False, reserve: float = 0.8, hold: float = 60.0,
+                optimise: bool = False, video: bool = True, size: tuple[int, int] = (480, 480),
+                progress: bool = False) -> dict[str, Any]:  # fmt: skip
+    """``acrobot-mj balance``: the closed loop for ``hold`` s after the swing-up, written to
+    ``out/balance.json`` and, with ``video``, ``out/swing_up.mp4`` and ``out/swing_up.png``."""
     if not (isinstance(hold, (int, float)) and 0.0 < hold <= 3600.0):
         raise ValueError(f"the hold time must be in (0, 3600] s, got {hold!r}")
     out = Path(out)
     trajectory, source = load_trajectory(reserve, out / "trajectory.json", optimise, progress)
-    record_video = None
-    if video:
-        env = balance_env(trajectory, discrete, hold, render_mode="rgb_array", width=size[0],
-                          height=size[1])  # fmt: skip
-
-        def record_video(env: gym.Env, actor: BalanceActor, start: Any) -> None:
-            settings = RenderSettings(*size, strip=out / "swing_up.png")
-            record_episode(env, actor, out / "swing_up.mp4", settings, on_reset=start)
-    else:
-        env = balance_env(trajectory, discrete, hold)
+    screen = {"render_mode": "rgb_array", "width": size[0], "height": size[1]} if video else {}
+    env = balance_env(trajectory, discrete, hold, **screen)
+    path, settings = out / "swing_up.mp4", RenderSettings(*size, strip=out / "swing_up.png")
+    recorder = functools.partial(record_episode, path=path, settings=settings) if video else None
     try:
-        result = closed_loop(trajectory, discrete, hold, env=env, record=record_video)
+        result = closed_loop(trajectory, discrete, hold, env=env, record=recorder)
     finally:
         env.close()
+    fields = ("steps", "seconds", "u_max", "method")
+    about = {"source": source, **{k: getattr(trajectory, k) for k in fields}}
     record = {
-        "command": "balance",
-        "discrete": discrete,
-        "reserve": reserve,
-        "hold_requested_seconds": hold,
-        "trajectory": {
-            "source": source,
-            "steps": trajectory.steps,
-            "seconds": trajectory.seconds,
-            "u_max": trajectory.u_max,
-            "method": trajectory.method,
-            "residual": trajectory.residual(),
-        },
-        "versions": versions(),
-        **result,
-        "video": str(out / "swing_up.mp4") if video else None,
-    }
+        "command": "balance", "discrete": discrete, "reserve": reserve,
+        "hold_requested_seconds": hold, "trajectory": {**about, "residual": trajectory.residual()},
+        "versions": versions(), **result, "video": str(path) if video else None,
+    }  # fmt: skip
     write_json(out / "balance.json", record)
     return record
 
@@ -222,27 +159,17 @@ CASES: tuple[tuple[str, Perturbation], ...] = (
 )
 
 
-def robustness(
-    trajectories: dict[str, Trajectory], hold: float = 60.0, cases=CASES
-) -> list[dict[str, Any]]:
-    """One row per case, trajectory and torque kind: balanced or not, the hold time and the
-    largest error during the hold."""
-    rows = []
+def robustness(trajectories: dict[str, Trajectory], hold: float = 60.0,
+               cases=CASES) -> list[dict[str, Any]]:  # fmt: skip
+    """Balanced, hold time and largest error per case, trajectory and torque kind."""
+    rows, keys = [], ("balanced", "hold_seconds", "max_error_during_hold")
     for label, perturbation in cases:
         for name, trajectory in trajectories.items():
             for discrete in (False, True):
                 result = closed_loop(trajectory, discrete, hold, perturbation)
-                rows.append(
-                    {
-                        "case": label,
-                        "trajectory": name,
-                        "torques": "{-1, 0, +1}" if discrete else "continuous",
-                        **{
-                            k: result[k]
-                            for k in ("balanced", "hold_seconds", "max_error_during_hold")
-                        },
-                    }
-                )
+                kind = "{-1, 0, +1}" if discrete else "continuous"
+                rows.append({"case": label, "trajectory": name, "torques": kind,
+                             **{k: result[k] for k in keys}})  # fmt: skip
     return rows
 
 
@@ -253,10 +180,8 @@ def table(rows: list[dict[str, Any]]) -> str:
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
-        error = r["max_error_during_hold"]
-        lines.append(
-            f"| {r['case']} | {r['trajectory']} | {r['torques']} | "
-            f"{'yes' if r['balanced'] else 'no'} | {r['hold_seconds']:.1f} | "
-            f"{'-' if error is None else f'{error:.2g}'} |"
-        )
+        error = "-" if r["max_error_during_hold"] is None else f"{r['max_error_during_hold']:.2g}"
+        balanced = "yes" if r["balanced"] else "no"
+        lines.append(f"| {r['case']} | {r['trajectory']} | {r['torques']} | {balanced} | "
+                     f"{r['hold_seconds']:.1f} | {error} |")  # fmt: skip
     return "\n".join(lines) + "\n"

@@ -1,6 +1,5 @@
-"""The hand-derived dynamics checked against MuJoCo: the terms of the equations of motion at
-random states, one step and long trajectories, the integrators' energy drift, and the
-linearisation at the equilibria against MuJoCo's finite differences."""
+"""The hand-derived dynamics checked against MuJoCo: the equations of motion at random states,
+one step and long trajectories, the integrators' energy drift, and the linearisation."""
 
 from __future__ import annotations
 
@@ -14,20 +13,11 @@ import numpy as np
 from acrobot_mj.control.lqr import controllability_rank, discrete_model
 from acrobot_mj.envs.assets import load_model
 from acrobot_mj.physics import dynamics, errata, integrators
-from acrobot_mj.physics.dynamics import HANGING
-from acrobot_mj.physics.params import REPORT
+from acrobot_mj.physics.params import REPORT as P
 from acrobot_mj.report.plots import Series, line_plot
 
-P = REPORT
 METHODS = ("explicit_euler", "semi_implicit_euler", "rk4")
 EQUILIBRIUM_NAMES = ("hanging", "upright", "down_folded", "up_folded")
-
-
-def _states(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    q = rng.uniform(-np.pi, np.pi, (n, 2))
-    dq = rng.uniform(-1, 1, (n, 2)) * [P.max_vel1, P.max_vel2]
-    return np.concatenate([q, dq], 1), rng.uniform(-1, 1, n)
 
 
 def _rel(a: np.ndarray, b: np.ndarray) -> float:
@@ -35,62 +25,46 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> dict[str, Any]:
-    """Largest relative errors of the analytic model against MuJoCo at random states, and
-    absolute errors of one step and of 1000-step random-action trajectories from rest."""
-    model = load_model()
-    data = mujoco.MjData(model)
-    states, torques = _states(n_states, seed)
-    full_m = np.zeros((2, 2))
-    worst = {
-        "mass_matrix": 0.0,
-        "bias_forces": 0.0,
-        "accelerations": 0.0,
-        "accelerations_eq2_as_printed": 0.0,
-    }
+    """Largest errors against MuJoCo: relative at random states, absolute over 1 and 1000 steps."""
+    model, rng = load_model(), np.random.default_rng(seed)
+    data, full_m = mujoco.MjData(model), np.zeros((2, 2))
+    limits = np.array([P.max_vel1, P.max_vel2])
+    q = rng.uniform(-np.pi, np.pi, (n_states, 2))
+    dq = rng.uniform(-1, 1, (n_states, 2)) * limits
+    states, torques = np.concatenate([q, dq], 1), rng.uniform(-1, 1, n_states)
+    keys = ("mass_matrix", "bias_forces", "accelerations", "accelerations_eq2_as_printed")
+    worst = dict.fromkeys(keys, 0.0)
     for x, tau in zip(states, torques, strict=True):
         data.qpos[:], data.qvel[:], data.ctrl[:] = x[:2], x[2:], tau
         mujoco.mj_forward(model, data)
         mujoco.mj_fullM(model, data, full_m)
         q, dq = x[:2], x[2:]
-        for key, value, reference in [
-            ("mass_matrix", dynamics.mass_matrix(q), full_m),
-            ("bias_forces", dynamics.bias_forces(q, dq), data.qfrc_bias),
-            ("accelerations", dynamics.forward_dynamics(q, dq, tau), data.qacc),
-            (
-                "accelerations_eq2_as_printed",
-                errata.forward_dynamics_as_printed(q, dq, tau),
-                data.qacc,
-            ),
-        ]:
+        pairs = [(dynamics.mass_matrix(q), full_m), (dynamics.bias_forces(q, dq), data.qfrc_bias),
+                 (dynamics.forward_dynamics(q, dq, tau), data.qacc),
+                 (errata.forward_dynamics_as_printed(q, dq, tau), data.qacc)]  # fmt: skip
+        for key, (value, reference) in zip(keys, pairs, strict=True):
             worst[key] = max(worst[key], _rel(value, reference))
-    result: dict[str, Any] = {
-        "n_states": n_states,
-        "relative": worst,
-        "one_step": {},
-        "trajectory_1000": {},
-    }
+    result: dict[str, Any] = {"n_states": n_states, "relative": worst, "one_step": {},
+                              "trajectory_1000": {}}  # fmt: skip
     for name, integrator, method in [
         ("euler", mujoco.mjtIntegrator.mjINT_EULER, "semi_implicit_euler"),
         ("rk4", mujoco.mjtIntegrator.mjINT_RK4, "rk4"),
     ]:
         model.opt.integrator = integrator
-        one = 0.0
+        one = traj = 0.0
         for x, tau in zip(states, torques, strict=True):
             data.qpos[:], data.qvel[:], data.ctrl[:] = x[:2], x[2:], tau
             mujoco.mj_step(model, data)
             step = integrators.step_states(x, tau, method=method, limits=False)
             one = max(one, float(np.max(np.abs(np.concatenate([data.qpos, data.qvel]) - step))))
-        traj = 0.0
         for k in range(n_trajectories):
             taus = np.random.default_rng(seed + k).choice([-1.0, 0.0, 1.0], 1000)
-            analytic = integrators.simulate(HANGING, taus, method)
-            data.qpos[:], data.qvel[:] = HANGING[:2], 0.0
+            analytic = integrators.simulate(dynamics.HANGING, taus, method)
+            data.qpos[:], data.qvel[:] = dynamics.HANGING[:2], 0.0
             for t, tau in enumerate(taus):
                 data.ctrl[0] = tau
                 mujoco.mj_step(model, data)
-                data.qvel[:] = np.clip(
-                    data.qvel, [-P.max_vel1, -P.max_vel2], [P.max_vel1, P.max_vel2]
-                )
+                data.qvel[:] = np.clip(data.qvel, -limits, limits)
                 gap = np.abs(np.concatenate([data.qpos, data.qvel]) - analytic[t + 1])
                 traj = max(traj, float(gap.max()))
         result["one_step"][name] = one
@@ -98,18 +72,11 @@ def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> 
     return result
 
 
-def integrator_study(
-    seconds: float = 100.0, reference_substeps: int = 50, out: Path | None = None
-) -> dict[str, Any]:
-    """Zero torque from several starts: energy drift [J] of each integrator at 0.05 s, and of a
-    tight reference (RK4 at 0.05 s / ``reference_substeps``), with no velocity clipping."""
-    starts = np.array(
-        [
-            [-np.pi / 2 + 0.5, 0.0, 0.0, 0.0],  # a 0.5 rad swing
-            [-np.pi / 2, 0.0, 1.0, -1.0],  # kicked from hanging
-            [0.0, 0.0, 0.0, 0.0],
-        ]
-    )  # released horizontal: chaotic
+def integrator_study(seconds: float = 100.0, reference_substeps: int = 50,
+                     out: Path | None = None) -> dict[str, Any]:  # fmt: skip
+    """Energy drift [J] with zero torque of each integrator, and of RK4 at dt / substeps."""
+    # A 0.5 rad swing, kicked from hanging, and released horizontal (chaotic).
+    starts = np.array([[-np.pi / 2 + 0.5, 0, 0, 0], [-np.pi / 2, 0, 1, -1], [0.0, 0, 0, 0]])
     steps = round(seconds / P.dt)
     e0 = dynamics.total_energy(starts[:, :2], starts[:, 2:])
     drift, curves = {}, {}
@@ -118,10 +85,8 @@ def integrator_study(
         error = np.abs(dynamics.total_energy(xs[..., :2], xs[..., 2:]) - e0)
         drift[method] = {"max_abs_J": error.max(axis=0).tolist(), "final_abs_J": error[-1].tolist()}
         curves[method] = error[:, 0]
-    x, error = starts.copy(), np.zeros(len(starts))
     h = P.dt / reference_substeps
-    fine = replace(P, dt=h)
-    ref_curve = [0.0]
+    fine, x, error, ref_curve = replace(P, dt=h), starts.copy(), np.zeros(len(starts)), [0.0]
     for _ in range(steps):
         for _ in range(reference_substeps):
             x = integrators.step_states(x, 0.0, fine, method="rk4", limits=False)
@@ -129,48 +94,31 @@ def integrator_study(
         error = np.maximum(error, gap)
         ref_curve.append(float(gap[0]))
     drift[f"rk4_reference_dt_{h:g}"] = {"max_abs_J": error.tolist()}
-    result = {
-        "seconds": seconds,
-        "dt": P.dt,
-        "starts": starts.tolist(),
-        "initial_energy_J": e0.tolist(),
-        "energy_drift": drift,
-    }
+    result = {"seconds": seconds, "dt": P.dt, "starts": starts.tolist(),
+              "initial_energy_J": e0.tolist(), "energy_drift": drift}  # fmt: skip
     if out is not None:
         t = np.arange(steps + 1) * P.dt
-        series = [
-            Series(name.replace("_", " "), t, np.maximum(curves[name], 1e-16)) for name in METHODS
-        ]
+        series = [Series(m.replace("_", " "), t, np.maximum(curves[m], 1e-16)) for m in METHODS]
         series.append(Series(f"RK4 at {h:g} s (reference)", t, np.maximum(ref_curve, 1e-16)))
-        line_plot(
-            out / "energy_drift.png",
-            series,
-            "Energy error with zero torque, 0.5 rad swing from hanging (dt = 0.05 s)",
-            "time [s]",
-            "|E - E0| [J] (log scale)",
-            log_y=True,
-        )
+        title = "Energy error with zero torque, 0.5 rad swing from hanging (dt = 0.05 s)"
+        labels = ("time [s]", "|E - E0| [J] (log scale)")
+        line_plot(out / "energy_drift.png", series, title, *labels, log_y=True)
         result["figure"] = "energy_drift.png"
     return result
 
 
 def linearisation() -> dict[str, Any]:
-    """Equilibria, eigenvalues from the analytic Jacobian (continuous, and as discrete maps
-    through the env's step) and from MuJoCo's mjd_transitionFD, and controllability."""
-    model = load_model()
+    """Eigenvalues at the equilibria, analytic and by mjd_transitionFD, and controllability."""
+    model, rows = load_model(), {}
     data = mujoco.MjData(model)
-    rows = {}
     for name, q in zip(EQUILIBRIUM_NAMES, dynamics.equilibria(), strict=True):
-        x0 = np.concatenate([q, [0.0, 0.0]])
         a_c, _ = dynamics.linearize(q, [0.0, 0.0], 0.0)
-        a_d, _ = discrete_model(x0)
+        a_d, _ = discrete_model(np.concatenate([q, [0.0, 0.0]]))
         data.qpos[:], data.qvel[:], data.ctrl[:] = q, 0.0, 0.0
         mujoco.mj_forward(model, data)
         a_fd = np.zeros((4, 4))
         mujoco.mjd_transitionFD(model, data, 1e-6, True, a_fd, None, None, None)
-        ev_an = np.sort_complex(np.linalg.eigvals(a_d))
-        ev_fd = np.sort_complex(np.linalg.eigvals(a_fd))
-        continuous = np.sort_complex(np.linalg.eigvals(a_c))
+        ev_an, ev_fd, continuous = (np.sort_complex(np.linalg.eigvals(a)) for a in (a_d, a_fd, a_c))
         rows[name] = {
             "q": q.tolist(),
             "acceleration_at_rest": dynamics.forward_dynamics(q, [0.0, 0.0]).tolist(),
@@ -180,11 +128,10 @@ def linearisation() -> dict[str, Any]:
             "max_eigenvalue_gap": float(np.max(np.abs(ev_an - ev_fd))),
             "unstable_modes": int(np.sum(continuous.real > 1e-9)),
         }
-    a, b = discrete_model()
     return {
         "equilibria": rows,
         "comparison": "discrete maps: MuJoCo's one-step Jacobian "
         "(central differences, eps 1e-6) vs the analytic continuous Jacobian mapped exactly "
         "through one semi-implicit Euler step",
-        "controllability_rank_upright": controllability_rank(a, b),
+        "controllability_rank_upright": controllability_rank(*discrete_model()),
     }

@@ -1,9 +1,9 @@
-"""The physics references the learners are measured against, run in the MuJoCo env: energy
-pumping, the saturated LQR and its basin, the bound for any bounded controller, and the
-minimum-time swing-up (searched on the analytic model, replayed in the env)."""
+"""The references the learners are measured against, in the MuJoCo env: energy pumping, the
+saturated LQR and its basin, the bound for any controller, and the minimum-time swing-up."""
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import gymnasium as gym
@@ -12,19 +12,16 @@ import numpy as np
 from acrobot_mj.control.lqr import LQR, balances, q1_basin, unstable_mode_bound
 from acrobot_mj.control.policies import energy_pumping_torque, pumping_energies
 from acrobot_mj.control.search import min_time_search
+from acrobot_mj.control.trajopt import shortest_to_height
 from acrobot_mj.envs.rollout import PolicyActor, SequenceActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics import dynamics
-from acrobot_mj.physics.dynamics import UPRIGHT
-from acrobot_mj.physics.params import REPORT
+from acrobot_mj.physics.params import REPORT as P
 from acrobot_mj.report.crosscheck import METHODS
-
-P = REPORT
 
 
 def controllers(quick: bool = False) -> dict[str, Any]:
-    """Energy pumping from rest in the MuJoCo env; saturated LQR at upright, its basin, and the
-    bound for any controller with |tau| <= 1 N m."""
+    """Energy pumping from rest, the saturated LQR and its basin, and the bound for |tau| <= 1."""
     env = gym.make(HeightGoal.env_id, continuous=True)
     energies: list[float] = []
 
@@ -32,22 +29,16 @@ def controllers(quick: bool = False) -> dict[str, Any]:
         state = env.unwrapped.state
         energies.append(float(dynamics.total_energy(state[:2], state[2:])))
 
-    def pump(obs: np.ndarray) -> np.ndarray:
-        # The law needs the unwrapped state the env holds, not the wrapped observation.
-        tau = float(energy_pumping_torque(env.unwrapped.state))
-        return np.array([tau], dtype=np.float32)
+    def pump(obs: np.ndarray) -> np.ndarray:  # the law needs the state, not the observation
+        return np.array([float(energy_pumping_torque(env.unwrapped.state))], dtype=np.float32)
 
     episode = run_episode(env, PolicyActor(pump), 0, None, max_steps=1000,
                           on_reset=record_energy, on_step=record_energy)  # fmt: skip
-    steps, reached = episode.length, episode.success
-    env_drops = int(np.sum(np.diff(energies) < 0))
     fine = {dt: np.diff(pumping_energies(dt)).min() for dt in (1e-2, 1e-3)}
     lqr = LQR()
     low, high = q1_basin(lqr, upper=0.2, resolution=1e-3 if quick else 1e-4)
-    rng = np.random.default_rng(0)
-    n = 200 if quick else 2000
-    scale = np.array([0.02, 0.02, 0.05, 0.05])
-    starts = UPRIGHT + rng.uniform(-1, 1, (n, 4)) * scale
+    n, scale = 200 if quick else 2000, np.array([0.02, 0.02, 0.05, 0.05])
+    starts = dynamics.UPRIGHT + np.random.default_rng(0).uniform(-1, 1, (n, 4)) * scale
     bound = unstable_mode_bound()
     return {
         "energy_pumping": {
@@ -55,12 +46,10 @@ def controllers(quick: bool = False) -> dict[str, Any]:
             "reference": "the energy approach of Spong, 'The swing up control problem for the "
             "acrobot', IEEE Control Systems 1995; the same law shape as Fantoni, Lozano and "
             "Spong's for the Pendubot (IEEE TAC 2000)",
-            "reached_goal": reached,
-            "steps_to_goal": steps,
-            "seconds": steps * P.dt,
-            "energy_start_J": energies[0],
+            "reached_goal": episode.success, "steps_to_goal": episode.length,
+            "seconds": episode.length * P.dt, "energy_start_J": energies[0],
             "energy_end_J": energies[-1],
-            "env_steps_losing_energy": env_drops,
+            "env_steps_losing_energy": int(np.sum(np.diff(energies) < 0)),
             "monotone_check": "RK4 with the torque held over dt: the largest energy drop of a "
             "step in the pumping phase shrinks as dt^2 (dq2 changing sign within a step), so "
             "the energy rises monotonically in continuous time",
@@ -68,63 +57,42 @@ def controllers(quick: bool = False) -> dict[str, Any]:
             "largest_drop_J_rk4_dt_0.001": float(-min(fine[1e-3], 0.0)),
         },
         "lqr": {
-            "gain": lqr.gain[0].tolist(),
-            "q": list(lqr.q),
-            "r": lqr.r,
-            "q1_basin_rad": [low, high],
-            "sampled_box": scale.tolist(),
-            "sampled": n,
+            "gain": lqr.gain[0].tolist(), "q": list(lqr.q), "r": lqr.r, "q1_basin_rad": [low, high],
+            "sampled_box": scale.tolist(), "sampled": n,
             "sampled_fraction_balanced": float(np.mean(balances(lqr, starts))),
         },
-        "bound_any_controller_q1_rad": min(bound.values()),
-        "bound_per_unstable_mode": bound,
-    }
+        "bound_any_controller_q1_rad": min(bound.values()), "bound_per_unstable_mode": bound,
+    }  # fmt: skip
 
 
 def minimum_time(quick: bool = False) -> dict[str, Any]:
     """Beam searches for the fewest decisions to the goal from rest, replayed in the env."""
     width = 3000 if quick else 20_000
-    results = {}
-    best4 = min_time_search(frame_skip=4, width=width)
-    results["frame_skip_4"] = best4
+    search4 = functools.partial(min_time_search, frame_skip=4, width=width)
+    best4 = search4()
     # At frame_skip 1 a sequence may hold a torque for k steps: search with holds of 1, 3, 4.
-    holds = {1: min_time_search(frame_skip=1, width=2000 if quick else 5000)}
-    holds[4] = best4
+    holds = {1: min_time_search(frame_skip=1, width=2000 if quick else 5000), 4: best4}
     if not quick:
         holds[3] = min_time_search(frame_skip=3, width=width)
     per_hold = {k: r.decisions * k for k, r in holds.items() if r.decisions is not None}
     k_best = min(per_hold, key=per_hold.get)
     fs1_actions = [a for a in holds[k_best].actions for _ in range(k_best)]
     replay = {"frame_skip_1": _replay(fs1_actions, 1), "frame_skip_4": _replay(best4.actions, 4)}
-    by_integrator = {}
-    for method in METHODS:
-        result = (
-            best4
-            if method == "semi_implicit_euler"
-            else min_time_search(frame_skip=4, width=width, method=method)
-        )
-        by_integrator[method] = result.decisions
+    by_integrator = {
+        m: (best4 if m == "semi_implicit_euler" else search4(method=m)).decisions for m in METHODS
+    }
     return {
         "continuous_torque": None if quick else continuous_torque_height(fs1_actions),
         "min_time_decisions_frame_skip_4": best4.decisions,
         "min_time_steps_frame_skip_1": len(fs1_actions),
-        "actions_frame_skip_4": best4.actions,
-        "actions_frame_skip_1": fs1_actions,
-        "frame_skip_1_steps_by_hold": per_hold,
-        "beam_width": width,
-        "replayed_in_env": replay,
+        "actions_frame_skip_4": best4.actions, "actions_frame_skip_1": fs1_actions,
+        "frame_skip_1_steps_by_hold": per_hold, "beam_width": width, "replayed_in_env": replay,
         "decisions_frame_skip_4_by_integrator": by_integrator,
-    }
+    }  # fmt: skip
 
 
 def continuous_torque_height(actions: list[int]) -> dict[str, Any] | None:
-    """How many steps continuous torques need for the height goal: the {-1, 0, +1} minimum
-    shortened by the optimiser (:func:`acrobot_mj.control.trajopt.shortest_to_height`) and
-    replayed in the MuJoCo env (None without CasADi)."""
-    try:
-        from acrobot_mj.control.trajopt import shortest_to_height
-    except ImportError:  # pragma: no cover  (the control extra)
-        return None
+    """Steps to the height goal with continuous torques from ``actions`` (None without CasADi)."""
     try:
         trajectory = shortest_to_height(np.array([-1.0, 0.0, 1.0])[actions])
     except ImportError:
@@ -132,12 +100,8 @@ def continuous_torque_height(actions: list[int]) -> dict[str, Any] | None:
     env = gym.make(HeightGoal.env_id, continuous=True)
     torques = [np.array([u], dtype=np.float32) for u in trajectory.torques]
     episode = run_episode(env, SequenceActor(torques), seed=0, max_steps=len(torques))
-    return {
-        "steps": trajectory.steps,
-        "residual": trajectory.residual(),
-        "replayed_steps": episode.length,
-        "reached_goal": episode.success,
-    }
+    return {"steps": trajectory.steps, "residual": trajectory.residual(),
+            "replayed_steps": episode.length, "reached_goal": episode.success}  # fmt: skip
 
 
 def _replay(actions: list[int], frame_skip: int) -> dict[str, Any]:
@@ -146,9 +110,6 @@ def _replay(actions: list[int], frame_skip: int) -> dict[str, Any]:
     episode = run_episode(env, SequenceActor(actions), seed=0, max_steps=len(actions))
     if not (episode.success or episode.truncated):  # it ran out of actions
         return {"steps": len(actions), "reached_goal": False, "at_last_action": True}
-    return {
-        "steps": episode.length,
-        "reached_goal": episode.success,
-        "at_last_action": episode.length == len(actions),
-        "tip_height": episode.info["tip_height"],
-    }
+    return {"steps": episode.length, "reached_goal": episode.success,
+            "at_last_action": episode.length == len(actions),
+            "tip_height": episode.info["tip_height"]}  # fmt: skip

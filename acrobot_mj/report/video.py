@@ -1,12 +1,11 @@
-"""MP4 videos (and still strips) of the acrobot, through imageio and imageio-ffmpeg.
-
-A video is real time: ``fps = 1 / (timestep * frame_skip)``, one frame for the reset state and
-one per step. Frames get an optional caption with the time, the torque and the tip height.
-"""
+"""MP4 videos (and still strips) of the acrobot, through imageio and imageio-ffmpeg: real time
+(``fps = 1 / (timestep * frame_skip)``), one frame for the reset state and one per step."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import itertools
 import json
 import os
 import queue
@@ -28,30 +27,21 @@ from acrobot_mj.envs.spaces import TORQUES
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import write_atomic, write_json
 
-#: x264 at constant quality, its fastest preset: software GL and the encoder share the CPU, and
-#: at crf 30 a 300-frame swing-up still takes only ~100 kB.
+#: x264's fastest preset at constant quality: software GL and the encoder share the CPU.
 FFMPEG_PARAMS = ["-preset", "ultrafast", "-crf", "30", "-pix_fmt", "yuv420p"]
 
 
 class VideoWriter:
-    """An MP4 writer whose frames go to ffmpeg from a background thread, so piping and encoding
-    overlap the rendering of the next frames. The video is written to a temporary file beside
-    ``path`` and renamed to it when complete, so a failed or interrupted video leaves nothing
-    half-written; any failure (a full disk, a read-only folder) is one ``OSError`` naming the
-    file, raised in the caller's thread."""
+    """An MP4 writer encoding on a thread into a temporary file, renamed to ``path`` when
+    complete; any failure is one ``OSError`` naming the file, raised in the caller's thread."""
 
     def __init__(self, path: str | Path, fps: float, queue_size: int = 16) -> None:
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.tmp.mp4")
-        try:
-            self._writer = imageio.get_writer(
-                self._tmp,
-                fps=fps,
-                codec="libx264",
-                macro_block_size=8,
-                ffmpeg_params=FFMPEG_PARAMS,
-                ffmpeg_log_level="quiet",  # failures are reported by _failure, in one line
-            )
+        try:  # ffmpeg quiet: _failure reports in one line
+            self._writer = imageio.get_writer(self._tmp, fps=fps, codec="libx264",
+                                              macro_block_size=8, ffmpeg_params=FFMPEG_PARAMS,
+                                              ffmpeg_log_level="quiet")  # fmt: skip
         except OSError as error:
             raise self._failure(error) from None
         self._queue: queue.Queue[np.ndarray | None] = queue.Queue(maxsize=queue_size)
@@ -60,21 +50,16 @@ class VideoWriter:
         self._thread.start()
 
     def _failure(self, error: BaseException) -> OSError:
-        """One line: the file, and why (the folder's file system when it explains it; else the
-        first line of the error, which for ffmpeg goes on with its whole command line)."""
+        # ffmpeg's first line goes on with its whole command line: the folder says more.
         reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
-        try:
+        with contextlib.suppress(OSError, AttributeError):  # no statvfs on Windows
             folder = os.statvfs(self.path.parent)  # before the partial video is removed
-        except (OSError, AttributeError):  # no statvfs on Windows
-            folder = None
-        if folder is not None and folder.f_flag & os.ST_RDONLY:
-            reason = "its folder is on a read-only file system"
-        elif folder is not None and folder.f_bavail * folder.f_frsize < 2**20:
-            reason = "no space left on the device"
-        try:
+            if folder.f_flag & os.ST_RDONLY:
+                reason = "its folder is on a read-only file system"
+            elif folder.f_bavail * folder.f_frsize < 2**20:
+                reason = "no space left on the device"
+        with contextlib.suppress(OSError):  # a read-only file system: nothing was written
             self._tmp.unlink(missing_ok=True)
-        except OSError:
-            pass  # a read-only file system: nothing was written either
         return OSError(f"cannot write the video {self.path}: {reason}")
 
     def _run(self) -> None:
@@ -113,99 +98,43 @@ class VideoWriter:
 
 
 def caption(frame: np.ndarray, text: str, colour: tuple[int, int, int] = (20, 20, 20)):
-    """Draw ``text`` in the top-left corner of ``frame`` (in place) and return it; the font
-    shrinks (to 8 px at least) until the text fits the frame's width."""
+    """Draw ``text`` at the top left of ``frame`` (in place, returned), in a font that fits."""
     shape = re.sub(r"\d", "0", text)  # captions of one video share a size
-    size = _fitting_size(shape, max(10, frame.shape[0] // 24), frame.shape[1] - 16)
+    size, font = _fitting_font(shape, max(10, frame.shape[0] // 24), frame.shape[1] - 16)
     band = frame[: size + 12]  # only the caption's band goes through Pillow: 5x faster
     image = Image.fromarray(band)
-    ImageDraw.Draw(image).text((8, 6), text, fill=colour, font=_font(size))
+    ImageDraw.Draw(image).text((8, 6), text, fill=colour, font=font)
     band[...] = np.asarray(image)
     return frame
 
 
-@functools.lru_cache(maxsize=64)
-def _font(size: int) -> ImageFont.FreeTypeFont:
-    return ImageFont.load_default(size)
-
-
 @functools.lru_cache(maxsize=256)
-def _fitting_size(text: str, size: int, width: int) -> int:
-    """The largest font size up to ``size`` at which ``text`` fits ``width`` pixels."""
-    while size > 8 and _font(size).getlength(text) > width:
+def _fitting_font(text: str, size: int, width: int) -> tuple[int, ImageFont.FreeTypeFont]:
+    while size > 8 and ImageFont.load_default(size).getlength(text) > width:
         size -= 1
-    return size
-
-
-def _torque_of(env: Any, action: Any) -> float:
-    if getattr(env.unwrapped, "continuous", False):
-        return float(np.asarray(action).ravel()[0])
-    return TORQUES[int(action)]
-
-
-class _Frames:
-    """The episode loop's hooks that render, caption and write each frame."""
-
-    def __init__(
-        self, env: Any, writer: VideoWriter, captions: bool, keep: bool, bar: Steps
-    ) -> None:
-        self.env, self.writer, self.captions, self.bar = env, writer, captions, bar
-        self.task, self.dt = env.unwrapped.task, env.unwrapped.dt
-        self.kept: list[np.ndarray] | None = [] if keep else None
-        self.steps = 0
-
-    def frame(self, torque: float, info: dict[str, Any], note: str) -> None:
-        frame = self.env.render()
-        if self.captions:
-            caption(
-                frame,
-                f"t = {self.steps * self.dt:5.2f} s   torque {torque:+.2f} N m   "
-                f"{self.task.caption(info)}{note}",
-            )
-        self.writer.append(frame)
-        self.bar.done()
-        if self.kept is not None:
-            self.kept.append(frame)
-
-    def on_reset(self, obs: np.ndarray, info: dict[str, Any]) -> None:
-        self.frame(0.0, info, "")
-
-    def on_step(self, action, obs, reward, terminated, truncated, info) -> None:
-        self.steps += 1
-        success = bool(info.get("is_success", terminated))
-        note = f"   {self.task.success_label}" if success else "   truncated" if truncated else ""
-        self.frame(_torque_of(self.env, action), info, note)
+    return size, ImageFont.load_default(size)
 
 
 def check_outputs(path: Path, strip: str | Path | None) -> None:
-    """Refuse outputs that would replace a file other than an earlier video's: the video must
-    end in .mp4, its JSON record may only replace a video record, and the strip (a .png) may only
-    replace one a video record names."""
+    """Refuse to replace anything but an earlier video's files: ``path`` must end in .mp4, its
+    JSON record may only replace a video record, and the strip (a .png) only one a record names."""
     if path.suffix.lower() != ".mp4":
         raise ValueError(f"the video file must end in .mp4, got {path}")
     record = path.with_suffix(".json")
     if record.exists() and "video" not in _json_object(record):
-        raise FileExistsError(
-            f"{record} exists and is not a video record: the video's record would replace it; "
-            "choose another --out"
-        )
-    if strip is None:
-        return
-    strip = Path(strip)
-    if strip.suffix.lower() != ".png":
+        raise FileExistsError(f"{record} exists and is not a video record: the video's record "
+                              "would replace it; choose another --out")  # fmt: skip
+    strip = None if strip is None else Path(strip)
+    if strip is not None and strip.suffix.lower() != ".png":
         raise ValueError(f"the strip must be a .png file, got {strip}")
-    if strip.exists():
-        named = {
-            Path(r.get("strip", "")).resolve()
-            for r in map(_json_object, strip.parent.glob("*.json"))
-            if "video" in r
-        }
+    if strip is not None and strip.exists():
+        records = map(_json_object, strip.parent.glob("*.json"))
+        named = {Path(r.get("strip", "")).resolve() for r in records if "video" in r}
         if strip.resolve() not in named:
             raise FileExistsError(f"{strip} exists and is no video's strip: choose another")
 
 
 def _json_object(path: Path) -> dict[str, Any]:
-    """A JSON file's object, or an empty dict if it is not one."""
     try:
         value = json.loads(path.read_text())
     except (OSError, ValueError):
@@ -215,10 +144,8 @@ def _json_object(path: Path) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """How a video is made: frame size [pixels], the model's camera (``side`` or ``wide``),
-    captions (time, torque, the task's words), a strip of 6 frames (a .png path, or None), at
-    most ``max_steps`` actions (None: the whole episode), the env's reset seed, and a bar of
-    the frames on stderr."""
+    """Frame size [pixels], camera (``side`` or ``wide``), captions, a 6-frame strip (a .png, or
+    None), at most ``max_steps`` actions (None: all), the reset seed, a bar on stderr."""
 
     width: int = 480
     height: int = 480
@@ -233,42 +160,48 @@ class RenderSettings:
         return {"width": self.width, "height": self.height, "camera": self.camera}
 
 
-def record_episode(
-    env: Any,
-    actor: Actor,
-    path: str | Path,
-    settings: RenderSettings = RenderSettings(),
-    *,
-    reset_options: dict[str, Any] | None = None,
-    states: list[np.ndarray] | None = None,
-    on_reset: Any = None,
-) -> dict[str, Any]:
-    """Run one episode of ``actor`` on ``env`` (``render_mode="rgb_array"``) and write an MP4
-    (and the strip): real time, one frame for the reset state and one per step. ``states``
-    collects each frame's state; ``on_reset(obs, info)`` runs after the reset, before the first
-    frame. Returns the episode's record, also written as JSON beside the video."""
+def record_episode(env: Any, actor: Actor, path: str | Path,
+                   settings: RenderSettings = RenderSettings(), *,
+                   reset_options: dict[str, Any] | None = None,
+                   states: list[np.ndarray] | None = None,
+                   on_reset: Any = None) -> dict[str, Any]:  # fmt: skip
+    """Write an episode of ``actor`` on ``env`` (``rgb_array``) as MP4, and its record as JSON
+    beside it (returned); ``states`` collects each frame's state."""
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
     path, strip = Path(path), settings.strip
     check_outputs(path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fps = env.metadata["render_fps"]
+    fps, task, dt = env.metadata["render_fps"], env.unwrapped.task, env.unwrapped.dt
+    continuous = getattr(env.unwrapped, "continuous", False)
     limit = settings.max_steps or getattr(env.spec, "max_episode_steps", None)  # None: unknown
+    kept: list[np.ndarray] = []  # the frames, for the strip
+    steps = itertools.count(1)
     bar = Steps(limit + 1 if limit else None, "render", settings.progress, "frames")
     with VideoWriter(path, fps) as writer, bar:
-        frames = _Frames(env, writer, settings.captions, strip is not None, bar)
+
+        def frame(step: int, torque: float, info: dict[str, Any], note: str = "") -> None:
+            image = env.render()
+            if settings.captions:
+                words = f"torque {torque:+.2f} N m   {task.caption(info)}{note}"
+                caption(image, f"t = {step * dt:5.2f} s   {words}")
+            writer.append(image)
+            bar.done()
+            if strip is not None:
+                kept.append(image)
+            if states is not None:
+                states.append(env.unwrapped.state)
 
         def reset_hook(obs: np.ndarray, info: dict[str, Any]) -> None:
             if on_reset is not None:
                 on_reset(obs, info)
-            frames.on_reset(obs, info)
-            if states is not None:
-                states.append(env.unwrapped.state)
+            frame(0, 0.0, info)
 
-        def step_hook(*args: Any) -> None:
-            frames.on_step(*args)
-            if states is not None:
-                states.append(env.unwrapped.state)
+        def step_hook(action, obs, reward, terminated, truncated, info) -> None:
+            torque = float(np.asarray(action).ravel()[0]) if continuous else TORQUES[int(action)]
+            success = bool(info.get("is_success", terminated))
+            note = f"   {task.success_label}" if success else "   truncated" if truncated else ""
+            frame(next(steps), torque, info, note)
 
         episode = run_episode(env, actor, settings.seed, reset_options,
                               max_steps=settings.max_steps, on_reset=reset_hook,
@@ -279,7 +212,6 @@ def record_episode(
         "size": [env.unwrapped.width, env.unwrapped.height], "camera": env.unwrapped.camera,
     }  # fmt: skip
     if strip is not None:
-        kept = frames.kept
         picks = np.linspace(0, len(kept) - 1, 6).round().astype(int)
         image = Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1))
         write_atomic(strip, lambda f: image.save(f, format="PNG"))
@@ -288,11 +220,9 @@ def record_episode(
     return record
 
 
-def render_policy(
-    name: str, out: str | Path, settings: RenderSettings = RenderSettings(), frame_skip: int = 1
-) -> dict[str, Any]:
-    """A video of a fixed policy (``pump``, ``zero`` or ``random``, seeded by the settings'
-    seed) from rest."""
+def render_policy(name: str, out: str | Path, settings: RenderSettings = RenderSettings(),
+                  frame_skip: int = 1) -> dict[str, Any]:  # fmt: skip
+    """A video of a fixed policy (``pump``, ``zero`` or ``random``) from rest."""
     env = gym.make(HeightGoal.env_id, frame_skip=frame_skip, render_mode="rgb_array",
                    **settings.env_kwargs())  # fmt: skip
     try:

@@ -1,6 +1,2 @@
-"""Training: configs and presets, the learners (one interface for everything trained or planned),
-their runs and run directories, evaluation and videos of any run, several seeds (in lockstep
-where the algorithm allows) and sweeps.
-
-Start with :func:`acrobot_mj.train.trainer.train` and :data:`acrobot_mj.train.presets.PRESETS`.
-"""
+"""Training: configs and presets, learners, runs and their directories, evaluation, seeds and
+sweeps. Start with :func:`acrobot_mj.train.trainer.train` and its presets (``PRESETS``)."""

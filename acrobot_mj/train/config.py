@@ -1,12 +1,7 @@
-"""Training configuration: a typed, frozen dataclass, with each algorithm's and each kind of
-features' own typed config (:class:`~acrobot_mj.agents.sarsa.SarsaConfig` and the rest, with
-their defaults) inside it.
-
-Every setting has one short name (``alpha``, ``lam``, ``frame_skip``), used flat by the command
-line (``--alpha 0.1``), sweeps (``alpha = [0.1, 0.5]``), records (``run.json``'s ``config``)
-and :meth:`TrainConfig.replace`. A setting of another algorithm, other features or another task
-reads as None, and setting it is refused, saying why it has no effect.
-"""
+"""Training configuration: a frozen dataclass holding the algorithm's and the features' typed
+configs. Every setting has one flat name (``alpha``, ``lam``, ``frame_skip``), used by the command
+line, sweeps, records and :meth:`TrainConfig.replace`; a setting that does not apply reads as
+None, and setting it is refused, saying why."""
 
 from __future__ import annotations
 
@@ -36,8 +31,7 @@ RETIRED = {
 @dataclass(frozen=True)
 class TrainConfig:
     """Everything that defines a training run except the seed; the defaults are the report's.
-    ``agent`` and ``encoding`` are the algorithm's and the features' typed configs (None: their
-    defaults)."""
+    ``agent`` and ``encoding``: the algorithm's and the features' configs (None: defaults)."""
 
     task: str = "height_goal"
     algorithm: str = "sarsa"
@@ -62,8 +56,7 @@ class TrainConfig:
         for name, kind in _TOP_TYPES.items():
             _check_type(name, kind, getattr(self, name))
         _check_names(self.task, self.algorithm, self.features)
-        for name, kind in (("agent", agent_spec(self.algorithm).config),
-                           ("encoding", FEATURES[self.features])):  # fmt: skip
+        for name, kind in _part_kinds(self.algorithm, self.features).items():
             value = getattr(self, name)
             if value is None:
                 object.__setattr__(self, name, kind())
@@ -73,7 +66,8 @@ class TrainConfig:
         for name in TASK_OPTIONS:
             value = getattr(self, name)
             if name in options and value is None:
-                object.__setattr__(self, name, _task_default(self.task, name))
+                default = inspect.signature(get_task(self.task).__init__).parameters[name].default
+                object.__setattr__(self, name, default)
             elif name not in options and value is not None:
                 raise ValueError(f"config {name} has no effect with task={self.task!r}")
         if self.start_noise > 0 and self.noise_until is None:
@@ -84,8 +78,7 @@ class TrainConfig:
         _check_ranges(self)
 
     def __getattr__(self, name: str) -> Any:
-        """A setting of the algorithm's or the features' config; None for a known setting that
-        does not apply (another algorithm's, other features')."""
+        """A setting of the agent's or the features' config; None for one that does not apply."""
         if name.startswith("_") or name not in field_names():
             raise AttributeError(f"TrainConfig has no setting {name!r}")
         for part in (self.__dict__.get("agent"), self.__dict__.get("encoding")):
@@ -94,28 +87,23 @@ class TrainConfig:
         return None
 
     def replace(self, **changes: Any) -> TrainConfig:
-        """A copy with ``changes`` (flat names) applied. A new algorithm or kind of features
-        keeps the settings both have (``alpha`` from SARSA to Sarsa(lambda)) and takes its own
-        defaults for the rest; a setting that does not apply is refused, saying why."""
+        """A copy with ``changes``; a new algorithm or features keeps the settings both have."""
         for name in set(changes) & set(RETIRED):
             raise ValueError(f"config {name} was removed: {RETIRED[name]}")
         unknown = sorted(set(changes) - set(field_names()))
         if unknown:
             raise ValueError(f"unknown config keys {unknown}; known: {sorted(field_names())}")
         top = {k: v for k, v in changes.items() if k in _TOP_TYPES}
-        task = top.get("task", self.task)
-        _check_names(task, top.get("algorithm", self.algorithm), top.get("features", self.features))
+        named = ("task", "algorithm", "features")
+        task, algorithm, features = (top.get(k, getattr(self, k)) for k in named)
+        _check_names(task, algorithm, features)
+        kinds = _part_kinds(algorithm, features)
         parts = {}
-        for name, kind in (("agent", agent_spec(top.get("algorithm", self.algorithm)).config),
-                           ("encoding", FEATURES[top.get("features", self.features)])):  # fmt: skip
-            old = dataclasses.asdict(getattr(self, name))
-            own = {k: v for k, v in changes.items() if k in _names(kind)}
-            parts[name] = kind(**{**{k: v for k, v in old.items() if k in _names(kind)}, **own})
-        for name in (
-            set(changes)
-            - set(_TOP_TYPES)
-            - {*_names(type(parts["agent"])), *_names(type(parts["encoding"]))}
-        ):
+        for name, kind in kinds.items():
+            values = {**dataclasses.asdict(getattr(self, name)), **changes}
+            parts[name] = kind(**{k: v for k, v in values.items() if k in _names(kind)})
+        bad = set(changes) - set(_TOP_TYPES) - _names(kinds["agent"]) - _names(kinds["encoding"])
+        for name in bad:
             owner = "algorithm" if name in _all_names(AGENTS) else "features"
             value = top.get(owner, getattr(self, owner))
             raise ValueError(f"config {name} has no effect with {owner}={value!r}")
@@ -132,14 +120,13 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
-        """The config of a record (``to_dict``'s output, or an older record's, whose settings
-        that did not apply held defaults: read as not set)."""
+        """The config of a record (an older one's settings that do not apply are ignored)."""
         data = {k: v for k, v in data.items() if k not in RETIRED and v is not None}
         algorithm, features = data.get("algorithm", "sarsa"), data.get("features", "grid")
         task = data.get("task", "height_goal")
         _check_names(task, algorithm, features)
-        applies = set(_TOP_TYPES) | _names(agent_spec(algorithm).config)
-        applies |= _names(FEATURES[features])
+        kinds = _part_kinds(algorithm, features)
+        applies = set(_TOP_TYPES) | _names(kinds["agent"]) | _names(kinds["encoding"])
         applies -= {k for k in TASK_OPTIONS if k not in get_task(task).options}
         if not data.get("start_noise"):
             applies.discard("noise_until")
@@ -147,12 +134,10 @@ class TrainConfig:
 
     @property
     def env_id(self) -> str:
-        """The Gymnasium id of the config's task."""
         return get_task(self.task).env_id
 
     def env_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments for ``gymnasium.make(config.env_id, ...)``: the physics, the
-        truncation and the task's options that are config fields."""
+        """Keyword arguments for ``gymnasium.make(config.env_id, ...)``."""
         options = {k: getattr(self, k) for k in TASK_OPTIONS if getattr(self, k) is not None}
         return {"frame_skip": self.frame_skip, "integrator": self.integrator,
                 "max_episode_steps": self.max_episode_steps, **options}  # fmt: skip
@@ -169,16 +154,14 @@ class TrainConfig:
         return self.max_decisions // self.population
 
     def finished(self, record: dict[str, Any]) -> bool:
-        """Whether a run record of this config spent its whole budget: every episode, or every
-        learner's decision cap."""
+        """Whether a run record of this config spent every episode, or every decision allowed."""
         if record.get("episodes_done") == self.episodes * self.population:
             return True
         cap = self.learner_decisions
         return cap > 0 and record.get("steps") == cap * self.population
 
     def make_agent(self, seed: Any, space: gym.spaces.Box, n_actions: int = 3) -> Any:
-        """The learner of this config over observations in ``space``, its stream seeded with
-        ``seed``."""
+        """The learner of this config over observations in ``space``, its stream from ``seed``."""
         spec = agent_spec(self.algorithm)
         return spec.build(self.encoding.build(space), self.agent, seed, n_actions)
 
@@ -194,29 +177,21 @@ def _names(kind: type) -> set[str]:
 
 
 def _all_names(table: dict[str, Any]) -> set[str]:
-    names: set[str] = set()
-    for value in table.values():
-        names |= _names(value.config if hasattr(value, "config") else value)
-    return names
+    return {n for v in table.values() for n in _names(v.config if hasattr(v, "config") else v)}
+
+
+def _part_kinds(algorithm: str, features: str) -> dict[str, type]:
+    return {"agent": agent_spec(algorithm).config, "encoding": FEATURES[features]}
 
 
 def field_names() -> tuple[str, ...]:
-    """Every setting's flat name: the run's, every algorithm's and every kind of features'
-    (in that order; an algorithm registered later adds its own)."""
-    names = [k for k in _TOP_TYPES][:3]
-    for table in (AGENTS, FEATURES):
-        for name in sorted(_all_names(table)):
-            if name not in names:
-                names.append(name)
-    return (*names, *[k for k in _TOP_TYPES][3:])
-
-
-def _task_default(task: str, name: str) -> float:
-    return inspect.signature(get_task(task).__init__).parameters[name].default
+    """Every setting's flat name: the run's, every algorithm's and every kind of features'."""
+    top = list(_TOP_TYPES)
+    parts = [name for table in (AGENTS, FEATURES) for name in sorted(_all_names(table))]
+    return (*top[:3], *dict.fromkeys(n for n in parts if n not in top[:3]), *top[3:])
 
 
 def _check_names(task: str, algorithm: str, features: str) -> None:
-    """The task, algorithm and features exist and fit together."""
     for name, value, known in (("task", task, TASKS), ("algorithm", algorithm, AGENTS),
                                ("features", features, FEATURES)):  # fmt: skip
         if value not in known:
@@ -232,16 +207,15 @@ def field_type(name: str) -> type:
     for kind in (TrainConfig, *(s.config for s in AGENTS.values()), *FEATURES.values()):
         hints = typing.get_type_hints(kind)
         if name in hints and name not in ("agent", "encoding"):
-            hint = hints[name]
-            args = [a for a in typing.get_args(hint) if a is not type(None)]
-            return args[0] if args else hint
+            args = [a for a in typing.get_args(hints[name]) if a is not type(None)]
+            return args[0] if args else hints[name]
     raise ValueError(f"unknown config key {name!r}; known: {sorted(field_names())}")
 
 
 def _check_type(name: str, kind: Any, value: Any) -> None:
     if value is None and type(None) in typing.get_args(kind):
         return
-    kind = field_type(name) if name in _TOP_TYPES else kind
+    kind = field_type(name)
     ok = isinstance(value, kind) and not (kind is not bool and isinstance(value, bool))
     if kind is float:
         ok = isinstance(value, (int, float)) and not isinstance(value, bool)

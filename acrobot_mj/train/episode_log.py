@@ -1,17 +1,6 @@
-"""A learner's episode log, ``episodes.jsonl``: one JSON object per finished training episode,
-written and flushed as each episode ends, so a run killed at any moment keeps every episode it
-logged (the checkpoint fsyncs the log before it counts its lines).
-
-A line holds ``episode`` (its index in the run), ``length`` (decisions), ``return``,
-``success``, ``wall_seconds`` (training time since the run started, not counting the time it was
-stopped) and, in lockstep and population runs, ``learner`` (the learner's index). Lines written
-before the log was streamed lack the last two; readers need only the first four.
-
-The one writer is :class:`EpisodeLog` (every training path logs through
-:class:`~acrobot_mj.train.records.Checkpoints`); on resume it cuts the file back, atomically, to
-the episodes its checkpoint counts, so the episodes after the checkpoint (and a line half
-written by a kill) are run again and logged once.
-"""
+"""A learner's episode log, ``episodes.jsonl``: one JSON object per finished training episode
+(``episode``, ``length``, ``return``, ``success``, and ``wall_seconds`` and ``learner`` where
+known), flushed as it ends and cut back, atomically, to its checkpoint's episodes on resume."""
 
 from __future__ import annotations
 
@@ -19,7 +8,6 @@ import itertools
 import json
 import os
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
@@ -31,10 +19,13 @@ def log_line(row: dict[str, Any]) -> bytes:
     return (json.dumps(row, allow_nan=False) + "\n").encode()
 
 
+def _write(path: Path, rows: list[dict[str, Any]]) -> None:
+    write_atomic(path, lambda f: f.writelines(log_line(row) for row in rows))
+
+
 def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
-    """The first ``count`` lines of a log as dicts (fewer if the log has fewer complete lines;
-    a line cut short by a kill is not one). Raises ``ValueError`` for a line that is not a
-    JSON object and ``OSError`` for a file that cannot be read."""
+    """The first ``count`` complete lines of a log as dicts (a line cut short by a kill is not
+    one). Raises ``ValueError`` for a line that is not a JSON object, ``OSError`` if unreadable."""
     rows = []
     with open(path, "rb") as lines:
         for line in itertools.islice(lines, count):
@@ -47,16 +38,8 @@ def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
     return rows
 
 
-def history_rows(history: Any, learner: int | None = None) -> Iterator[dict[str, Any]]:
-    """A history's episodes as log lines (without times: what a log lacking them holds)."""
-    lists = history.episode_lengths, history.episode_returns, history.episode_successes
-    for k, (length, total, success) in enumerate(zip(*lists, strict=True)):
-        row = {"episode": k, "length": length, "return": total, "success": success}
-        yield row if learner is None else {**row, "learner": learner}
-
-
 class EpisodeLog:
-    """Appends a learner's episodes to ``path`` as they finish (see the module docstring)."""
+    """Appends a learner's episodes to ``path`` as they finish, and to ``tee`` if given."""
 
     def __init__(self, path: Path, learner: int | None = None, tee: RunLog | None = None) -> None:
         self.path, self.learner, self.tee = path, learner, tee
@@ -64,8 +47,8 @@ class EpisodeLog:
         self._offset, self._clock = 0.0, time.perf_counter()
 
     def start(self, history: Any) -> None:
-        """Keep exactly ``history``'s episodes in the file (the first ``len(history)`` lines
-        already there, else lines made from ``history``), atomically; then append after them."""
+        """Keep exactly ``history``'s episodes in the file (its first ``len(history)`` lines,
+        else lines made from ``history``), atomically; then append after them."""
         self.close()
         count = len(history)
         try:
@@ -73,8 +56,11 @@ class EpisodeLog:
         except (OSError, ValueError):
             kept = []
         if len(kept) != count:  # no log, or an older run's: the history is all there is
-            kept = list(history_rows(history, self.learner))
-        write_atomic(self.path, lambda f: f.writelines(log_line(row) for row in kept))
+            lists = history.episode_lengths, history.episode_returns, history.episode_successes
+            own = {} if self.learner is None else {"learner": self.learner}
+            kept = [{"episode": k, "length": n, "return": r, "success": s, **own}
+                    for k, (n, r, s) in enumerate(zip(*lists, strict=True))]  # fmt: skip
+        _write(self.path, kept)
         last = kept[-1].get("wall_seconds") if kept else None
         self._offset = float(last) if isinstance(last, (int, float)) else 0.0
         self._clock = time.perf_counter()
@@ -82,8 +68,6 @@ class EpisodeLog:
 
     def append(self, episode: int, length: int, total: float, success: bool) -> None:
         """Log one finished episode and flush it to the OS (a kill -9 keeps it)."""
-        if self._file is None:
-            raise RuntimeError(f"the episode log {self.path} is not started: call start()")
         row = {"episode": episode, "length": length, "return": total, "success": success}
         row["wall_seconds"] = round(self._offset + time.perf_counter() - self._clock, 6)
         if self.learner is not None:
@@ -106,10 +90,9 @@ class EpisodeLog:
 
 
 def concatenate(target: Path, sources: list[Path], counts: list[int]) -> tuple[int, float]:
-    """Write ``target`` (atomically) as the first ``counts[k]`` lines of each ``sources[k]`` in
-    turn: one run's log made of its learners' (numbered through, ``learner`` set to ``k``, the
-    times running on from the learner before). Returns where the last source's lines begin:
-    their first episode number and the time they start from."""
+    """Write ``target`` (atomically) as the first ``counts[k]`` lines of each ``sources[k]``:
+    one run's log of its learners' (numbered through, ``learner`` set to ``k``, the times
+    running on). Returns the last source's first episode number and start time there."""
     rows, offset, episode = [], 0.0, 0
     for k, (source, count) in enumerate(zip(sources, counts, strict=True)):
         start = (episode, offset)
@@ -119,13 +102,11 @@ def concatenate(target: Path, sources: list[Path], counts: list[int]) -> tuple[i
         rows.extend(_renumbered(row, start, k) for row in own)
         episode += count
         offset += float(own[-1].get("wall_seconds", 0.0)) if own else 0.0
-    write_atomic(target, lambda f: f.writelines(log_line(row) for row in rows))
+    _write(target, rows)
     return start if sources else (0, 0.0)
 
 
 def _renumbered(row: dict[str, Any], start: tuple[int, float], learner: int) -> dict[str, Any]:
-    """A learner's line as a line of its run's log (``start``: the learner's first episode
-    number and start time there)."""
     moved = {**row, "episode": start[0] + row["episode"], "learner": learner}
     if "wall_seconds" in row:
         moved["wall_seconds"] = round(start[1] + row["wall_seconds"], 6)
@@ -133,9 +114,9 @@ def _renumbered(row: dict[str, Any], start: tuple[int, float], learner: int) -> 
 
 
 class RunLog:
-    """A population run's own ``episodes.jsonl`` while learner ``learner`` trains: the lines
-    of the learners before it and its own so far (rebuilt from their logs: ``sources``,
-    ``counts``), then each line the learner logs, renumbered, as it is logged."""
+    """A population run's own ``episodes.jsonl`` while learner ``len(sources) - 1`` trains: the
+    lines of the learners before it and its own so far (``sources``, ``counts``), then each
+    line the learner logs, renumbered."""
 
     def __init__(self, path: Path, sources: list[Path], counts: list[int]) -> None:
         self.learner = len(sources) - 1

@@ -1,17 +1,6 @@
-"""Evaluating and rendering any run, whatever its learner: greedy episodes from held-out starts
-(``eval.json``) and a video of the greedy episode from rest.
-
-``eval.json`` holds the protocol, a summary by the task's score (and the task's own measures:
-for the balance task, how many ended balanced and for how long), the episode from rest apart,
-and per held-out episode its exact ``start_states`` [rad, rad/s], the ``actions`` given to the
-env (``Discrete(3)`` indices, or float32 torques as floats), the ``torques`` MuJoCo applied per
-decision [N m], the ``final_states`` and the results: replaying the actions from
-``env.reset(options={"state": start})`` gives the same episode. Height-goal runs are compared,
-per start, with the minimum-time swing-up found by a beam search (stored for the default
-protocol in ``heldout_minima.json``, about 6 minutes to compute with
-``python scripts/heldout_minima.py``; an upper bound on the true minimum, so the ratio is, if
-anything, flattering to the learner).
-"""
+"""Evaluating and rendering any run: greedy episodes from held-out starts (``eval.json``, each
+episode's start state and actions, replayable; see docs/learning.md), compared per start with
+a beam search's minimum time (``heldout_minima.json``), and a video of the episode from rest."""
 
 from __future__ import annotations
 
@@ -32,20 +21,22 @@ from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import EVAL_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
 
-#: What ``evaluate`` compares with: stored per-start minima, computed ones, or none.
 MINIMA = ("stored", "compute", "none")
 STORED = Path(__file__).with_name("heldout_minima.json")
 #: The analytic model's integrator for each of the env's.
 METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
+_RENDER = RenderSettings()
+#: What eval.json lists per held-out episode besides the results, and the episode's key.
+PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state"}
 
 
 def evaluate(
     run_dir: str | Path, protocol: Protocol | dict | None = None, minima: str = "stored"
 ) -> dict[str, Any]:
     """Greedy episodes of a run from the held-out starts of ``protocol`` (default: its
-    learner's; a dict changes some of its settings) and, apart, from rest; writes and returns
+    learner's; a dict changes some of its settings) and from rest; writes and returns
     ``eval.json``. ``minima``: compare with ``"stored"`` per-start minima where they apply,
-    ``"compute"`` them otherwise, or ``"none"``. The run directory is locked meanwhile."""
+    ``"compute"`` them otherwise, or ``"none"``. Locks the run directory."""
     with RunLock(Path(run_dir), "evaluate", create=False):
         return evaluate_run(run_dir, protocol, minima)
 
@@ -59,14 +50,10 @@ def evaluate_run(
     learner = load_learner(run_dir)
     if protocol is None or isinstance(protocol, dict):
         protocol = dataclasses.replace(learner.protocol, **(protocol or {}))
-    record = {
-        "run": str(run_dir),
-        "run_seed": learner.seed,
-        **({"kind": learner.kind} if learner.kind else {}),
-        "config": learner.config.to_dict(),
-        "versions": versions(),
-        **evaluate_learner(learner, protocol, minima),
-    }
+    record = {"run": str(run_dir), "run_seed": learner.seed,
+              **({"kind": learner.kind} if learner.kind else {}),
+              "config": learner.config.to_dict(), "versions": versions(),
+              **evaluate_learner(learner, protocol, minima)}  # fmt: skip
     write_json(Path(run_dir) / EVAL_FILE, record)
     return record
 
@@ -104,14 +91,8 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
     return record
 
 
-#: What eval.json lists per held-out episode besides the results: its name there, and the
-#: episode's key.
-PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state"}
-
-
 def play(env: gym.Env, learner: Learner, episode: int, options: dict, seed: int | None = None):
-    """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``: its start
-    state, actions, torques, final state, results and the task's assessment."""
+    """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``."""
     acrobot, actions, torques, states = env.unwrapped, [], [], []
 
     def on_step(action: Any, *_: Any) -> None:
@@ -119,39 +100,36 @@ def play(env: gym.Env, learner: Learner, episode: int, options: dict, seed: int 
         torques.append(float(acrobot.data.ctrl[0]))
         states.append(acrobot.state)
 
-    result = run_episode(env, learner.actor(env, episode), seed, options,
-                         on_reset=lambda *_: states.append(acrobot.state), on_step=on_step)  # fmt: skip
+    result = run_episode(env, learner.actor(env, episode), seed, options, on_step=on_step,
+                         on_reset=lambda *_: states.append(acrobot.state))  # fmt: skip
     assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up)
     return {"start_state": states[0].tolist(), "length": result.length,
             "return": result.episode_return, "success": result.success, "actions": actions,
-            "torques": torques, "final_state": states[-1].tolist(), "assessment": assessment}  # fmt: skip
+            "torques": torques, "final_state": states[-1].tolist(),
+            "assessment": assessment}  # fmt: skip
 
 
 def distinct_outcomes(evaluations: list[dict[str, Any]]) -> dict[str, int]:
     """How many distinct greedy behaviours several runs' evaluations show: runs that take the
     same actions from rest (``from_rest``), or from every held-out start (``held_out``), count
-    once. Seeds that collapse onto a few policies are few outcomes."""
-    return {
-        "from_rest": len({tuple(e["rest"]["actions"]) for e in evaluations}),
-        "held_out": len({tuple(map(tuple, e["actions"])) for e in evaluations}),
-    }
+    once."""
+    return {"from_rest": len({tuple(e["rest"]["actions"]) for e in evaluations}),
+            "held_out": len({tuple(map(tuple, e["actions"])) for e in evaluations})}  # fmt: skip
 
 
 def render_run(
-    run_dir: str | Path, out: str | Path, settings: RenderSettings = RenderSettings()
+    run_dir: str | Path, out: str | Path, settings: RenderSettings = _RENDER
 ) -> dict[str, Any]:
-    """A video of a run's greedy episode from rest, on the run's own env (the video and its
-    record must not replace a file of the run)."""
+    """A video of a run's greedy episode from rest, on the run's own env."""
     with RunLock(Path(run_dir), "render", create=False):
         learner = load_learner(run_dir)
     env = learner.env(render_mode="rgb_array", **settings.env_kwargs())
     try:
         states: list[np.ndarray] = []
-        options = {"start_noise": 0.0}
-        record = record_episode(env, learner.actor(env, 0), out, settings, reset_options=options,
-                                states=states)  # fmt: skip
-        task, dt = env.unwrapped.task, env.unwrapped.dt
-        record.update(task.assess(np.array(states), dt, learner.swing_up))
+        record = record_episode(env, learner.actor(env, 0), out, settings,
+                                reset_options={"start_noise": 0.0}, states=states)  # fmt: skip
+        record.update(env.unwrapped.task.assess(np.array(states), env.unwrapped.dt,
+                                                learner.swing_up))  # fmt: skip
     finally:
         env.close()
     policy = "greedy" if learner.kind is None else "identified model + TVLQR"
@@ -178,15 +156,11 @@ def compute_minima(
     if settings is None:
         raise ValueError(f"per-start minima exist for the height goal only, not "
                          f"{env.unwrapped.task.name!r}")  # fmt: skip
-    found = []
-    for start in np.asarray(starts, dtype=np.float64):
-        result = min_time_search(
-            frame_skip=settings["frame_skip"], width=width,
-            method=METHODS[settings["integrator"]], max_decisions=max_decisions,
-            goal_height=settings["goal_height"], start=start,
-        )  # fmt: skip
-        found.append({"decisions": result.decisions, "actions": result.actions})
-    return found
+    results = [min_time_search(frame_skip=settings["frame_skip"], width=width,
+                               method=METHODS[settings["integrator"]], max_decisions=max_decisions,
+                               goal_height=settings["goal_height"], start=start)
+               for start in np.asarray(starts, dtype=np.float64)]  # fmt: skip
+    return [{"decisions": r.decisions, "actions": r.actions} for r in results]
 
 
 def stored_minima(env: gym.Env, protocol: Protocol) -> list[int] | None:
@@ -213,9 +187,6 @@ def compare(lengths: list[int], minima: list[int | None]) -> dict[str, Any]:
     if len(lengths) != len(minima):
         raise ValueError(f"{len(lengths)} episodes but {len(minima)} per-start minima")
     pairs = [(n, m) for n, m in zip(lengths, minima, strict=True) if m]
-    return {
-        "per_start": minima,
-        "minimum": spread([m for _, m in pairs]),
-        "ratio": spread([n / m for n, m in pairs]),
-        "without_reference": len(lengths) - len(pairs),
-    }
+    return {"per_start": minima, "minimum": spread([m for _, m in pairs]),
+            "ratio": spread([n / m for n, m in pairs]),
+            "without_reference": len(lengths) - len(pairs)}  # fmt: skip

@@ -1,18 +1,6 @@
-"""Everything trained or planned has one interface, :class:`Learner` (as Stable-Baselines3's
-``BaseAlgorithm``): it ``learn``s into a run directory (:class:`Run`), acts in its ``env`` through
-an ``actor``, and is loaded back from its run directory. ``evaluate``, ``render``, seeds and sweeps
-use nothing else (:mod:`acrobot_mj.train.evaluate`).
-
-:class:`AgentLearner` learns by interaction: one agent of the config's algorithm, or a
-population of them with the best kept (random restarts: with epsilon 0 a Sarsa(lambda) learner
-settles on one swing-up after a few dozen episodes, which one depending on its first episodes),
-in the env or in a model identified from a few env decisions (:mod:`.model_based`). The balance
-preset's learner identifies and plans (:mod:`.plan`).
-
-Every random choice comes from the run's seed: each episode's reset seed (:func:`episode_seed`)
-and each greedy episode's tie-breaking stream (:func:`tie_stream`), so a resumed run is identical
-to an uninterrupted one, and ``train``, ``evaluate`` and ``render`` report the same greedy run.
-"""
+"""The :class:`Learner` interface of everything trained or planned, and :class:`AgentLearner`:
+one agent, or a population with the best kept, trained by interaction. Every random choice comes
+from the run's seed, so a resumed run is identical to an uninterrupted one."""
 
 from __future__ import annotations
 
@@ -21,7 +9,7 @@ import shutil
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -67,9 +55,7 @@ Judge = Callable[[Agent, int], float]
 
 @dataclass
 class Run:
-    """Where a run writes (``out``; None: nowhere) and what watches it, handed to each of its
-    learners: ``resume`` from the checkpoints there, the ``monitor`` (bar, TensorBoard), a
-    callback after each episode, and ``tee``, a population's episode log."""
+    """Where a run writes (None: nowhere), whether it resumes, and what watches it."""
 
     out: Path | None = None
     resume: bool = False
@@ -92,11 +78,8 @@ HELDOUT_BRANCH = 0xE7A1
 
 @dataclass(frozen=True)
 class Protocol:
-    """Held-out evaluation: ``episodes`` starts of ``U(-start_noise, start_noise)`` [rad, rad/s]
-    on each of (q1, q2, dq1, dq2) around rest, drawn from ``SeedSequence(seed, spawn_key=
-    (HELDOUT_BRANCH,))``. Every draw of training comes from a seed sequence without a spawn
-    key, so no training seed gives the evaluation's stream, and no evaluation setting can
-    change what training does."""
+    """Held-out evaluation: ``episodes`` starts of rest plus ``U(-start_noise, start_noise)``
+    [rad, rad/s] on each state variable, from a stream no training seed gives."""
 
     episodes: int = 100
     start_noise: float = 0.05
@@ -108,7 +91,7 @@ class Protocol:
         check_int("seed", self.seed, 0)
 
     def starts(self, rest: np.ndarray) -> np.ndarray:
-        """The held-out start states, shape ``(episodes, 4)``: ``rest`` plus the draws."""
+        """The held-out start states, shape ``(episodes, 4)``."""
         rest = np.asarray(rest, dtype=np.float64)
         if rest.shape != (4,):
             raise ValueError(f"rest must be a state (q1, q2, dq1, dq2), got shape {rest.shape}")
@@ -116,7 +99,7 @@ class Protocol:
         return rest + rng.uniform(-self.start_noise, self.start_noise, size=(self.episodes, 4))
 
     def to_dict(self) -> dict[str, float | int]:
-        return {"episodes": self.episodes, "start_noise": self.start_noise, "seed": self.seed}
+        return asdict(self)
 
 
 #: The protocol of the README's learning results: 100 starts of U(-0.05, 0.05), seed 0.
@@ -124,12 +107,11 @@ DEFAULT = Protocol()
 
 
 class Learner(ABC):
-    """A trained thing: ``learn`` fills a run directory and returns its record; ``env`` and
-    ``actor`` are how it acts (greedily) in episodes; ``load`` takes it back from the directory."""
+    """A trained thing: it ``learn``s into a run directory, acts through ``env`` and ``actor``,
+    and is ``load``ed back from the directory."""
 
-    #: ``run.json``'s ``kind`` (absent for agents: records written before kinds existed).
+    #: ``run.json``'s ``kind`` (absent for agents).
     kind: ClassVar[str | None] = None
-    #: The held-out starts its results are measured on.
     protocol: ClassVar[Protocol] = DEFAULT
     #: Physics steps its plan swings up in (None: none planned), for the task's assessment.
     swing_up: int | None = None
@@ -185,7 +167,6 @@ def shape_rewards(env: gym.Env, config: TrainConfig) -> gym.Env:
 
 
 def check_spaces(env: gym.Env) -> None:
-    """Refuse envs whose spaces the agents cannot use, naming what is wrong."""
     if not (isinstance(env.action_space, gym.spaces.Discrete) and env.action_space.n == 3):
         raise ValueError(f"the agents need a Discrete(3) action space, got {env.action_space}")
     if not isinstance(env.observation_space, gym.spaces.Box) or env.observation_space.shape != (4,):
@@ -194,15 +175,12 @@ def check_spaces(env: gym.Env) -> None:
 
 
 def greedy_from_rest(env: gym.Env, agent: Agent, run_seed: int) -> Episode:
-    """The greedy episode from rest that a run records (ties broken by :func:`tie_stream`)."""
+    """The greedy episode from rest that a run records."""
     return run_episode(env, Greedy(agent, tie_stream(run_seed)), run_seed, {"start_noise": 0.0})
 
 
 class AgentLearner(Learner):
-    """The config's agent trained by interaction: one, or ``population`` of them with the best
-    kept, in ``env`` (any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)``
-    observations; default the config's). With ``identify_decisions``, in an identified model:
-    :class:`acrobot_mj.train.model_based.ModelBasedLearner`."""
+    """The config's agent (or the best of a ``population``) trained by interaction in ``env``."""
 
     def __init__(self, config: TrainConfig, seed: int, env: gym.Env | None = None) -> None:
         super().__init__(config, seed)
@@ -254,8 +232,7 @@ def train_one(
     config: TrainConfig, seed: int, run: Run, env: gym.Env | None = None, greedy: bool = True
 ) -> tuple[dict[str, Any], Agent]:
     """Train one learner into ``run`` (checkpoints every ``checkpoint_every`` episodes, at the
-    end and on Ctrl-C; exact resume). ``greedy=False``: no greedy episode from rest and no
-    learning curve (a population's learners)."""
+    end and on Ctrl-C). ``greedy=False``: no greedy episode from rest and no learning curve."""
     env_name = "acrobot_mj (make_env)" if env is None else str(env)
     env = make_env(config) if env is None else shape_rewards(env, config)
     agent = config.make_agent(seed, env.observation_space)
@@ -322,10 +299,11 @@ def diverged(config: TrainConfig, seed: int, episode: int, kept: int,
         cause = (f"the rewards (step_reward {config.step_reward}, goal_reward "
                  f"{config.goal_reward}) overflow a float")  # fmt: skip
     else:
-        space = gym.spaces.Box(-1.0, 1.0, (4,))
-        n = config.encoding.build(space).num_active
-        cause = (f"the step size: alpha={config.alpha:g} is per weight, and {n} features are "
-                 f"active in each state (Sutton and Barto use 0.2/{n} with tile coding)")  # fmt: skip
+        n = config.encoding.build(gym.spaces.Box(-1.0, 1.0, (4,))).num_active
+        cause = (
+            f"the step size: alpha={config.alpha:g} is per weight, and {n} features are "
+            f"active in each state (Sutton and Barto use 0.2/{n} with tile coding)"
+        )
     return DivergenceError(
         f"{config.algorithm} diverged in episode {episode + 1} of seed {seed} ({error}); the "
         f"likely cause is {cause}; the checkpoint keeps the state after episode {kept}"
@@ -335,15 +313,8 @@ def diverged(config: TrainConfig, seed: int, episode: int, kept: int,
 def train_population(
     config: TrainConfig, seed: int, run: Run, env: gym.Env | None = None, judge: Judge | None = None
 ) -> tuple[dict[str, Any], Agent]:
-    """``config.population`` learners of ``episodes`` each (own seeds, own start noise), the one
-    whose last 20 training episodes scored best kept (or the best by ``judge``). The choice
-    sees training episodes only: no greedy runs are made for it.
-
-    ``learner_K/`` holds each learner's run (record, episode log, and its checkpoint while the
-    population trains); the top holds the usual files, the kept learner's checkpoint and every
-    learner's episodes in order, ``population`` in ``run.json`` saying which was kept and why.
-    Once the top checkpoint is written the learners' go (a resumed finished run trains them
-    again, to the same result)."""
+    """``config.population`` learners in ``learner_K/``, the one whose last 20 training episodes
+    scored best (or the best by ``judge``) kept. A resumed finished run trains them again."""
     out, single = run.out, config.replace(population=1, max_decisions=config.learner_decisions)
     if run.resume:
         if out is None:
@@ -358,7 +329,12 @@ def train_population(
     score = get_task(config.task).score
     records, scores, best, kept = [], [], 0, None
     for k in range(config.population):
-        tee = None if out is None else _population_log(out, records, run.resume)
+        tee = None
+        if out is not None:  # the run's episodes.jsonl: the learners' before k and, resuming, k's
+            mine = learner_dir(out, k) / CHECKPOINT_FILE
+            done = load_checkpoint(mine)[0]["episodes_done"] if run.resume and mine.exists() else 0
+            logs = [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)]
+            tee = RunLog(out / EPISODE_LOG, logs, [r["episodes_done"] for r in records] + [done])
         try:
             record, learner = train_one(single, learner_seed(seed, k), run.learner(k, tee), env,
                                         greedy=False)  # fmt: skip
@@ -392,14 +368,3 @@ def train_population(
         for k in range(config.population):
             (learner_dir(out, k) / CHECKPOINT_FILE).unlink(missing_ok=True)
     return record, kept
-
-
-def _population_log(out: Path, records: list[dict[str, Any]], resume: bool) -> RunLog:
-    """The run's ``episodes.jsonl`` for the next learner: the learners' before it and, resuming,
-    the next one's episodes its checkpoint counts."""
-    k = len(records)
-    counts = [r["episodes_done"] for r in records]
-    mine = learner_dir(out, k) / CHECKPOINT_FILE
-    counts.append(load_checkpoint(mine)[0]["episodes_done"] if resume and mine.exists() else 0)
-    return RunLog(out / EPISODE_LOG, [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)],
-                  counts)  # fmt: skip

@@ -1,16 +1,6 @@
-"""One owner at a time for a run directory.
-
-A process that writes a run directory (training, evaluation, a video of the run, a sweep) holds
-``DIR/.lock``: an exclusive ``flock`` on that file, which also records the owner (pid, host,
-command, start time). The kernel drops the lock when its process dies, so a dead owner never
-blocks anyone; its record is still in the file, and whoever takes the lock next reports that it
-takes over from a process that is gone, and removes the temporary files that process left.
-``--force`` overwrites a finished run, never a live lock.
-
-A directory inside one that another live process holds (a seed of a multi-seed run, a trial of
-a sweep) counts as held too, unless that process is one of ours: the pids of the lock holders
-above a process are passed down to its workers in ``ACROBOT_MJ_LOCK_OWNERS``.
-"""
+"""One owner at a time for a run directory: an exclusive ``flock`` on ``DIR/.lock``, the file
+naming the owner (docs/reliability.md). A directory inside a held one counts as held, unless its
+holder is ours: lock holders pass their pids to workers in ``ACROBOT_MJ_LOCK_OWNERS``."""
 
 from __future__ import annotations
 
@@ -29,7 +19,7 @@ except ImportError:  # pragma: no cover  (Windows: exclusive creation instead)
 
 LOCK_FILE = ".lock"
 OWNERS_VARIABLE = "ACROBOT_MJ_LOCK_OWNERS"
-#: Directories this process holds, with how many times (the lock is re-entrant).
+#: Directories this process holds: [file descriptor, depth] (the lock is re-entrant).
 _HELD: dict[Path, list[Any]] = {}
 
 
@@ -54,10 +44,8 @@ def _owners() -> set[int]:
 
 def _describe(owner: dict[str, Any]) -> str:
     started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(owner.get("started", 0)))
-    return (
-        f"pid {owner.get('pid')} on {owner.get('host')} ({owner.get('command', '?')}, "
-        f"since {started})"
-    )
+    return (f"pid {owner.get('pid')} on {owner.get('host')} ({owner.get('command', '?')}, "
+            f"since {started})")  # fmt: skip
 
 
 def _read_owner(path: Path) -> dict[str, Any] | None:
@@ -103,7 +91,7 @@ class RunLock:
             held[1] += 1
             return self
         for parent in self.directory.parents:
-            owner = _held_by_other(parent / LOCK_FILE) if (parent / LOCK_FILE).exists() else None
+            owner = _held_by_other(parent / LOCK_FILE)  # None where there is no lock file
             if owner is not None:
                 raise RunDirectoryBusy(
                     f"{self.directory} is inside {parent}, which is in use by "
@@ -131,17 +119,11 @@ class RunLock:
             ) from None
         previous = _read_owner(path)
         if previous is not None and previous["pid"] not in _owners():
-            sys.stderr.write(
-                f"acrobot-mj: taking over {self.directory} from {_describe(previous)}, which "
-                "is not running any more\n"
-            )
+            sys.stderr.write(f"acrobot-mj: taking over {self.directory} from "
+                             f"{_describe(previous)}, which is not running any more\n")  # fmt: skip
             _remove_temporaries(self.directory)
-        record = {
-            "pid": os.getpid(),
-            "host": socket.gethostname(),
-            "command": self.command,
-            "started": time.time(),
-        }
+        record = {"pid": os.getpid(), "host": socket.gethostname(), "command": self.command,
+                  "started": time.time()}  # fmt: skip
         os.ftruncate(fd, 0)
         os.pwrite(fd, json.dumps(record).encode(), 0)
         return fd
@@ -154,16 +136,15 @@ class RunLock:
         if held[1] > 0:
             return
         del _HELD[self.directory]
-        fd = held[0]
-        os.ftruncate(fd, 0)  # a free lock: an empty file (unlinking it would race)
+        os.ftruncate(held[0], 0)  # a free lock: an empty file (unlinking it would race)
         if fcntl is not None:
-            fcntl.flock(fd, fcntl.LOCK_UN)
-        os.close(fd)
+            fcntl.flock(held[0], fcntl.LOCK_UN)
+        os.close(held[0])
 
 
 def _remove_temporaries(directory: Path) -> None:
-    """Delete the ``.NAME.PID.tmp`` files (interrupted atomic writes) of processes that are gone,
-    in ``directory`` and the directories below it."""
+    """Delete the ``.NAME.PID.tmp`` files (interrupted atomic writes) of dead processes, in
+    ``directory`` and below."""
     for tmp in directory.rglob(".*.tmp"):
         pid = tmp.name.rsplit(".", 2)[-2]
         if pid.isdigit() and not _alive(int(pid)):

@@ -1,24 +1,6 @@
-"""The ``balance`` preset: a model-based learner that swings up AND balances with |tau| <= 1 N m.
-
-Everything it knows of the acrobot comes from interaction with ``acrobot_mj/AcrobotBalance-v0``
-in MuJoCo:
-
-1. **data**: ``identify_decisions`` decisions of uniformly random torques, in episodes of at most
-   100 decisions from rest plus ``U(-data_noise, data_noise)`` on each angle and velocity
-   (:func:`acrobot_mj.train.model_based.collect`);
-2. **model**: the five lumped parameters identified from them; the learner is told the
-   equations' structure and the env's step, not the masses, lengths, inertias or gravity; a
-   model that misses its data is refused;
-3. **plan**: the multi-start minimum-time search (:func:`acrobot_mj.control.trajopt.min_time`)
-   on the identified model, nominal torques ``|u| <= reserve`` (the rest is the feedback's);
-4. **policy**: TVLQR along the plan, then the saturated LQR at upright, both designed on the
-   identified model: ``u = pi(k, x)``, ``k`` the physics steps since the reset, ``|u| <= 1``
-   N m; with ``discrete`` sigma-delta modulated to ``{-1, 0, +1}`` N m.
-
-A run directory holds ``run.json`` (``kind`` :data:`KIND`: the config, the model, the plan, the
-closed loop from rest) and ``trajectory.json`` (the plan with the identified parameters,
-re-checked on every load); it evaluates and renders as every other run.
-"""
+"""The ``balance`` preset: a model-based learner that swings up AND balances with |tau| <= 1 N m:
+it identifies the lumped parameters from random-torque decisions, plans a minimum-time swing-up
+on the model with ``|u| <= reserve``, and follows it with TVLQR, then LQR at upright."""
 
 from __future__ import annotations
 
@@ -51,11 +33,10 @@ KIND, TRAJECTORY_FILE = "identify_and_plan", "trajectory.json"
 
 @dataclass(frozen=True)
 class PlanConfig:
-    """The balance preset's settings: decisions of data, the data's start noise [rad, rad/s]
-    (wide: the data should cover many states), the plan's torque bound [N m], {-1, 0, +1}
-    torques, the search's start horizons ``(start, stop, step)`` [physics steps] and upright
-    targets (indices 0-5 of :data:`~acrobot_mj.control.trajopt.TARGETS`; None: the defaults),
-    and the seconds of balance asked for after the swing-up."""
+    """The balance preset's settings: decisions of data and their start noise [rad, rad/s], the
+    plan's torque bound [N m], {-1, 0, +1} torques, the search's horizons ``(start, stop, step)``
+    [physics steps] and upright targets (indices of :data:`~acrobot_mj.control.trajopt.TARGETS`;
+    None: the defaults), and the seconds of balance after the swing-up."""
 
     identify_decisions: int = 200
     data_noise: float = 1.0
@@ -85,17 +66,17 @@ class PlanConfig:
             object.__setattr__(self, "targets", t)
 
     def replace(self, **changes: Any) -> PlanConfig:
-        unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(self)})
+        names = [f.name for f in dataclasses.fields(self)]
+        unknown = sorted(set(changes) - set(names))
         if unknown:
-            names = [f.name for f in dataclasses.fields(self)]
             raise ValueError(f"unknown balance-preset settings {unknown}; known: {names}")
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
         data = dataclasses.asdict(self)
-        for name in ("horizons", "targets"):
-            data[name] = None if data[name] is None else list(data[name])
-        return data
+        return data | {
+            k: None if data[k] is None else list(data[k]) for k in ("horizons", "targets")
+        }
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PlanConfig:
@@ -104,11 +85,9 @@ class PlanConfig:
 
 
 class PlanLearner(Learner):
-    """The balance preset's learner (see the module docstring): ``learn`` identifies and plans;
-    it acts through TVLQR along its plan."""
+    """The balance preset's learner: ``learn`` identifies and plans; it acts through TVLQR."""
 
     kind = KIND
-    #: The held-out starts of its results: U(-0.01, 0.01) around rest.
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0)
 
     def __init__(self, config: PlanConfig, seed: int, trajectory: Trajectory | None = None):
@@ -126,21 +105,18 @@ class PlanLearner(Learner):
         model = learn_model(config, self.seed)
         targets = TARGETS if config.targets is None else tuple(TARGETS[i] for i in config.targets)
         horizons = None if config.horizons is None else range(*config.horizons)
-        self.trajectory = min_time(config.reserve, horizons=horizons, targets=targets,
-                                   p=AcrobotParams(**model["params"]), progress=run.progress)  # fmt: skip
+        p = AcrobotParams(**model["params"])
+        self.trajectory = min_time(config.reserve, horizons=horizons, targets=targets, p=p,
+                                   progress=run.progress)  # fmt: skip
         trained = time.perf_counter() - start
-        env = self.env()
-        try:
+        with self.env() as env:
             result = closed_loop(self.trajectory, config.discrete, config.hold, env=env)
-        finally:
-            env.close()
         torques = np.asarray(result.pop("torques"))
         result.pop("states")
+        rest = result | {"steps": len(torques), "mean_abs_torque": float(np.abs(torques).mean())}
         record = {
             "kind": KIND, "config": config.to_dict(), "seed": self.seed, "task": Balance.name,
-            "model": model, "plan": plan_summary(self.trajectory),
-            "greedy_from_rest": result | {"steps": len(torques),
-                                          "mean_abs_torque": float(np.abs(torques).mean())},
+            "model": model, "plan": plan_summary(self.trajectory), "greedy_from_rest": rest,
             "decisions_total": model["data_decisions"] + len(torques),
             "wall_seconds": trained, "versions": versions(),
         }  # fmt: skip
@@ -150,7 +126,6 @@ class PlanLearner(Learner):
         return record
 
     def env(self, **kwargs: Any) -> gym.Env:
-        """The balance env of an episode: the swing-up and ``hold`` seconds more."""
         return balance_env(self.trajectory, self.config.discrete, self.config.hold, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
@@ -158,7 +133,13 @@ class PlanLearner(Learner):
 
     @classmethod
     def load(cls, run_dir: Path) -> PlanLearner:
-        record = read_plan_record(Path(run_dir))
+        path = Path(run_dir) / RUN_FILE
+        try:
+            record = json.loads(path.read_text())
+        except (OSError, ValueError) as error:
+            raise ValueError(f"{path} is not a readable run record: {error}") from None
+        if not isinstance(record, dict) or record.get("kind") != KIND:
+            raise ValueError(f"{path} is not a balance-preset run (kind {KIND!r})")
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if dataclasses.asdict(trajectory.params) != record["model"]["params"]:
             raise ValueError(f"{Path(run_dir) / TRAJECTORY_FILE} was planned on another model "
@@ -167,24 +148,19 @@ class PlanLearner(Learner):
 
 
 def learn_model(config: PlanConfig, seed: int) -> dict[str, Any]:
-    """Steps 1 and 2: the data and the identified model, with its realisation."""
-    env = data_env(config)
-    try:
+    """The data and the identified model, with its realisation."""
+    with data_env(config) as env:
         decisions, theta, rms, told = identified_model(env, config.identify_decisions, seed,
                                                        config.data_noise)  # fmt: skip
-    finally:
-        env.close()
     return {"data_decisions": decisions, "theta": theta.tolist(), "rms": rms,
             "params": dataclasses.asdict(realise(theta, told))}  # fmt: skip
 
 
 def data_env(config: PlanConfig, **kwargs: Any) -> gym.Env:
-    """The balance task's env with the config's torques (for the data)."""
     return gym.make(Balance.env_id, continuous=not config.discrete, **kwargs)
 
 
 def plan_summary(trajectory: Trajectory) -> dict[str, Any]:
-    """The plan in numbers: its length, torque bound and effort."""
     torques = trajectory.torques
     return {
         "steps": trajectory.steps, "seconds": trajectory.seconds, "u_max": trajectory.u_max,
@@ -192,15 +168,3 @@ def plan_summary(trajectory: Trajectory) -> dict[str, Any]:
         "full_torque_fraction": float(np.mean(np.abs(torques) >= trajectory.u_max - 1e-6)),
         "residual": trajectory.residual(),
     }  # fmt: skip
-
-
-def read_plan_record(run_dir: Path) -> dict[str, Any]:
-    """``run.json`` of a balance run (anything else is refused, naming what it is)."""
-    path = run_dir / RUN_FILE
-    try:
-        record = json.loads(path.read_text())
-    except (OSError, ValueError) as error:
-        raise ValueError(f"{path} is not a readable run record: {error}") from None
-    if not isinstance(record, dict) or record.get("kind") != KIND:
-        raise ValueError(f"{path} is not a balance-preset run (kind {KIND!r})")
-    return record

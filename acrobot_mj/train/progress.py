@@ -1,12 +1,5 @@
-"""Watching a run as it trains: one progress bar (tqdm, on stderr) over all its learners, the
-logs of worker processes followed into it, and per-episode scalars for TensorBoard if asked.
-
-A :class:`Monitor` is handed down a run's training paths (seeds, lockstep, population,
-learner): each finished episode of any learner reaches :meth:`Monitor.episode`, so a run of
-ten learners shows one bar of all their episodes (or decisions, under a decision cap) with the
-median length of the last 20 episodes and the successes so far. tqdm is imported only when a
-bar is shown.
-"""
+"""Watching a run as it trains: one progress bar (tqdm, on stderr) over all its learners' episodes,
+worker processes' logs followed into it, and per-episode scalars for TensorBoard if asked."""
 
 from __future__ import annotations
 
@@ -26,21 +19,20 @@ from acrobot_mj.bars import make_bar
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.records import RECENT, History
 
-#: Seconds between redraws of the bar's statistics (tqdm redraws the count more often).
-POSTFIX_EVERY = 0.5
+#: Seconds between redraws of the bar's statistics, and between reads of workers' logs.
+POSTFIX_EVERY = EVERY = 0.5
 
 
 def run_total(config: TrainConfig) -> tuple[int, str]:
     """What a run's bar counts to: all its learners' episodes, or decisions under a cap."""
     cap = config.learner_decisions
-    if cap > 0:
-        return cap * config.population, "decisions"
-    return config.episodes * config.population, "episodes"
+    count, unit = (cap, "decisions") if cap > 0 else (config.episodes, "episodes")
+    return count * config.population, unit
 
 
 class Progress:
-    """A tqdm bar of ``total`` episodes (or decisions, ``unit``) on stderr, with the recent
-    median length and the successes; nothing at all (and no tqdm) when not ``enabled``."""
+    """A tqdm bar of ``total`` episodes (or decisions, ``unit``) with the recent median length
+    and the successes; nothing at all (and no tqdm) when not ``enabled``."""
 
     def __init__(self, total: int, label: str, enabled: bool, unit: str = "episodes") -> None:
         self.unit = unit
@@ -49,12 +41,11 @@ class Progress:
         self.bar = make_bar(total, label, enabled, unit)
 
     def skip(self, history: History) -> None:
-        """Count a resumed learner's episodes as done (before it trains on)."""
+        """Count a resumed learner's episodes as done."""
         self.recent.extend(history.episode_lengths[-RECENT:])
         self.successes += sum(history.episode_successes)
         if self.bar is not None:
-            done = history.steps if self.unit == "decisions" else len(history)
-            self.bar.n += done
+            self.bar.n += history.steps if self.unit == "decisions" else len(history)
             self.bar.last_print_n = self.bar.n  # not a burst of speed
             self.bar.refresh()
 
@@ -78,7 +69,7 @@ class Progress:
         return f"median {median:.0f} decisions (last {RECENT}), {self.successes} successes"
 
     def retract(self, units: int, successes: int) -> None:
-        """Take back ``units`` counted and ``successes`` (a log that was cut back)."""
+        """Take back ``units`` and ``successes`` counted (a log that was cut back)."""
         self.successes -= successes
         if self.bar is not None and units:
             self.bar.update(-units)
@@ -96,9 +87,8 @@ class Progress:
 
 
 class Monitor:
-    """What watches a run's episodes: its :class:`Progress` bar and, if asked, a TensorBoard
-    :class:`Board`; ``name`` is the learner's TensorBoard run
-    (``seed_3/learner_1``; empty for a run of one learner)."""
+    """A run's :class:`Progress` bar and, if asked, its TensorBoard :class:`Board`; ``name`` is
+    the learner's TensorBoard run (``seed_3/learner_1``; empty for a run of one learner)."""
 
     def __init__(self, bar: Progress, board: Board | None = None, name: str = "") -> None:
         self.bar, self.board, self.name = bar, board, name
@@ -108,11 +98,9 @@ class Monitor:
         return Monitor(self.bar, self.board, f"{self.name}/{name}" if self.name else name)
 
     def restored(self, history: History) -> None:
-        """A resumed learner's episodes so far."""
         self.bar.skip(history)
 
     def episode(self, index: int, length: int, total: float, success: bool) -> None:
-        """Learner ``name``'s episode ``index`` finished."""
         self.bar.episode(length, success)
         if self.board is not None:
             self.board.add(self.name, index, length, total, success)
@@ -130,9 +118,8 @@ def watching(
     label: str,
     tensorboard: str | Path | None = None,
 ) -> Iterator[Monitor]:
-    """``progress`` if it is a :class:`Monitor` already (a learner of a bigger run), else a new
-    one of ``total`` (count, unit) with a bar if ``progress`` and a board in ``tensorboard`` if
-    given, closed at the end."""
+    """``progress`` if it is a :class:`Monitor` (a learner of a bigger run), else a new one of
+    ``total`` (count, unit), with a bar if ``progress`` and a board in ``tensorboard``."""
     if isinstance(progress, Monitor):
         if tensorboard is not None:
             raise ValueError("give tensorboard to the run's outermost call, not to a learner")
@@ -146,14 +133,10 @@ def watching(
         monitor.close()
 
 
-#: Seconds between reads of worker processes' episode logs.
-EVERY = 0.5
-
-
 class LogFollower:
-    """Reads the complete lines added to ``paths`` every :data:`EVERY` seconds (while in a
-    ``with`` block, and once more at its end) into ``bar``. A log replaced by a new file (a
-    resume cuts it back) is read again from its start, its earlier lines taken off the bar."""
+    """Reads the complete lines added to ``paths`` into ``bar`` every :data:`EVERY` seconds in a
+    ``with`` block, and once more at its end. A log replaced by a new file (a resume cuts it
+    back) is read again from its start, its earlier lines taken off the bar."""
 
     def __init__(self, paths: list[Path], bar: Progress) -> None:
         self.paths, self.bar = paths, bar
@@ -180,10 +163,8 @@ class LogFollower:
     def poll(self) -> None:
         """Read what each log gained since the last poll."""
         for path in self.paths:
-            try:
+            with contextlib.suppress(OSError):  # not there yet, or being replaced: next time
                 self._read(path)
-            except OSError:  # not there yet, or being replaced: the next poll reads it
-                continue
 
     def _read(self, path: Path) -> None:
         with open(path, "rb") as f:
@@ -200,14 +181,11 @@ class LogFollower:
                 row = json.loads(line)
                 length, success = int(row["length"]), bool(row["success"])
             except (ValueError, KeyError, TypeError):
-                continue  # not an episode's line: nothing to show
+                continue  # not an episode's line
             units += length if self.bar.unit == "decisions" else 1
             successes += success
             self.bar.episode(length, success)
         self._seen[path] = (inode, offset + end, units, successes)
-
-
-EXTRA = "pip install acrobot-mj[tensorboard]"
 
 
 def summary_writer() -> Any:
@@ -218,15 +196,13 @@ def summary_writer() -> Any:
         try:
             from torch.utils.tensorboard import SummaryWriter
         except ImportError:
-            raise ImportError(
-                f"--tensorboard needs tensorboardX (or torch with tensorboard): {EXTRA}"
-            ) from None
+            raise ImportError("--tensorboard needs tensorboardX (or torch with tensorboard): "
+                              "pip install acrobot-mj[tensorboard]") from None  # fmt: skip
     return SummaryWriter
 
 
 class Board:
-    """One ``SummaryWriter`` per learner under ``root``, opened at the learner's first
-    episode."""
+    """One ``SummaryWriter`` per learner under ``root``, opened at its first episode."""
 
     def __init__(self, root: str | Path) -> None:
         self.root = Path(root)
@@ -234,13 +210,10 @@ class Board:
         self._writers: dict[str, Any] = {}
 
     def add(self, name: str, index: int, length: int, total: float, success: bool) -> None:
-        """Learner ``name``'s episode ``index``."""
-        writer = self._writers.get(name)
-        if writer is None:
-            writer = self._writers[name] = self._writer_class(str(self.root / name))
-        writer.add_scalar("episode/length", length, index)
-        writer.add_scalar("episode/return", total, index)
-        writer.add_scalar("episode/success", float(success), index)
+        if name not in self._writers:
+            self._writers[name] = self._writer_class(str(self.root / name))
+        for tag, value in (("length", length), ("return", total), ("success", float(success))):
+            self._writers[name].add_scalar(f"episode/{tag}", value, index)
 
     def close(self) -> None:
         for writer in self._writers.values():

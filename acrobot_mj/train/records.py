@@ -1,14 +1,7 @@
-"""A run directory and its records, one definition of each.
-
-A run directory holds ``run.json`` (:func:`run_record`: the config, seed, versions, progress,
-the per-episode ``episode_lengths``, ``episode_returns`` and ``episode_successes``, the greedy
-episode from rest), ``checkpoint.npz`` (:class:`Checkpoints`: numpy's ``.npz``, no pickle,
-versioned, checksummed; anything truncated, tampered with or foreign is refused by a
-:class:`CheckpointError` naming the file and the problem), ``episodes.jsonl`` (one line per
-training episode as it ends), ``learning_curve.png`` and, after evaluation, ``eval.json``; a run
-of several seeds holds ``summary.json`` and a ``seed_S/`` run per seed; a population run holds
-``learner_K/`` runs besides its own files. Every file is written atomically.
-"""
+"""A run directory and its records: ``run.json`` (:func:`run_record`), ``checkpoint.npz``
+(``.npz``, no pickle, versioned, checksummed; a bad one raises :class:`CheckpointError`),
+``episodes.jsonl``, ``learning_curve.png`` and ``eval.json``; ``summary.json`` and ``seed_S/``
+for several seeds, ``learner_K/`` for a population. Every file is written atomically."""
 
 from __future__ import annotations
 
@@ -38,10 +31,7 @@ RECENT = 20
 RESUME_MAY_DIFFER = ("checkpoint_every",)
 #: An agent's arrays (its ``state_dict``).
 StateNow = dict[str, np.ndarray]
-
-
-FORMAT = "acrobot_mj.checkpoint"
-VERSION = 1
+FORMAT, VERSION = "acrobot_mj.checkpoint", 1
 _RESERVED = ("format", "version", "meta", "sha256")
 
 
@@ -61,18 +51,14 @@ def _digest(arrays: dict[str, np.ndarray]) -> str:
 
 def save_checkpoint(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
     """Write ``arrays`` and the JSON-serialisable ``meta`` to ``path`` atomically."""
-    path = Path(path)
     clash = sorted(set(arrays) & set(_RESERVED))
     if clash:
         raise ValueError(f"array names {clash} are reserved for the checkpoint format")
     payload = {name: np.asarray(value) for name, value in arrays.items()}
     if any(value.dtype == object for value in payload.values()):
         raise ValueError("checkpoints hold plain numeric or string arrays only (no objects)")
-    payload.update(
-        format=np.array(FORMAT),
-        version=np.array(VERSION),
-        meta=np.array(json.dumps(meta, sort_keys=True)),
-    )
+    payload |= {"format": np.array(FORMAT), "version": np.array(VERSION),
+                "meta": np.array(json.dumps(meta, sort_keys=True))}  # fmt: skip
     payload["sha256"] = np.array(_digest(payload))
     return write_atomic(path, lambda f: np.savez(f, **payload))
 
@@ -86,9 +72,8 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
         with np.load(path, allow_pickle=False) as npz:
             data = {name: npz[name] for name in npz.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
-        raise CheckpointError(
-            f"{path} is not a readable checkpoint (truncated or corrupt?): {error}"
-        ) from error
+        raise CheckpointError(f"{path} is not a readable checkpoint (truncated or corrupt?): "
+                              f"{error}") from error  # fmt: skip
     missing = [name for name in _RESERVED if name not in data]
     if missing:
         raise CheckpointError(f"{path} is not an acrobot_mj checkpoint: it lacks {missing}")
@@ -96,10 +81,8 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
         raise CheckpointError(f"{path} has format {str(data['format'])!r}, expected {FORMAT!r}")
     version = data["version"]
     if version.shape != () or version.dtype.kind not in "iu" or int(version) != VERSION:
-        raise CheckpointError(
-            f"{path} has format version {version.tolist()!r}; "
-            f"this acrobot_mj reads version {VERSION}"
-        )
+        raise CheckpointError(f"{path} has format version {version.tolist()!r}; "
+                              f"this acrobot_mj reads version {VERSION}")  # fmt: skip
     stored = str(data.pop("sha256"))
     if _digest(data) != stored:
         raise CheckpointError(f"{path} fails its checksum: the file was modified or damaged")
@@ -109,19 +92,17 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
         raise CheckpointError(f"{path} has an unreadable meta document: {error}") from error
     if not isinstance(meta, dict):
         raise CheckpointError(f"{path} has a meta document that is not a JSON object")
-    arrays = {name: value for name, value in data.items() if name not in _RESERVED}
-    return meta, arrays
+    return meta, {name: value for name, value in data.items() if name not in _RESERVED}
 
 
 def spread(values: Sequence[float]) -> dict[str, float | None]:
-    """Mean, standard deviation, median, quartiles and range of ``values`` (None, JSON's null,
-    for each if there are none): the one set of statistics across runs."""
+    """Mean, standard deviation, median, quartiles and range of ``values`` (None if empty)."""
     v = np.asarray(values, dtype=float)
     if v.size == 0:
         return dict.fromkeys(("mean", "std", "median", "q25", "q75", "min", "max"))
     q25, q50, q75 = np.percentile(v, [25, 50, 75])
-    return {"mean": float(v.mean()), "std": float(v.std()), "median": float(q50),
-            "q25": float(q25), "q75": float(q75), "min": float(v.min()), "max": float(v.max())}  # fmt: skip
+    return {"mean": float(v.mean()), "std": float(v.std()), "median": float(q50), "q25": float(q25),
+            "q75": float(q75), "min": float(v.min()), "max": float(v.max())}  # fmt: skip
 
 
 def recent_median(values: Sequence[float]) -> float:
@@ -167,44 +148,30 @@ def greedy_result(episode: Episode) -> dict[str, Any]:
     return {"length": episode.length, "return": episode.episode_return, "success": episode.success}
 
 
-def run_record(
-    config: TrainConfig,
-    seed: int,
-    history: History,
-    wall_seconds: float,
-    *,
-    interrupted: bool = False,
-    env: str | None = None,
-    greedy: Episode | None = None,
-    **extra: Any,
-) -> dict[str, Any]:
-    """The ``run.json`` of one run (``greedy``: its greedy episode from rest; ``extra``: the
-    entries of population or lockstep runs). ``steps`` counts the learning decisions;
-    ``decisions_total`` adds the greedy episode: the env's whole cost."""
+def run_record(config: TrainConfig, seed: int, history: History, wall_seconds: float, *,
+               interrupted: bool = False, env: str | None = None, greedy: Episode | None = None,
+               **extra: Any) -> dict[str, Any]:  # fmt: skip
+    """The ``run.json`` of one run: ``steps`` counts the learning decisions, ``decisions_total``
+    adds the greedy episode from rest (``greedy``); ``extra``: a population's or lockstep's."""
     record: dict[str, Any] = {
         "config": config.to_dict(), "seed": seed, "versions": versions(),
         "episodes_done": len(history), "steps": history.steps, "interrupted": interrupted,
+        **({} if env is None else {"env": env}), "wall_seconds": wall_seconds, **history.to_dict(),
+        "decisions_total": history.steps + (0 if greedy is None else greedy.length),
     }  # fmt: skip
-    if env is not None:
-        record["env"] = env
-    record["wall_seconds"] = wall_seconds
-    record.update(history.to_dict())
-    record["decisions_total"] = history.steps + (0 if greedy is None else greedy.length)
     if greedy is not None:
         record["greedy_from_rest"] = greedy_result(greedy)
     return record | extra
 
 
 def checkpoint_meta(config: TrainConfig, seed: int, episodes: int, steps: int) -> dict[str, Any]:
-    """The JSON document of a training checkpoint: with the agent's arrays and the first
-    ``episodes`` lines of the run's episode log (``steps`` decisions), enough to resume."""
+    """A checkpoint's JSON document: with the arrays and the episode log's first lines, a resume."""
     return {"config": config.to_dict(), "seed": seed, "episodes_done": episodes, "steps": steps,
             "episode_log": EPISODE_LOG, "agent": config.algorithm}  # fmt: skip
 
 
 def recent_score(record: dict[str, Any]) -> float:
-    """Median score of the last 20 training episodes of the learner a run keeps (a
-    population's kept learner's), by the run's task."""
+    """Median score of the last 20 training episodes of the learner a run keeps, by its task."""
     pop = record.get("population")
     if pop is not None:
         return float(pop["scores"][pop["kept"]])
@@ -213,12 +180,10 @@ def recent_score(record: dict[str, Any]) -> float:
 
 
 def seed_dir(out: Path, seed: int) -> Path:
-    """The run directory of ``seed`` in a run of several seeds."""
     return out / f"seed_{seed}"
 
 
 def learner_dir(out: Path, k: int) -> Path:
-    """The run directory of learner ``k`` in a population run."""
     return out / f"learner_{k}"
 
 
@@ -229,10 +194,8 @@ def check_fresh(out: Path) -> None:
     names = (RUN_FILE, CHECKPOINT_FILE, SUMMARY_FILE, learner_dir(Path(), 0).name)
     taken = [name for name in names if (out / name).exists()]
     if taken:
-        raise FileExistsError(
-            f"{out} already holds a run ({', '.join(taken)}): resume it, "
-            "choose another directory, or overwrite it on purpose"
-        )
+        raise FileExistsError(f"{out} already holds a run ({', '.join(taken)}): resume it, "
+                              "choose another directory, or overwrite it on purpose")  # fmt: skip
 
 
 def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
@@ -242,8 +205,8 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
     wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
     if "history" in meta:  # written before the episode log: the episodes in the meta
         history = meta["history"]
-        if not (isinstance(history, dict) and sorted(history) == sorted(HISTORY_KEYS)
-                and all(len(v) == meta.get("episodes_done") for v in history.values())):  # fmt: skip
+        ok = isinstance(history, dict) and sorted(history) == sorted(HISTORY_KEYS)
+        if not (ok and all(len(v) == meta.get("episodes_done") for v in history.values())):
             wrong.append("history")
     elif meta.get("episode_log") != EPISODE_LOG:
         wrong.append("episode_log")
@@ -257,8 +220,7 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
 
 
 def read_history(path: Path, meta: dict[str, Any]) -> History:
-    """The episodes a checkpoint covers: from its meta (older checkpoints) or the first
-    ``episodes_done`` lines of the episode log beside it."""
+    """The episodes a checkpoint covers: in its meta (older ones) or the episode log beside it."""
     if "history" in meta:
         return History(**meta["history"])
     log, count = path.parent / meta["episode_log"], meta["episodes_done"]
@@ -274,20 +236,22 @@ def read_history(path: Path, meta: dict[str, Any]) -> History:
     return history
 
 
+def _differs(mine: dict[str, Any], theirs: dict[str, Any]) -> list[str]:
+    return sorted(k for k, v in theirs.items() if v != mine[k])
+
+
 def check_same_run(path: Path, meta: dict, saved: TrainConfig, config: TrainConfig, seed: int,
                    may_differ: tuple[str, ...] = ()) -> None:  # fmt: skip
     """Refuse a checkpoint written with another config (but ``may_differ``) or seed."""
-    new = config.to_dict()
-    differs = {k for k, v in saved.to_dict().items() if v != new[k]} - set(may_differ)
+    differs = [k for k in _differs(config.to_dict(), saved.to_dict()) if k not in may_differ]
     if differs:
-        raise CheckpointError(f"{path} was written with a different config ({sorted(differs)})")
+        raise CheckpointError(f"{path} was written with a different config ({differs})")
     if meta["seed"] != seed:
         raise CheckpointError(f"{path} was written for seed {meta['seed']}, not {seed}")
 
 
 def read_for_resume(path: Path, config: TrainConfig, seed: int) -> tuple[History, StateNow]:
-    """The history and agent arrays of a checkpoint that ``config`` and ``seed`` may continue
-    (more episodes are allowed, and another ``checkpoint_every``; no change of the schedule)."""
+    """The history and arrays of a checkpoint that ``config`` and ``seed`` may continue."""
     meta, arrays, saved = read_checkpoint(path)
     check_same_run(path, meta, saved, config, seed, ("episodes", *RESUME_MAY_DIFFER))
     history = read_history(path, meta)
@@ -301,8 +265,7 @@ def read_for_resume(path: Path, config: TrainConfig, seed: int) -> tuple[History
 
 
 def load_into(load: Callable[[StateNow], None], arrays: StateNow, path: Path) -> None:
-    """Give an agent a checkpoint's arrays (``load``: its ``load_state_dict``), or say the
-    checkpoint does not fit it."""
+    """Give an agent (``load``: its ``load_state_dict``) a checkpoint's arrays, or refuse."""
     try:
         load(arrays)
     except (KeyError, ValueError, TypeError, IndexError) as error:
@@ -323,21 +286,15 @@ def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
         raise CheckpointError(f"{path} is for seed {seed} but {run_file} records seed "
                               f"{recorded_seed}")  # fmt: skip
     mine, theirs = config.to_dict(), recorded.to_dict()
-    differs = sorted(k for k, v in theirs.items() if v != mine[k])
+    differs = _differs(mine, theirs)
     if differs:
         both = ", ".join(f"{k}: {mine[k]!r} vs {theirs[k]!r}" for k in differs)
         raise CheckpointError(f"{path} and {run_file} disagree on the config ({both})")
 
 
 class Checkpoints:
-    """A learner's checkpoint and episode log: the checkpoint holds the state after the
-    learner's last completed episode (:meth:`snapshot`), so a run stopped in the middle of an
-    episode resumes exactly (that episode is run again). ``path`` None keeps nothing;
-    ``learner`` is the learner's index in its log's lines, ``tee`` its population's log.
-
-    A snapshot logs the episodes since the last one to ``episodes.jsonl`` (flushed at once) and
-    keeps the agent's state (or a function that gives it: ``Rewinding`` agents); a save syncs the
-    log, then writes the checkpoint, which counts its lines. Neither grows with the run."""
+    """A learner's checkpoint (None: none) and episode log (``tee``: its population's), holding
+    the state after its last completed episode, so a run stopped mid-episode resumes exactly."""
 
     def __init__(self, path: Path | None, config: TrainConfig, seed: int,
                  learner: int | None = None, tee: RunLog | None = None) -> None:  # fmt: skip
@@ -353,15 +310,15 @@ class Checkpoints:
             self._logged = len(history)
 
     def snapshot(self, state: Callable[[], Any], history: History) -> None:
-        """Log the episodes ``history`` gained, and remember the agent's state (``state()``,
-        called only if there is a file to write) after a completed episode."""
+        """Log the episodes ``history`` gained, and keep ``state()`` (called only if there is a
+        file to write; a ``Rewinding`` agent's may return a function giving the arrays)."""
         if self.log is None:
             return
-        lists = history.episode_lengths, history.episode_returns, history.episode_successes
-        for k in range(self._logged, len(history)):
-            self.log.append(k, lists[0][k], lists[1][k], lists[2][k])
-        self._logged = len(history)
-        self._state = (state(), len(history), history.steps)
+        h = history
+        for k in range(self._logged, len(h)):
+            self.log.append(k, h.episode_lengths[k], h.episode_returns[k], h.episode_successes[k])
+        self._logged = len(h)
+        self._state = (state(), len(h), h.steps)
 
     def save(self) -> None:
         """Sync the log, then write the checkpoint (atomically) that counts its lines."""
@@ -383,13 +340,12 @@ def write_run(out: Path, record: dict[str, Any], label: str, curve: bool = True)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / RUN_FILE, record)
     if curve:
-        plot_learning_curves(out / CURVE_FILE, TrainConfig.from_dict(record["config"]),
-                             [record], label)  # fmt: skip
+        config = TrainConfig.from_dict(record["config"])
+        plot_learning_curves(out / CURVE_FILE, config, [record], label)
 
 
 def plot_learning_curves(path: Path, config: TrainConfig, records: list[dict], label: str) -> None:
-    """The task's score per training episode: one run as a line, several as the median and
-    the 25-75 % band (nothing is drawn for runs without episodes)."""
+    """The task's score per training episode: one run's, or several runs' median and quartiles."""
     task = get_task(config.task)
     runs = [task.score.values(r) for r in records if r["episode_lengths"]]
     if not runs:

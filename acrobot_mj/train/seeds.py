@@ -1,13 +1,7 @@
-"""Several seeds of one config: one run directory per seed, a summary across them, and their
-learning curves together. Tabular SARSA trains the seeds together on one vector env
-(:mod:`.lockstep`, identical records) once there are enough of them (at least
-:data:`~acrobot_mj.train.lockstep.LOCKSTEP_GROUP_FROM` per process); with ``jobs`` processes,
-one lockstep group of seeds each. The others run one seed per process.
-
-Worker processes (of seeds, and of sweeps) ignore SIGINT: a Ctrl-C at the terminal reaches the
-whole process group, and the driver decides. When the driver stops the pool
-(:meth:`WorkerPool.stop`), or dies, each worker raises ``KeyboardInterrupt`` in its training,
-which saves its checkpoint and records the run as interrupted; queued work is cancelled."""
+"""Several seeds of one config: a run directory per seed, a summary across them and their
+learning curves; seeds in lockstep (:mod:`.lockstep`) where the algorithm allows, and
+:class:`WorkerPool`, whose workers ignore SIGINT (a Ctrl-C reaches the whole process group: the
+driver decides) and are interrupted, saving their checkpoints, when the driver stops or dies."""
 
 from __future__ import annotations
 
@@ -42,7 +36,6 @@ from acrobot_mj.train.records import (
 )
 from acrobot_mj.train.trainer import train
 
-_CAN_SIGNAL = hasattr(signal, "SIGUSR1")
 #: In a worker: the driver's stop event and pid.
 _STOP: Any = None
 _PARENT = 0
@@ -54,16 +47,15 @@ def _interrupt(signum: int, frame: Any) -> None:
 
 def _watch(stop: Any, parent: int) -> None:
     """In a worker: wait for the driver's stop, or its death, then interrupt the training."""
-    while not stop.wait(0.5):
-        if os.getppid() != parent:
-            break
+    while not stop.wait(0.5) and os.getppid() == parent:
+        pass
     os.kill(os.getpid(), signal.SIGUSR1)
 
 
 def _start_worker(stop: Any, parent: int) -> None:
     global _STOP, _PARENT
     _STOP, _PARENT = stop, parent
-    if not _CAN_SIGNAL:  # pragma: no cover
+    if not hasattr(signal, "SIGUSR1"):  # pragma: no cover
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGUSR1, _interrupt)
@@ -88,18 +80,12 @@ class WorkerPool:
     def __init__(self, jobs: int | None) -> None:
         context = multiprocessing.get_context()
         self._stop = context.Event()
-        self._pool = ProcessPoolExecutor(
-            max_workers=jobs,
-            mp_context=context,
-            initializer=_start_worker,
-            initargs=(self._stop, os.getpid()),
-        )
+        self._pool = ProcessPoolExecutor(jobs, context, _start_worker, (self._stop, os.getpid()))
 
     def run(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Future]:
         """Submit ``function(*args)`` for each of ``calls``; yield the futures as they finish
         (after a stop, calls a worker had already taken return None without running)."""
-        futures = [self._pool.submit(_unless_stopped, function, *args) for args in calls]
-        return as_completed(futures)
+        return as_completed([self._pool.submit(_unless_stopped, function, *a) for a in calls])
 
     def stop(self) -> None:
         """Cancel what has not started, interrupt what runs, and wait for it to save."""
@@ -117,21 +103,6 @@ class WorkerPool:
             self._pool.shutdown(wait=True)
         else:
             self.stop()
-
-
-def summarize(records: list[dict[str, Any]], config: TrainConfig) -> dict[str, Any]:
-    """Mean and spread across seeds of what the run records report, scored by the task."""
-    quantity = get_task(config.task).score.quantity
-    greedy = [r["greedy_from_rest"] for r in records if "greedy_from_rest" in r]
-    return {
-        "decisions": spread([r["steps"] for r in records]),
-        "seeds": [r["seed"] for r in records],
-        "successes": spread([sum(r["episode_successes"]) for r in records]),
-        "runs_with_a_success": sum(any(r["episode_successes"]) for r in records),
-        f"last20_median_{quantity}": spread([recent_score(r) for r in records]),
-        f"greedy_from_rest_{quantity}": spread([g[quantity] for g in greedy]),
-        "greedy_from_rest_successes": sum(g["success"] for g in greedy),
-    }
 
 
 #: A seed's run record and its held-out evaluation (None: not evaluated where it trained).
@@ -164,26 +135,15 @@ class SeedRuns:
                 for r, d in zip(records, dirs, strict=True)]  # fmt: skip
 
 
-def train_seeds(
-    config: TrainConfig,
-    seeds: list[int],
-    out_dir: str | Path,
-    *,
-    jobs: int = 1,
-    resume: bool = False,
-    progress: bool = False,
-    overwrite: bool = False,
-    protocol: Protocol | None = DEFAULT,
-    tensorboard: str | Path | None = None,
-    lockstep: bool | None = None,
-) -> dict[str, Any]:
+def train_seeds(config: TrainConfig, seeds: list[int], out_dir: str | Path, *, jobs: int = 1,
+                resume: bool = False, progress: bool = False, overwrite: bool = False,
+                protocol: Protocol | None = DEFAULT, tensorboard: str | Path | None = None,
+                lockstep: bool | None = None) -> dict[str, Any]:  # fmt: skip
     """Train one run per seed into ``out_dir/seed_S`` (``jobs`` processes), evaluate each on
-    the held-out ``protocol`` (its ``eval.json``; None: none), then write
-    ``out_dir/summary.json`` and the learning curve across seeds. ``progress``: one bar over
-    all the seeds' episodes (with ``jobs`` > 1, read from their logs as the workers write them);
-    ``tensorboard``: each seed's scalars in ``tensorboard/seed_S``; ``lockstep``: the seeds
-    together on one vector env (True), one run per seed (False), or where that pays (None:
-    tabular SARSA from :data:`~acrobot_mj.train.lockstep.LOCKSTEP_GROUP_FROM` seeds a process)."""
+    ``protocol`` (None: not), then write ``out_dir/summary.json`` and the learning curve across
+    seeds. ``progress``: one bar over all the seeds' episodes; ``tensorboard``: each seed's
+    scalars in ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True),
+    one run per seed (False), or where that pays (None)."""
     if not seeds:
         raise ValueError("train_seeds needs at least one seed")
     if tensorboard is not None:
@@ -217,21 +177,19 @@ def train_seeds(
 
 
 def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, progress: bool):
-    """Every seed's run in ``jobs`` worker processes (one lockstep group each, seeds dealt out
-    in turn, or one seed at a time), shown on one bar read from their episode logs."""
+    """Every seed's run in ``jobs`` processes (one lockstep group each, or a seed at a time)."""
     board = runs.tensorboard
     if together:
-        groups = [seeds[j::jobs] for j in range(jobs)]
-        function, calls = runs.group, [(g, board) for g in groups]
+        function, calls = runs.group, [(seeds[j::jobs], board) for j in range(jobs)]
     else:
         boards = [None if board is None else str(seed_dir(Path(board), s)) for s in seeds]
         function, calls = runs.one, [(s, False, b) for s, b in zip(seeds, boards, strict=True)]
     count, unit = run_total(runs.config)
     label = f"{'lockstep ' if together else ''}{runs.config.algorithm} x{len(seeds)} seeds"
     bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
+    logs = [seed_dir(runs.out, s) / EPISODE_LOG for s in seeds]
     try:
-        with WorkerPool(jobs) as pool, LogFollower([seed_dir(runs.out, s) / EPISODE_LOG
-                                                    for s in seeds], bar):  # fmt: skip
+        with WorkerPool(jobs) as pool, LogFollower(logs, bar):
             try:
                 finished = [future.result() for future in pool.run(function, calls)]
             except KeyboardInterrupt as stop:
@@ -246,33 +204,32 @@ def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, pro
     return [by_seed[s] for s in seeds]
 
 
-def summarize_evaluations(evaluations: list[dict[str, Any]], config: TrainConfig) -> dict:
-    """Across seeds' held-out evaluations: the spread of their medians (and of learned /
-    minimum), and how many distinct greedy behaviours the seeds produced (seeds whose greedy
-    policies take the same actions from every start count once), from rest and held out."""
-    quantity = get_task(config.task).score.quantity
-    summary = {
-        "protocol": evaluations[0]["protocol"],
-        f"median_{quantity}": spread([e["summary"][quantity]["median"] for e in evaluations]),
-        "successes": spread([e["summary"]["successes"] for e in evaluations]),
-        "distinct_outcomes": distinct_outcomes(evaluations),
-    }
-    if all("minima" in e for e in evaluations):
-        summary["median_ratio"] = spread([e["minima"]["ratio"]["median"] for e in evaluations])
-    return summary
-
-
 def _summarize_into(out, config, seeds, records, evaluations) -> dict[str, Any]:
-    """``summary.json`` (with the held-out ``evaluations``, unless there are none) and the
-    learning curve across seeds."""
+    """``summary.json``: the spread across seeds of their records and held-out ``evaluations``
+    (unless there are none); and the learning curve across seeds."""
+    quantity = get_task(config.task).score.quantity
+    greedy = [r["greedy_from_rest"] for r in records if "greedy_from_rest" in r]
     summary = {
         "config": config.to_dict(),
         "versions": versions(),
-        **summarize(records, config),
+        "decisions": spread([r["steps"] for r in records]),
+        "seeds": [r["seed"] for r in records],
+        "successes": spread([sum(r["episode_successes"]) for r in records]),
+        "runs_with_a_success": sum(any(r["episode_successes"]) for r in records),
+        f"last20_median_{quantity}": spread([recent_score(r) for r in records]),
+        f"greedy_from_rest_{quantity}": spread([g[quantity] for g in greedy]),
+        "greedy_from_rest_successes": sum(g["success"] for g in greedy),
         "runs": [seed_dir(Path(), s).name for s in seeds],
     }
     if None not in evaluations:
-        summary["held_out"] = summarize_evaluations(evaluations, config)
+        held_out = summary["held_out"] = {
+            "protocol": evaluations[0]["protocol"],
+            f"median_{quantity}": spread([e["summary"][quantity]["median"] for e in evaluations]),
+            "successes": spread([e["summary"]["successes"] for e in evaluations]),
+            "distinct_outcomes": distinct_outcomes(evaluations),
+        }
+        if all("minima" in e for e in evaluations):
+            held_out["median_ratio"] = spread([e["minima"]["ratio"]["median"] for e in evaluations])
     write_json(out / SUMMARY_FILE, summary)
     plot_learning_curves(out / CURVE_FILE, config, records, f"{len(seeds)} seeds")
     return summary

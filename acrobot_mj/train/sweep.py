@@ -1,21 +1,6 @@
-"""Sweeps: seeds x a grid of settings, on this machine or on a Ray cluster, resumable.
-
-A sweep file (TOML) names a preset, overrides (top-level settings, or an ``[overrides]`` table),
-``seeds`` and a ``[grid]`` of lists whose cartesian product is swept::
-
-    preset = "report"
-    episodes = 5
-    seeds = [0, 1]
-    [grid]
-    alpha = [0.1, 0.5]
-
-Every trial (grid point x seed) writes ``DIR/trials/NAME/run.json`` as it finishes and counts as
-finished only when that record is readable, of this sweep, and complete; a re-run runs the
-others, from their checkpoints. A failing trial writes ``error.json`` and the others go on;
-Ctrl-C stops promptly (running trials save their checkpoints). ``summary.json``, ``summary.md``
-and ``summary.png`` give each grid point's greedy score over its seeds, from rest and held out,
-with its distinct behaviours and its failed and unfinished seeds.
-"""
+"""Sweeps: seeds x a grid of settings from a TOML file (docs/sweeps.md), on this machine or on
+a Ray cluster; resumable, each trial (grid point x seed) in ``DIR/trials/NAME``, a failing one
+writing ``error.json``, and a summary (``summary.json``, ``.md``, ``.png``) at the end."""
 
 from __future__ import annotations
 
@@ -57,14 +42,12 @@ else:  # pragma: no cover
 
 BACKENDS, ERROR_FILE = ("local", "ray"), "error.json"
 _TOP_LEVEL = ("preset", "seeds", "episodes", "grid", "overrides")
-#: The presets a sweep can start from: the learners by interaction.
 SWEEPABLE = {name: config for name, config in PRESETS.items() if isinstance(config, TrainConfig)}
 
 
 @dataclass(frozen=True)
 class Trial:
-    """One run of a sweep: a grid point and a seed; ``name`` (``KEY=VALUE__...__seed=S``) is
-    its directory's."""
+    """A grid point and a seed; ``name`` (``KEY=VALUE__...__seed=S``) is its directory's."""
 
     name: str
     point: dict[str, Any]
@@ -98,8 +81,7 @@ class SweepSpec:
 
 
 def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
-    """Read and check a sweep's TOML: every key and every trial's config, before anything runs;
-    an error names the offending key (a key given twice, or swept and fixed, is refused)."""
+    """Read and check a sweep's TOML, every trial's config included; errors name the key."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
@@ -137,7 +119,7 @@ def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
             raise ValueError(f"{source}: grid {key} repeats a value: {values!r}")
     spec = SweepSpec(preset, seeds, grid, {**top, **extra})
     trials = spec.trials()  # building them checks every config
-    # Tuples compare numbers by value (1 == 1.0), so equal configs collapse here.
+    # Tuples compare numbers by value (1 == 1.0): equal configs collapse.
     if len({(tuple(sorted(t.config.to_dict().items())), t.seed) for t in trials}) < len(trials):
         raise ValueError(f"{source}: two grid points give the same config (e.g. 1 and 1.0)")
     return spec
@@ -155,14 +137,14 @@ def trial_dir(out: Path, trial: Trial) -> Path:
 
 
 def complete(record: dict[str, Any], config: TrainConfig) -> bool:
-    """Whether a run record says its run spent its whole budget (``config.finished``)."""
+    """Whether a run record says its run spent its whole budget."""
     greedy = isinstance(record.get("greedy_from_rest"), dict)
     return record.get("interrupted") is False and config.finished(record) and greedy
 
 
 def trial_state(out: Path, trial: Trial) -> tuple[dict[str, Any] | None, str]:
-    """``(record, "")`` for a finished trial, else ``(None, why it must run)``; a record of
-    another sweep's trial raises (this sweep would overwrite it)."""
+    """``(record, "")`` for a finished trial, else ``(None, why it must run)``; raises for a
+    record of another sweep's trial."""
     path = trial_dir(out, trial) / RUN_FILE
     if not path.exists():
         return None, "not run yet"
@@ -186,8 +168,7 @@ def trial_state(out: Path, trial: Trial) -> tuple[dict[str, Any] | None, str]:
 
 
 def train_or_error(config: dict[str, Any], seed: int, run_dir: str | None) -> dict[str, Any]:
-    """Train one trial (resuming from a checkpoint in ``run_dir``), or describe its error.
-    Ctrl-C (or the driver's stop) propagates: the run saved what it had."""
+    """Train one trial (resuming from a checkpoint in ``run_dir``), or describe its error."""
     try:
         resume = run_dir is not None and (Path(run_dir) / CHECKPOINT_FILE).exists()
         return train(TrainConfig.from_dict(config), seed, run_dir, resume=resume, overwrite=True)
@@ -197,7 +178,6 @@ def train_or_error(config: dict[str, Any], seed: int, run_dir: str | None) -> di
 
 
 def run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
-    """One trial in this process: its files and held-out evaluation, or ``error.json``."""
     record = train_or_error(config, seed, run_dir)
     write_trial(Path(run_dir), record, None)
     if "error" not in record:
@@ -206,8 +186,7 @@ def run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]
 
 
 def run_trial_in_worker(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
-    """:func:`run_trial` in a worker: stopped by its driver, it returns (its run saved its
-    checkpoint) instead of taking the worker down."""
+    """:func:`run_trial` in a worker: stopped by its driver, it returns, not kills the worker."""
     try:
         return run_trial(config, seed, run_dir)
     except KeyboardInterrupt:
@@ -215,15 +194,14 @@ def run_trial_in_worker(config: dict[str, Any], seed: int, run_dir: str) -> dict
 
 
 def train_elsewhere(config: dict[str, Any], seed: int) -> tuple[dict[str, Any], dict | None]:
-    """One trial in a temporary directory of this (remote) process: its record and held-out
-    evaluation (None if it failed), for a driver without a file system shared with it."""
+    """One trial in a temporary directory (no shared file system): its record and evaluation
+    (None if it failed)."""
     with tempfile.TemporaryDirectory(prefix="acrobot-mj-trial-") as scratch:
         record = train_or_error(config, seed, scratch)
         return record, None if "error" in record else evaluate_run(scratch)
 
 
 def write_trial(run: Path, record: dict[str, Any], evaluation: dict[str, Any] | None) -> None:
-    """A trial's error, or its record and evaluation (an earlier failure is over)."""
     if "error" in record:
         write_json(run / ERROR_FILE, record)
         return
@@ -234,8 +212,8 @@ def write_trial(run: Path, record: dict[str, Any], evaluation: dict[str, Any] | 
 
 
 def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
-    """A finished trial's held-out evaluation on the default protocol: its ``eval.json`` if
-    that is of this trial and protocol, else evaluated now (None without a checkpoint)."""
+    """A finished trial's default held-out evaluation: its ``eval.json`` if that is of this
+    trial and protocol, else evaluated now (None without a checkpoint)."""
     run_dir = trial_dir(out, trial)
     if (run_dir / EVAL_FILE).exists():
         saved = json.loads((run_dir / EVAL_FILE).read_text())
@@ -247,18 +225,18 @@ def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
 
 
 def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
-    """Each grid point's greedy score over its seeds (median and spread), from rest and on the
-    held-out starts of the default protocol: ``summary.json``, ``.md`` and ``.png``."""
-    out, quantity = Path(out), get_task(spec.base().task).score.quantity
+    """Each grid point's greedy score over its seeds, from rest and held out: ``summary.json``,
+    ``.md`` and ``.png``."""
+    out, score = Path(out), get_task(spec.base().task).score
     points: dict[str, dict[str, Any]] = {}
     for trial in spec.trials():
         entry = points.setdefault(trial.point_name, {"point": trial.point, "runs": 0} | {
             key: [] for key in ("failed", "unfinished", "greedy", "successes", "recent", "held")
         })  # fmt: skip
         record, _ = trial_state(out, trial)
-        if record is not None:  # finished: it says so, with every episode
+        if record is not None:
             entry["runs"] += 1
-            entry["greedy"].append(record["greedy_from_rest"][quantity])
+            entry["greedy"].append(record["greedy_from_rest"][score.quantity])
             entry["successes"].append(bool(record["greedy_from_rest"]["success"]))
             entry["recent"].append(recent_score(record))
             evaluation = trial_evaluation(out, trial)
@@ -266,7 +244,7 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
         else:
             failed = (trial_dir(out, trial) / ERROR_FILE).exists()
             entry["failed" if failed else "unfinished"].append(trial.seed)
-    rows = [_point_row(key, entry, quantity) for key, entry in points.items()]
+    rows = [_point_row(key, entry, score.quantity) for key, entry in points.items()]
     unfinished = sum(len(r["unfinished_seeds"]) for r in rows)
     summary = {"protocol": DEFAULT.to_dict(), "preset": spec.preset, "seeds": spec.seeds,
                "grid": spec.grid, "overrides": spec.overrides, "trials": len(spec.trials()),
@@ -274,19 +252,17 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
     write_json(out / SUMMARY_FILE, summary)
     write_text(out / "summary.md", summary_table(summary))
     finished = [r for r in rows if r["runs"]]
-    if finished:  # the greedy score per grid point with its 25-75 % band over seeds
-        unit = get_task(spec.base().task).score.unit
+    if finished:
         band = ([r[f"greedy_{k}"] for r in finished] for k in ("median", "q25", "q75"))
-        series = Series(f"greedy {unit} from rest: median, 25-75 % band over seeds",
+        series = Series(f"greedy {score.unit} from rest: median, 25-75 % band over seeds",
                         list(range(len(finished))), *band)  # fmt: skip
         line_plot(out / "summary.png", [series], f"Sweep of the {spec.preset} preset over "
                   f"{list(spec.grid)}", "grid point (rows of summary.md, in order)",
-                  f"{unit} from rest")  # fmt: skip
+                  f"{score.unit} from rest")  # fmt: skip
     return summary
 
 
 def _point_row(key: str, entry: dict[str, Any], quantity: str) -> dict[str, Any]:
-    """One grid point's line of the summary."""
     greedy, successes = spread(entry["greedy"]), entry["successes"]
     held = spread([e["summary"][quantity]["median"] for e in entry["held"]])
     return {
@@ -334,12 +310,10 @@ def run_sweep(
     progress: bool = False,
     lockstep: bool | None = None,
 ) -> dict[str, Any]:
-    """Run the trials that have not finished, then summarise all of them (``progress``: a bar
-    over the trials). ``lockstep``: each grid point's seeds left to train together on one
-    vector env in this process (True: every point, refused where one has no lockstep form, and
-    with Ray), one trial per process (False), or where that pays (None: tabular SARSA's points
-    with at least 25 seeds left). ``jobs``: local processes; Ray: ``address``, or a local
-    instance of ``ray_num_cpus``."""
+    """Run the unfinished trials, then summarise all. ``lockstep``: each grid point's seeds
+    together on one vector env in this process (True: every point, refused where one cannot),
+    one trial per process (False), or where that pays (None). ``jobs``: local processes; Ray:
+    ``address``, or a local instance of ``ray_num_cpus``."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if lockstep and backend != "local":
@@ -377,8 +351,8 @@ def run_sweep(
 
 
 def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress, lockstep) -> None:
-    """One lockstep run per grid point whose seeds go together (those with checkpoints resumed
-    together, the others started together), then every other trial in a process of its own."""
+    """One lockstep run per grid point whose seeds go together (those with checkpoints apart
+    from the others), then every other trial in a process of its own."""
     left, groups = Counter(t.point_name for t in todo), {}
     for trial in todo:
         if lockstep_pays(trial.config, left[trial.point_name]) if lockstep is None else lockstep:
@@ -411,8 +385,7 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress, lo
 
 
 def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Progress) -> None:
-    """Each trial a Ray task in a temporary directory of its worker; this process writes each
-    one's record and evaluation as it finishes (no shared file system needed)."""
+    """Each trial a Ray task; this process writes its record and evaluation."""
     try:
         import ray
     except ImportError as error:

@@ -1,5 +1,4 @@
-"""Training a run, and loading what a run directory holds: the entry points every command and
-script uses, whatever the learner (:mod:`.learners`, :mod:`.plan`)."""
+"""Training a run, and loading what a run directory holds, whatever the learner."""
 
 from __future__ import annotations
 
@@ -31,25 +30,15 @@ def learner_for(config: TrainConfig | PlanConfig, seed: int, env: gym.Env | None
     return kind(config, seed, env)
 
 
-def train(
-    config: TrainConfig | PlanConfig,
-    seed: int,
-    out_dir: str | Path | None = None,
-    *,
-    env: gym.Env | None = None,
-    resume: bool = False,
-    progress: bool = False,
-    on_episode: OnEpisode | None = None,
-    overwrite: bool = False,
-    tensorboard: str | Path | None = None,
-) -> dict[str, Any]:
-    """Train ``config``'s learner with ``seed`` and return the run record. With ``out_dir`` it
-    writes the run directory there (a directory holding another run is refused unless
-    ``overwrite``; ``resume`` continues from its checkpoints and ends exactly as an
-    uninterrupted run would). ``env``: any env with ``Discrete(3)`` actions and ``(q1, q2, dq1,
-    dq2)`` observations (default: the config's). ``progress``: one bar over all the run's
-    learners on stderr; ``tensorboard``: each episode's length, return and success there;
-    ``on_episode(index, history)`` after every training episode."""
+def train(config: TrainConfig | PlanConfig, seed: int, out_dir: str | Path | None = None, *,
+          env: gym.Env | None = None, resume: bool = False, progress: bool = False,
+          on_episode: OnEpisode | None = None, overwrite: bool = False,
+          tensorboard: str | Path | None = None) -> dict[str, Any]:  # fmt: skip
+    """Train ``config``'s learner with ``seed``; the run record. ``out_dir``: the run directory
+    (one holding another run is refused unless ``overwrite``; ``resume`` continues from its
+    checkpoints exactly). ``env``: any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)``
+    observations (default: the config's). ``progress``: a bar on stderr; ``tensorboard``: each
+    episode's scalars there; ``on_episode(index, history)`` after every training episode."""
     learner = learner_for(config, seed, env)
     if isinstance(config, PlanConfig) and resume:
         raise ValueError("the balance preset has nothing to resume: a run takes minutes")
