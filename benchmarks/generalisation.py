@@ -57,10 +57,10 @@ class Variant(SarsaLambda):
         return super().begin_episode(obs)
 
     def learn(self, reward, obs, terminated, truncated):
-        before = (self._active, self._a)
+        before = (self._active.copy(), self._a)  # the learner reuses its buffers
         action = super().learn(reward, obs, terminated, truncated)
         if self.replay:
-            after = self._active if action is not None else self.features.active(obs)
+            after = self._active.copy() if action is not None else self.features.active(obs)
             self._current.append((*before, reward, after, terminated))
         return action
 

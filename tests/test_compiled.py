@@ -21,7 +21,7 @@ from acrobot_mj.envs import identified
 from acrobot_mj.envs.identified import IdentifiedEnv
 from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.spaces import observation_space
-from acrobot_mj.physics.integrators import Stepping, step_rows
+from acrobot_mj.physics.integrators import Stepping, step_one
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train.learners import Run, make_env
 from acrobot_mj.train.presets import PRESETS
@@ -185,7 +185,7 @@ def test_the_compiled_model_step_is_the_python_one(monkeypatch) -> None:
     fast_env = IdentifiedEnv(theta, task, book_step, 1000)
     monkeypatch.setattr(identified, "compiled", uncompiled)
     python_env = IdentifiedEnv(theta, task, book_step, 1000)
-    assert python_env._step is step_rows and fast_env._step is not step_rows
+    assert python_env._step is step_one and fast_env._step is not step_one
     envs = [python_env, fast_env]
     rng = np.random.default_rng(2)
     fast = {"state": np.array([0.3, -0.2, 12.56, 28.27])}  # just below both velocity limits

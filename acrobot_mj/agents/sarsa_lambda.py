@@ -1,6 +1,7 @@
 """Linear Sarsa(lambda) over binary features (Sutton and Barto, 2nd ed., section 12.7), with
 sparse traces (those below ``trace_cutoff`` dropped). A decision is one compiled call
-(:func:`decide`) whose sums and updates follow numpy's order of operations."""
+(:func:`decide`, after the tile coding in the same call) whose sums and updates follow numpy's
+order of operations."""
 
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.agents.base import DivergenceError, RandomStream, checked_values, policy
+from acrobot_mj.agents.features import TileCoder, tile_active
 from acrobot_mj.checks import check_float
-from acrobot_mj.compiled import compiled, jitable
+from acrobot_mj.compiled import compiled, jitable, without_dispatch
 
 TRACES = ("replacing", "accumulating")
 #: numpy's pairwise block: up to this many values it sums in one unrolled pass.
@@ -125,6 +127,16 @@ def decide(w, a, active, following, outcome, traces, count, settings, stream, sc
 
 
 @jitable
+def decide_tiles(obs, tables, w, a, active, following, outcome, traces, count, settings, stream,
+                 scratch) -> tuple:  # fmt: skip
+    """:func:`decide`, the next state's tiles first coded from ``obs`` into ``following``."""
+    if not outcome[1]:  # terminated: no next state
+        low, scale, offset, extent, wrap, stride, base = tables
+        tile_active(obs, low, scale, offset, extent, wrap, stride, base, following)
+    return decide(w, a, active, following, outcome, traces, count, settings, stream, scratch)
+
+
+@jitable
 def clear(pairs, place, n) -> None:
     for i in range(n):
         place[pairs[i]] = -1
@@ -156,13 +168,17 @@ class SarsaLambda:
         self._pairs, self._values = np.zeros(room, dtype=np.int64), np.zeros(room)
         self._place = np.full(self._w.size, -1, dtype=np.int64)
         self._undo = (np.zeros(0, dtype=np.int64), np.zeros(0))  # no log until asked for
+        self._traces = (self._pairs, self._values, self._place, *self._undo)  # the kernel's
         self._count = self._logged = 0
-        self._a, self._active = -1, np.zeros(0, dtype=np.int64)
+        self._a, self._active = -1, np.zeros(features.num_active, dtype=np.int64)
+        self._next = np.zeros(features.num_active, dtype=np.int64)  # the tiles' two buffers
+        self._tiles = isinstance(features, TileCoder)
         self._scratch = (np.zeros(features.num_active), np.zeros(n_actions))
         c = self.config
         self._settings = (c.alpha, c.gamma, c.gamma * c.lam, c.trace_cutoff, c.epsilon,
                           self.num_features, c.traces == "replacing")  # fmt: skip
         self._decide = compiled(decide)
+        self._decide_tiles = self._first_tiles_call  # then without numba's dispatch
         self._begun, self._stream_at_start = 0, self.stream.position_now()
 
     @property
@@ -206,21 +222,40 @@ class SarsaLambda:
         """One step from ``(r, s')``; a' (None once the episode is over)."""
         if self._a < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
-        following = self._active if terminated else self.features.active(obs)
-        self._make_room()
+        k, undo = self.features.num_active, self._undo[0].size
+        if self._count + k > self._pairs.size or (undo and self._logged + k > undo):
+            self._make_room()
         stream = self.stream
-        stream.reserve(2)
-        traces = (self._pairs, self._values, self._place, *self._undo)
-        a2, self._count, self._logged, stream.position, delta = self._decide(
-            self._w, self._a, self._active, following, (float(reward), bool(terminated),
-            bool(truncated)), traces, (self._count, self._logged), self._settings,
-            (stream.block, stream.position), self._scratch,
-        )  # fmt: skip
+        if stream.block.size - stream.position < 2:
+            stream.reserve(2)
+        traces = self._traces
+        outcome = (float(reward), bool(terminated), bool(truncated))
+        if self._tiles:  # the next tiles coded in the same compiled call
+            following = self._active if terminated else self._next
+            a2, self._count, self._logged, stream.position, delta = self._decide_tiles(
+                np.ascontiguousarray(obs, dtype=np.float64), self.features.tables, self._w, self._a,
+                self._active, following, outcome, traces, (self._count, self._logged),
+                self._settings, (stream.block, stream.position), self._scratch,
+            )  # fmt: skip
+            self._next = self._active
+        else:
+            following = self._active if terminated else self.features.active(obs)
+            a2, self._count, self._logged, stream.position, delta = self._decide(
+                self._w, self._a, self._active, following, outcome, traces,
+                (self._count, self._logged), self._settings, (stream.block, stream.position),
+                self._scratch,
+            )  # fmt: skip
         if a2 == -2:
             self._a = -1
             raise DivergenceError(f"the TD error is {delta} (alpha {self.config.alpha:g})")
         self._a, self._active = a2, following
         return None if a2 < 0 else a2
+
+    def _first_tiles_call(self, *args: Any) -> tuple:
+        kernel = compiled(decide_tiles)
+        result = kernel(*args)
+        self._decide_tiles = without_dispatch(kernel, args)  # every call's types are these
+        return result
 
     def _make_room(self) -> None:
         need = self._count + self.features.num_active
@@ -233,6 +268,7 @@ class SarsaLambda:
             size = 2 * self._undo[0].size + self.features.num_active
             self._undo = tuple(np.concatenate([u, np.zeros(size - len(u), u.dtype)])
                                for u in self._undo)  # fmt: skip
+        self._traces = (self._pairs, self._values, self._place, *self._undo)
 
     def greedy_action(self, obs: Any, stream: RandomStream) -> int:
         """argmax_a Q(s, a), ties broken by ``stream``."""
@@ -260,6 +296,7 @@ class SarsaLambda:
         if not self._undo[0].size:  # start the log
             room = min(self._w.size, 64 * self.features.num_active)
             self._undo = (np.zeros(room, dtype=np.int64), np.zeros(room))
+            self._traces = (self._pairs, self._values, self._place, *self._undo)
 
         def state() -> dict[str, np.ndarray]:
             now = self.state_dict()

@@ -22,7 +22,7 @@ from acrobot_mj.envs.spaces import (
 )
 from acrobot_mj.envs.tasks import Task
 from acrobot_mj.physics.dynamics import HANGING
-from acrobot_mj.physics.integrators import Stepping, method_code, step_rows
+from acrobot_mj.physics.integrators import Stepping, method_code, step_one
 from acrobot_mj.physics.xp import wrap
 
 
@@ -47,15 +47,15 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         self.max_episode_steps = max_episode_steps
         self.observation_space, self.action_space = observation_space(), action_space(False)
         self._rule, self._info = task.rule(), task.info()
-        self._x, self._tau, self._t = HANGING[None].copy(), np.zeros(1), 0
-        self._constants = stepping.constants(self.theta)
-        self._code = method_code(stepping.method)
-        self._step = compiled(step_rows)
+        self._x, self._t = tuple(HANGING.tolist()), 0
+        self._constants = (*stepping.constants(self.theta).tolist(), stepping.substeps,
+                           method_code(stepping.method))  # fmt: skip
+        self._step = compiled(step_one)
 
     @property
     def state(self) -> np.ndarray:
         """The unwrapped state ``(q1, q2, dq1, dq2)`` [rad, rad/s], a copy."""
-        return self._x[0].copy()
+        return np.array(self._x)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -67,21 +67,20 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         if start is None and (offsets := self.task.start_offsets(self.np_random, noise)):
             x[:2] += offsets[0]
             x[2:] += offsets[1]
-        self._x[0], self._t = x, 0
-        values = self._rule(*x.tolist())[3]
+        self._x, self._t = tuple(x.tolist()), 0
+        values = self._rule(*self._x)[3]
         return self._observe(), self._info(values, False)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        self._tau[0] = action_torque(action, False)
-        self._step(self._x, self._tau, self._constants, self.stepping.substeps, self._code)
+        self._x = self._step(*self._x, action_torque(action, False), *self._constants)
         self._t += 1
-        reward, terminated, success, values = self._rule(*self._x[0].tolist())
+        reward, terminated, success, values = self._rule(*self._x)
         truncated = not terminated and self._t >= self.max_episode_steps
         obs = self._observe()
         return obs, float(reward), bool(terminated), truncated, self._info(values, success)
 
     def _observe(self) -> np.ndarray:
-        q1, q2, v1, v2 = self._x[0].tolist()
+        q1, q2, v1, v2 = self._x
         # As the MuJoCo env: a bad state raises instead of reaching the learner.
         inside = -MAX_ANGLE < q1 < MAX_ANGLE and -MAX_ANGLE < q2 < MAX_ANGLE
         if not (inside and v1 == v1 and v2 == v2):

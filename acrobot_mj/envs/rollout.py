@@ -61,24 +61,6 @@ ResetHook = Callable[[np.ndarray, dict[str, Any]], None]
 StepHook = Callable[[Any, np.ndarray, float, bool, bool, dict[str, Any]], None]
 
 
-class _HookedStep:
-    """``env.step`` calling ``on_step`` after each step and truncating after ``max_steps``
-    actions (``env_truncated`` keeps the env's own flag)."""
-
-    def __init__(self, env: gym.Env, on_step: StepHook | None, max_steps: int | None) -> None:
-        self._step, self._on_step = env.step, on_step
-        self._limit = sys.maxsize if max_steps is None else max_steps
-        self.steps, self.env_truncated = 0, False
-
-    def __call__(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        obs, reward, terminated, truncated, info = self._step(action)
-        self.steps += 1
-        self.env_truncated = truncated
-        if self._on_step is not None:
-            self._on_step(action, obs, reward, terminated, truncated, info)
-        return obs, reward, terminated, truncated or self.steps >= self._limit, info
-
-
 def run_episode(
     env: gym.Env,
     actor: Actor,
@@ -96,16 +78,17 @@ def run_episode(
     if on_reset is not None:
         on_reset(obs, info)
     action = actor.begin(obs)
-    hooked = None if on_step is None and max_steps is None else _HookedStep(env, on_step, max_steps)
-    step = env.step if hooked is None else hooked
-    observe = actor.observe  # training's hot loop: locals only
+    step, observe = env.step, actor.observe  # training's hot loop: locals only
+    limit = sys.maxsize if max_steps is None else max_steps
     length, total = 0, 0.0
     while True:
-        obs, reward, terminated, truncated, info = step(action)
+        obs, reward, terminated, env_truncated, info = step(action)
         length += 1
+        if on_step is not None:
+            on_step(action, obs, reward, terminated, env_truncated, info)
         total += info.get("unshaped_reward", reward)
+        truncated = env_truncated or length >= limit
         action = observe(reward, obs, terminated, truncated)
         if terminated or truncated:
             success = bool(info.get("is_success", terminated))
-            env_truncated = truncated if hooked is None else hooked.env_truncated
             return Episode(length, float(total), success, bool(env_truncated), info)

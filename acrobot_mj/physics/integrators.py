@@ -68,6 +68,12 @@ def step_rows(state, tau, constants, substeps, method):
         state[i, 0], state[i, 1], state[i, 2], state[i, 3] = new
 
 
+@jitable
+def step_one(q1, q2, dq1, dq2, tau, a, b, c, d, e, dt, max1, max2, substeps, method) -> tuple:
+    """:func:`step` of one state on flat floats (one state's cheapest compiled call)."""
+    return step(q1, q2, dq1, dq2, tau, (a, b, c, d, e), dt, (max1, max2), substeps, method)
+
+
 @dataclass(frozen=True)
 class Stepping:
     """A decision but for the dynamics: ``substeps`` steps of ``dt`` [s] by ``method``, the
