@@ -120,17 +120,16 @@ class Task(ABC):
     def outcomes(self, q1: np.ndarray, q2: np.ndarray, dq1: np.ndarray, dq2: np.ndarray) -> tuple:
         """The rule over rows ``(N,)``, compiled: rewards, terminations and ``info`` (each entry
         a new array)."""
+        keys, names = self.info_keys, self.success_keys
         n = len(q1)
-        reward, flags = np.empty(n), np.empty((2, n), bool)
-        values = np.empty((len(self.info_keys), n))
+        block, flags = np.empty((1 + len(keys), n)), np.empty((2, n), bool)  # rows: reward, values
         rows = self.__dict__.get("_compiled_rows") or self._rows()
-        rows(q1, q2, dq1, dq2, reward, flags, values)
-        info = {key: values[j] for j, key in enumerate(self.info_keys)}
-        success = flags[1]
-        for key in self.success_keys[:-1]:
-            info[key] = success.copy()
-        info[self.success_keys[-1]] = success
-        return reward, flags[0], info
+        rows(q1, q2, dq1, dq2, block, flags)
+        if len(keys) == 1 and len(names) == 1:  # the common case, written out: the hot path
+            return block[0], flags[0], {keys[0]: block[1], names[0]: flags[1]}
+        info = dict(zip(keys, block[1:], strict=True))
+        info |= {name: flags[1].copy() for name in names[:-1]} | {names[-1]: flags[1]}
+        return block[0], flags[0], info
 
     def _rows(self) -> Callable[..., None]:
         """:meth:`rule` over rows, compiled once per process for each task's settings."""
@@ -139,12 +138,12 @@ class Task(ABC):
         if key not in _ROWS:
             rule = self.rule()
 
-            def rows(q1, q2, dq1, dq2, reward, flags, values):  # kernel (numba, compiled)
+            def rows(q1, q2, dq1, dq2, block, flags):  # kernel (numba, compiled)
                 for i in range(q1.shape[0]):
                     r, t, s, v = rule(q1[i], q2[i], dq1[i], dq2[i])
-                    reward[i], flags[0, i], flags[1, i] = r, t, s
-                    for j in range(values.shape[0]):
-                        values[j, i] = v[j]
+                    block[0, i], flags[0, i], flags[1, i] = r, t, s
+                    for j in range(block.shape[0] - 1):
+                        block[j + 1, i] = v[j]
 
             _ROWS[key] = compiled(rows, cache=False, calls=(rule,))
         self._compiled_rows = _ROWS[key]
