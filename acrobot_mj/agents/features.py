@@ -62,7 +62,7 @@ class StateGrid:
         n_a, n_v = self.angle_bins, self.velocity_bins
         consts = (low_a, (n_a - 1) / (high_a - low_a), float(n_a),
                   low_v, (n_v - 1) / (high_v - low_v), float(n_v))  # fmt: skip
-        object.__setattr__(self, "_consts", consts)
+        object.__setattr__(self, "constants", consts)  # grid_cell's
 
     @property
     def centres(self) -> tuple[tuple[float, ...], ...]:
@@ -88,12 +88,12 @@ class StateGrid:
     def index(self, obs: Sequence[float]) -> int:
         """Cell index of ``obs`` in ``[0, num_features)``."""
         q1, q2, v1, v2 = obs.tolist() if isinstance(obs, np.ndarray) else obs
-        return grid_cell(q1, q2, v1, v2, self._consts)
+        return grid_cell(q1, q2, v1, v2, self.constants)
 
     def indices(self, obs: np.ndarray) -> np.ndarray:
         """:meth:`index` of each row of ``obs`` ``(n, 4)``, int64 ``(n,)``."""
         out = np.empty(len(obs), dtype=np.int64)
-        compiled(grid_rows)(np.asarray(obs, dtype=np.float64), self._consts, out)
+        compiled(grid_rows)(np.asarray(obs, dtype=np.float64), self.constants, out)
         return out
 
     def active(self, obs: Sequence[float]) -> np.ndarray:

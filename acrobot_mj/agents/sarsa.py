@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.agents.base import BLOCK, RandomStream, checked_values, policy
-from acrobot_mj.agents.features import StateGrid
+from acrobot_mj.agents.features import StateGrid, grid_cell
 from acrobot_mj.checks import check_float
-from acrobot_mj.compiled import compiled, jitable
+from acrobot_mj.compiled import compiled, jitable, without_dispatch
 
 
 @dataclass(frozen=True)
@@ -44,6 +44,15 @@ def sarsa_step(q, s, a, reward, s2, terminated, config, block, position) -> tupl
 
 
 @jitable
+def sarsa_learn(q, s, a, reward, obs, terminated, grid, config, block, position) -> tuple:
+    """:func:`sarsa_step` with the next state's cell taken from ``obs`` first (``grid``: the
+    grid's constants): ``(s', a', next position)``, ``s'`` -1 at the goal."""
+    s2 = -1 if terminated else grid_cell(obs[0], obs[1], obs[2], obs[3], grid)
+    a2, position = sarsa_step(q, s, a, reward, s2, terminated, config, block, position)
+    return s2, a2, position
+
+
+@jitable
 def group_step(q, ids, s, a, rewards, s2, terminated, config, blocks, positions) -> None:
     """:func:`sarsa_step` of learners ``ids``, the next actions into ``a``."""
     for j in range(ids.shape[0]):
@@ -62,7 +71,8 @@ def group_begin(q, ids, s, a, epsilon, blocks, positions) -> None:
 
 
 class Sarsa:
-    """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``)."""
+    """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``; a
+    :class:`StateGrid`'s cells are found in the compiled update)."""
 
     def __init__(self, grid: StateGrid, n_actions: int = 3, alpha: float = 0.5,
                  gamma: float = 1.0, epsilon: float = 0.001,
@@ -72,7 +82,8 @@ class Sarsa:
         self.stream = RandomStream(seed)
         self._q = np.zeros((grid.num_features, n_actions))
         self._s = self._a = -1
-        self._step = compiled(sarsa_step)
+        self._learn = self._first_learn  # then without numba's dispatch
+        self._grid = isinstance(grid, StateGrid)
         self._rates = (float(alpha), float(gamma), float(epsilon))
 
     @property
@@ -92,17 +103,34 @@ class Sarsa:
         """Update Q(s, a) from ``(r, s')``; a' (None once the episode is over)."""
         if self._s < 0:
             raise RuntimeError("learn() needs an episode in progress: call begin_episode()")
-        s2 = -1 if terminated else self.grid.index(obs)
         stream = self.stream
-        stream.reserve(2)
-        a2, stream.position = self._step(self._q, self._s, self._a, float(reward), s2,
-                                         bool(terminated), self._rates, stream.block,
-                                         stream.position)  # fmt: skip
+        if stream.block.size - stream.position < 2:
+            stream.reserve(2)
+        if self._grid:  # the next cell found in the same compiled call
+            x = np.ascontiguousarray(obs, dtype=np.float64)
+            if x.shape != (4,):
+                raise ValueError(f"observations must be (q1, q2, dq1, dq2), got shape {x.shape}")
+            s2, a2, stream.position = self._learn(
+                self._q, self._s, self._a, float(reward), x, bool(terminated), self.grid.constants,
+                self._rates, stream.block, stream.position,
+            )  # fmt: skip
+        else:
+            s2 = -1 if terminated else self.grid.index(obs)
+            a2, stream.position = compiled(sarsa_step)(
+                self._q, self._s, self._a, float(reward), s2, bool(terminated), self._rates,
+                stream.block, stream.position,
+            )  # fmt: skip
         if terminated or truncated:
             self._s = self._a = -1
             return None
         self._s, self._a = s2, a2
         return a2
+
+    def _first_learn(self, *args: Any) -> tuple:
+        kernel = compiled(sarsa_learn)
+        result = kernel(*args)
+        self._learn = without_dispatch(kernel, args)  # every call's types are these
+        return result
 
     def greedy_action(self, obs: Any, stream: RandomStream) -> int:
         """argmax_a Q(s, a), ties broken by ``stream``."""
