@@ -6,6 +6,7 @@ compiled learner's own machinery: the checkpoint state rebuilt mid-episode, resu
 
 from __future__ import annotations
 
+import inspect
 import sys
 
 import gymnasium as gym
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from acrobot_mj import compiled as compilation
-from acrobot_mj.agents import DivergenceError, sarsa_lambda
+from acrobot_mj.agents import DivergenceError, sarsa, sarsa_lambda
 from acrobot_mj.agents.base import Learning
 from acrobot_mj.agents.features import StateGrid, tile_active
 from acrobot_mj.compiled import compiled
@@ -122,6 +123,34 @@ def test_a_run_is_the_same_compiled_and_uncompiled(config, tmp_path, monkeypatch
         assert ref_agent._pairs.size == fast_agent._pairs.size > 64 * 48
     if config.max_episode_steps == 1000:
         assert all(fast["episode_successes"])  # the goal's terminal updates ran
+
+
+def test_the_learners_call_their_kernels_without_dispatch_after_the_first() -> None:
+    # Both learners pin their kernel's machine code after the first decision (the golden runs
+    # and the comparisons above hold the numbers); a plain function stays itself.
+    env = make_env(BOOK)
+    tiles = BOOK.make_agent(0, env.observation_space)
+    grid = PRESETS["report"].make_agent(0, env.observation_space)
+    for agent in (tiles, grid):
+        run_episode(env, Learning(agent), 0, max_steps=5)
+    for pinned, kernel in ((tiles._decide_tiles, sarsa_lambda.decide_tiles),
+                           (grid._learn, sarsa.sarsa_learn)):  # fmt: skip
+        assert not inspect.ismethod(pinned) and pinned is not compiled(kernel)
+    assert compilation.without_dispatch(sarsa.sarsa_step, ()) is sarsa.sarsa_step
+    kernel = compiled(sarsa.sarsa_step)
+    args = (
+        np.arange(6.0).reshape(2, 3),
+        0,
+        1,
+        -1.0,
+        1,
+        False,
+        (0.5, 1.0, 0.1),
+        np.full(4, 0.05),
+        0,
+    )
+    python = sarsa.sarsa_step(*[x.copy() if isinstance(x, np.ndarray) else x for x in args])
+    assert kernel(*args) == python == compilation.without_dispatch(kernel, args)(*args)
 
 
 @pytest.mark.slow
