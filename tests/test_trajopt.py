@@ -69,8 +69,9 @@ def test_bad_optimisation_requests_are_refused(call, message) -> None:
 
 @pytest.mark.slow
 def test_continuous_torque_reaches_the_height_goal_sooner() -> None:
-    # Seeded with the {-1, 0, +1} 63-decision minimum (252 steps, the beam search), the optimiser finds
-    # 248 steps, and the MuJoCo env terminates on the last of them (float32 torques included).
+    # Seeded with the {-1, 0, +1} 63-decision minimum (252 steps, the beam search), the
+    # optimiser finds 248 steps, and the MuJoCo env terminates on the last of them (float32
+    # torques included).
     from acrobot_mj.control.search import min_time_search
     from acrobot_mj.report.references import continuous_torque_height
 
