@@ -16,12 +16,14 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import (
+    CHECKPOINT_FILE,
     CheckpointError,
     Checkpoints,
     History,
@@ -100,6 +102,44 @@ def test_an_interrupted_run_saves_and_resumes_to_the_same_result(
     resumed = json.loads((tmp_path / "run" / "run.json").read_text())
     for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
         assert resumed[key] == book_400[key], key
+
+
+@pytest.mark.slow
+def test_an_interrupted_run_of_several_seeds_resumes_every_seed(tmp_path) -> None:
+    # Ctrl-C while seed 1 of 3 trains (1,000 episodes, about 2 s a seed): seed 0 is done, seed 2
+    # never started. --resume finishes the run, each seed as the uninterrupted run of that seed.
+    args = ["train", "--preset", "book", "--seeds", "3", "--episodes", "1000", "--no-progress"]
+    child = start([*args, "--out", "multi"], tmp_path)
+    wait_for(tmp_path / "multi" / "seed_1" / "checkpoint.npz")
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=60)
+    assert child.returncode == 130 and "--resume" in err, err
+    assert not (tmp_path / "multi" / "seed_2" / "checkpoint.npz").exists()
+    assert main([*args, "--out", str(tmp_path / "multi"), "--resume"]) == 0
+    for seed in range(3):
+        record = json.loads((tmp_path / "multi" / f"seed_{seed}" / "run.json").read_text())
+        alone = train(PRESETS["book"].replace(episodes=1000), seed)
+        for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
+            assert record[key] == alone[key], (seed, key)
+    assert json.loads((tmp_path / "multi" / "summary.json").read_text())["seeds"] == [0, 1, 2]
+
+
+def test_a_lockstep_resume_starts_a_seed_that_never_reached_a_checkpoint(tmp_path) -> None:
+    # Seed 0 stopped after 2 of 4 episodes, seed 1 never started: resumed together, both end as
+    # the uninterrupted lockstep run of both (their Q tables equal, bit for bit).
+    from acrobot_mj.train.lockstep import train_lockstep
+
+    config = PRESETS["report"].replace(episodes=4)
+    train_lockstep(config, [0, 1], tmp_path / "whole")
+    train_lockstep(config.replace(episodes=2), [0], tmp_path / "part")
+    assert not (tmp_path / "part" / "seed_1").exists()
+    train_lockstep(config, [0, 1], tmp_path / "part", resume=True)
+    for seed in (0, 1):
+        mine, theirs = (load_checkpoint(tmp_path / run / f"seed_{seed}" / CHECKPOINT_FILE)
+                        for run in ("part", "whole"))  # fmt: skip
+        assert mine[0]["episodes_done"] == theirs[0]["episodes_done"] == 4
+        assert mine[1].keys() == theirs[1].keys()
+        assert all(np.array_equal(mine[1][k], theirs[1][k]) for k in mine[1])
 
 
 def complete_lines(path: Path) -> list[dict]:

@@ -104,8 +104,11 @@ class _Lockstep:
         self.monitors: list[Monitor] = []
 
     def restore(self) -> None:
+        """Each learner from its checkpoint; one that never reached one starts afresh."""
         for i, seed in enumerate(self.seeds):
             path = self.dirs[i] / CHECKPOINT_FILE
+            if not path.exists():
+                continue
             self.histories[i], arrays = read_for_resume(path, self.config, seed)
             load_into(partial(self.learners.load_state, i), arrays, path)
             self.episode[i] = len(self.histories[i])

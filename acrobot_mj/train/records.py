@@ -183,6 +183,11 @@ def seed_dir(out: Path, seed: int) -> Path:
     return out / f"seed_{seed}"
 
 
+def resumable(run_dir: Path) -> bool:
+    """Whether a run directory holds a checkpoint to resume: its own, or a population learner's."""
+    return (run_dir / CHECKPOINT_FILE).exists() or any(run_dir.glob(f"learner_*/{CHECKPOINT_FILE}"))
+
+
 def learner_dir(out: Path, k: int) -> Path:
     return out / f"learner_{k}"
 

@@ -31,6 +31,7 @@ from acrobot_mj.train.records import (
     check_fresh,
     plot_learning_curves,
     recent_score,
+    resumable,
     seed_dir,
     spread,
 )
@@ -120,9 +121,11 @@ class SeedRuns:
     tensorboard: str | Path | None = None
 
     def one(self, seed: int, progress: Any = False, board: str | None = None) -> Run:
-        """One seed's run and (``protocol``) its held-out evaluation, where it trained."""
+        """One seed's run and (``protocol``) its held-out evaluation, where it trained. Resuming,
+        a seed that never reached a checkpoint starts from its first episode."""
         run_dir = seed_dir(self.out, seed)
-        record = train(self.config, seed, run_dir, resume=self.resume, progress=progress,
+        resume = self.resume and resumable(run_dir)
+        record = train(self.config, seed, run_dir, resume=resume, progress=progress,
                        overwrite=True, tensorboard=board)  # fmt: skip
         return record, None if self.protocol is None else evaluate_run(run_dir, self.protocol)
 
