@@ -37,20 +37,28 @@ from acrobot_mj.train.records import (
 )
 from acrobot_mj.train.trainer import train
 
-#: In a worker: the driver's stop event and pid.
+#: In a worker: the driver's stop event and pid, and whether a call is running.
 _STOP: Any = None
 _PARENT = 0
+_RUNNING = False
 
 
 def _interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt("stopped by the driver")
+    # Only a running call is interrupted: an idle worker waits on the pool's queue, and an
+    # exception there can leave the queue's lock held, which hangs the pool's shutdown.
+    if _RUNNING:
+        raise KeyboardInterrupt("stopped by the driver")
 
 
 def _watch(stop: Any, parent: int) -> None:
-    """In a worker: wait for the driver's stop, or its death, then interrupt the training."""
-    while not stop.wait(0.5) and os.getppid() == parent:
+    """In a worker: wait for the driver's stop, or its death, then interrupt the running call;
+    an idle worker leaves with the pool (or at once, if the driver is gone)."""
+    while not stop.wait(0.2) and os.getppid() == parent:
         pass
-    os.kill(os.getpid(), signal.SIGUSR1)
+    if _RUNNING:
+        os.kill(os.getpid(), signal.SIGUSR1)
+    elif os.getppid() != parent:
+        os._exit(1)
 
 
 def _start_worker(stop: Any, parent: int) -> None:
@@ -60,17 +68,21 @@ def _start_worker(stop: Any, parent: int) -> None:
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGUSR1, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)  # a group's SIGTERM: as the driver's stop
     threading.Thread(target=_watch, args=(stop, parent), daemon=True).start()
 
 
 def _unless_stopped(function: Callable[..., Any], *args: Any) -> Any:
     """In a worker: ``function(*args)``, unless the driver has stopped the pool (a pool hands
     workers a call or two ahead, which cancelling the queue does not reach)."""
-    if _STOP is not None and _STOP.is_set():
-        return None
+    global _RUNNING
+    _RUNNING = True  # before the stop is read: a stop after this interrupts the call
     try:
+        if _STOP is not None and _STOP.is_set():
+            return None
         return function(*args)
     finally:
+        _RUNNING = False
         if _PARENT and os.getppid() != _PARENT:  # the driver is gone: so is this worker,
             os._exit(1)  # once its run has saved what it had
 
