@@ -79,3 +79,41 @@ def test_continuous_torque_reaches_the_height_goal_sooner() -> None:
     result = continuous_torque_height([a for a in search.actions for _ in range(4)])
     assert result["steps"] <= 250 and result["residual"] < TOLERANCE  # as above: rounding only
     assert result["reached_goal"] and result["replayed_steps"] == result["steps"]
+
+
+class Stop(Exception):
+    """What this test's SIGTERM handler raises (a CLI's raises its own kind)."""
+
+
+def test_a_signal_during_a_solve_stops_it_and_is_raised() -> None:
+    # IPOPT stops on the exception a signal handler raises but reports a failed solve, which the
+    # multi-start search passed over (a SIGTERM was followed by 12 more minutes): the handler's
+    # own exception must come out, about when the signal came.
+    import os
+    import signal
+    import threading
+    import time
+
+    from acrobot_mj.control.trajopt import Optimiser, solve_or_none
+
+    def stop(signum, frame):
+        raise Stop("terminated")
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        optimiser = Optimiser(u_max=0.5)
+        opti, xs, us, _ = optimiser.problem(600)  # about a minute of IPOPT on these machines
+        opti.subject_to(xs[:, 600] == np.array([np.pi / 2, 0, 0, 0]))
+        opti.minimize(casadi.sumsqr(us))
+        warm = optimiser.pumping(600)
+        opti.set_initial(xs, warm[0].T)
+        opti.set_initial(us, warm[1][None])
+        timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGTERM))
+        started = time.monotonic()
+        with pytest.raises(Stop, match="terminated"):
+            timer.start()
+            solve_or_none(opti)
+        assert time.monotonic() - started < 10  # a guard against running on, not a timing
+        assert signal.getsignal(signal.SIGTERM) is stop  # the caller's handler is back
+    finally:
+        signal.signal(signal.SIGTERM, previous)

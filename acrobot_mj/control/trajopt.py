@@ -5,6 +5,8 @@
 from __future__ import annotations
 
 import json
+import signal
+import threading
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -119,6 +121,40 @@ _IPOPT = {"print_level": 0, "max_iter": 3000, "tol": 1e-10, "constr_viol_tol": 1
 Arrays = tuple[np.ndarray, np.ndarray]
 
 
+def solve_or_none(opti: Any) -> Any:
+    """``opti.solve()``'s solution, or None where IPOPT finds none. A Ctrl-C or SIGTERM during
+    the solve is raised after it: IPOPT stops on the exception its handler raises, but reports
+    it as a failed solve, which a multi-start search would pass over."""
+    caught: list[BaseException] = []
+
+    def keeping(handler: Any) -> Any:
+        def handle(signum: int, frame: Any) -> None:
+            try:
+                handler(signum, frame)
+            except BaseException as error:
+                caught.append(error)
+                raise
+
+        return handle
+
+    kept = {}
+    if threading.current_thread() is threading.main_thread():
+        kept = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+        for s, handler in kept.items():
+            if callable(handler):
+                signal.signal(s, keeping(handler))
+    try:
+        solution = opti.solve()
+    except RuntimeError:
+        solution = None
+    finally:
+        for s, handler in kept.items():
+            signal.signal(s, handler)
+    if caught:
+        raise caught[0]
+    return solution
+
+
 def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = REPORT) -> Any:
     """The physics step on CasADi symbols (torque ``u`` [N m], step ``h`` [s]), no limits."""
     import casadi
@@ -179,9 +215,8 @@ class Optimiser:
             opti.set_initial(h, self.p.dt)
         opti.set_initial(xs, warm[0].T)
         opti.set_initial(us, np.clip(warm[1], -self.u_max, self.u_max)[None])
-        try:
-            solution = opti.solve()
-        except RuntimeError:
+        solution = solve_or_none(opti)
+        if solution is None:
             if objective != "closest":
                 return None
             solution = opti.debug  # the nearest point found is the answer
@@ -327,9 +362,8 @@ def shortest_to_height(
         warm = resample(*best, horizon)
         opti.set_initial(states, warm[0].T)
         opti.set_initial(us, warm[1][None])
-        try:
-            solution = opti.solve()
-        except RuntimeError:
+        solution = solve_or_none(opti)
+        if solution is None:
             break
         best = (solution.value(states).T, np.atleast_1d(solution.value(us)))
     return optimiser.trajectory(best)
