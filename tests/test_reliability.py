@@ -294,10 +294,15 @@ def test_a_dead_owners_lock_and_temporaries_are_taken_over(tmp_path, capsys) -> 
                           capture_output=True, text=True).stdout.strip()  # fmt: skip
     (run / ".lock").write_text(json.dumps({"pid": int(dead), "host": "h", "started": 0}))
     (run / f".checkpoint.npz.{dead}.tmp").write_bytes(b"half a zip")
+    (run / f".vid.{dead}.tmp.mp4").write_bytes(b"a killed render's video")
+    (run / f".vid.{os.getpid()}.tmp.mp4").write_bytes(b"a live process's: kept")
+    (run / ".notes.tmp.txt").write_bytes(b"no pid: not ours, kept")
     config = PRESETS["report"].replace(episodes=2, max_episode_steps=20)
     train(config, seed=0, out_dir=run)
     assert f"taking over {run} from pid {dead}" in capsys.readouterr().err
     assert not list(run.glob(".*.tmp")) and (run / ".lock").read_text() == ""
+    kept = {p.name for p in run.glob(".*.tmp.*")}
+    assert kept == {f".vid.{os.getpid()}.tmp.mp4", ".notes.tmp.txt"}
 
 
 # -- divergence ----------------------------------------------------------------------------

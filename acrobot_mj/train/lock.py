@@ -143,9 +143,10 @@ class RunLock:
 
 
 def _remove_temporaries(directory: Path) -> None:
-    """Delete the ``.NAME.PID.tmp`` files (interrupted atomic writes) of dead processes, in
-    ``directory`` and below."""
-    for tmp in directory.rglob(".*.tmp"):
-        pid = tmp.name.rsplit(".", 2)[-2]
-        if pid.isdigit() and not _alive(int(pid)):
+    """Delete the ``.NAME.PID.tmp`` and ``.NAME.PID.tmp.EXT`` files (interrupted atomic writes,
+    videos being encoded) of dead processes, in ``directory`` and below."""
+    for tmp in (*directory.rglob(".*.tmp"), *directory.rglob(".*.tmp.*")):
+        parts = tmp.name.split(".")
+        at = len(parts) - 1 - parts[::-1].index("tmp")  # the last "tmp"; the pid before it
+        if at >= 3 and parts[at - 1].isdigit() and not _alive(int(parts[at - 1])):
             tmp.unlink(missing_ok=True)
