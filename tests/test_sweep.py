@@ -142,6 +142,22 @@ MIXED = SMALL.replace("alpha = [0.1, 0.5]", 'algorithm = ["sarsa", "sarsa_lambda
 MIXED = MIXED.replace("frame_skip = [4]\n", "")
 
 
+@pytest.mark.parametrize(
+    ("options", "says"),
+    [
+        ({"address": "auto"}, "--address is for --backend ray, not local"),
+        ({"ray_num_cpus": 2}, "--num-cpus is for --backend ray, not local"),
+        ({"backend": "ray", "jobs": 2}, "--jobs is for --backend local, not ray"),
+        # Nothing listens on port 1: refused at once (Ray retried for over 300 s).
+        ({"backend": "ray", "address": "127.0.0.1:1"}, "no Ray cluster answers at 127.0.0.1:1"),
+    ],
+)
+def test_a_sweep_refuses_options_of_the_other_backend(tmp_path, options, says) -> None:
+    with pytest.raises((ValueError, ConnectionError), match=says):
+        run_sweep(parse_sweep(SMALL), tmp_path / "s", **options)
+    assert not (tmp_path / "s").exists()  # nothing written
+
+
 def test_a_lockstep_sweep_refuses_what_cannot_go_in_lockstep(tmp_path, capsys) -> None:
     match = r"grid point algorithm=sarsa_lambda: lockstep training needs"
     with pytest.raises(ValueError, match=match):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import socket
 import sys
 import tempfile
 import traceback
@@ -318,6 +319,13 @@ def run_sweep(
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if lockstep and backend != "local":
         raise ValueError("lockstep sweeps run on the local backend (Ray runs one task a trial)")
+    given = {"--address": address, "--num-cpus": ray_num_cpus, "--jobs": jobs}
+    for option in ("--jobs",) if backend == "ray" else ("--address", "--num-cpus"):
+        if given[option] is not None:
+            other = "local" if backend == "ray" else "ray"
+            raise ValueError(f"{option} is for --backend {other}, not {backend}")
+    if address is not None:
+        _check_reachable(address)
     for trial in spec.trials() if lockstep else ():
         try:
             check_lockstep(trial.config)
@@ -382,6 +390,17 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress, lo
         for future in pool.run(run_trial_in_worker, calls):
             future.result()
             bar.advance()
+
+
+def _check_reachable(address: str) -> None:
+    """Refuse a Ray address where nothing listens, at once (Ray itself retries for minutes)."""
+    host, _, port = address.split("://", 1)[-1].rpartition(":")
+    if address == "auto" or not port.isdigit():
+        return  # Ray's own resolution and errors
+    try:
+        socket.create_connection((host or "127.0.0.1", int(port)), timeout=5).close()
+    except OSError as error:
+        raise ConnectionError(f"no Ray cluster answers at {address}: {error}") from None
 
 
 def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Progress) -> None:
