@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
@@ -36,3 +37,33 @@ def check_bool(name: str, value: Any) -> bool:
     if not isinstance(value, bool):
         raise TypeError(f"{name} must be True or False, got {value!r}")
     return value
+
+
+def memory_available() -> int | None:
+    """Bytes of memory this machine can give now (Linux's ``MemAvailable``; else its total)."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - neither Linux nor POSIX
+        return None
+
+
+def _size(nbytes: float) -> str:
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:,.1f} {unit}"
+    return f"{nbytes:,.0f} B"
+
+
+def check_memory(what: str, nbytes: float) -> None:
+    """Refuse ``what``, before it is allocated, if it needs more memory than there is."""
+    available = memory_available()
+    if available is not None and nbytes > available:
+        raise ValueError(f"{what} needs {_size(nbytes)} of memory; this machine has "
+                         f"{_size(available)} free")  # fmt: skip

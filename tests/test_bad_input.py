@@ -203,3 +203,43 @@ def test_huge_state_in_data_is_reported(env, tmp_path, monkeypatch, angle) -> No
     env.data.qpos[0] = angle
     with pytest.raises(RuntimeError, match=r"non-finite state or angles beyond \+-1e\+06 rad"):
         env.step(1)
+
+
+@pytest.mark.parametrize(
+    ("tiles", "match"),
+    [
+        ({"angle_tiles": 100_000}, r"tile coding of 48 tilings and 8,180,045,400,176 features"),
+        ({"velocity_tiles": 1_000_000}, r"and 470,001,210,000,848 features"),
+        ({"tilings": 100_000_000}, r"tile coding of 100,000,036 tilings"),  # grew to 24 GB
+    ],
+)
+def test_sizes_beyond_memory_are_refused_before_allocation(tiles, match) -> None:
+    from acrobot_mj.agents.features import TilesConfig
+
+    space = gym.make(acrobot_mj.ENV_ID).observation_space
+    with pytest.raises(ValueError, match=match + r".* needs [0-9,.]+ GiB of memory; this"):
+        TilesConfig(**tiles).build(space)
+
+
+def test_learners_check_their_tables_against_free_memory(monkeypatch) -> None:
+    # The learners' own arrays, with the machine's free memory set small: refused before
+    # np.zeros, naming what and how much (225 cells x 3 actions, 16 bytes each, is 10,800 B).
+    from acrobot_mj import checks
+    from acrobot_mj.agents.features import StateGrid, book_tile_coder
+    from acrobot_mj.agents.sarsa import Sarsa, SarsaConfig, SarsaGroup
+    from acrobot_mj.agents.sarsa_lambda import SarsaLambda
+
+    space = gym.make(acrobot_mj.ENV_ID).observation_space
+    coder = book_tile_coder(space)
+    monkeypatch.setattr(checks, "memory_available", lambda: 10_799)
+    with pytest.raises(
+        ValueError,
+        match=r"a Q table of 675 values needs 10.5 KiB of memory; this machine has 10.5 KiB",
+    ):
+        Sarsa(StateGrid())
+    with pytest.raises(ValueError, match=r"2 Q tables of 675 values"):
+        SarsaGroup(StateGrid(), SarsaConfig(), [0, 1])
+    with pytest.raises(ValueError, match=r"Sarsa\(lambda\) with 97,044 weights needs 2.2 MiB"):
+        SarsaLambda(coder)
+    monkeypatch.setattr(checks, "memory_available", lambda: 10_800)
+    Sarsa(StateGrid())  # exactly enough

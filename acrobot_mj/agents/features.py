@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.checks import check_bool, check_float, check_int
+from acrobot_mj.checks import check_bool, check_float, check_int, check_memory
 from acrobot_mj.compiled import compiled, jitable
 
 
@@ -139,13 +139,19 @@ class TileCoder:
         self.tiles, self.wrap = tuple(int(t) for t in tiles), tuple(bool(w) for w in wrap)
         self.low, self.high = np.asarray(low, float), np.asarray(high, float)
         extent = [t if w else t + 1 for t, w in zip(self.tiles, self.wrap, strict=True)]
-        offsets, strides, bases, base = [], [], [], 0
         for variables, n_tilings in self.groups:
             distinct = len(set(variables)) == len(variables) > 0
             if not distinct or not all(0 <= v < n_vars for v in variables):
                 raise ValueError(f"bad variable subset {variables} for {n_vars} variables")
             if n_tilings < 1:
                 raise ValueError(f"n_tilings must be >= 1, got {n_tilings} for {variables}")
+        tilings = sum(n for _, n in self.groups)
+        features = sum(n * math.prod(extent[v] for v in vs) for vs, n in self.groups)
+        # Under 1 kB a tiling while it is built, and a learner needs a weight per feature.
+        check_memory(f"tile coding of {tilings:,} tilings and {features:,} features",
+                     1e3 * tilings + 8.0 * features)  # fmt: skip
+        offsets, strides, bases, base = [], [], [], 0
+        for variables, n_tilings in self.groups:
             stride, step = np.zeros(n_vars, dtype=np.int64), 1
             for v in reversed(variables):  # row-major within the tiling
                 stride[v], step = step, step * extent[v]

@@ -12,7 +12,7 @@ import numpy as np
 
 from acrobot_mj.agents.base import BLOCK, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import StateGrid, grid_cell
-from acrobot_mj.checks import check_float
+from acrobot_mj.checks import check_float, check_memory
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
 
 
@@ -80,6 +80,8 @@ class Sarsa:
         self.grid, self.n_actions = grid, n_actions
         self.config = SarsaConfig(alpha, gamma, epsilon)
         self.stream = RandomStream(seed)
+        values = float(grid.num_features) * n_actions  # the table and a checkpoint's copy
+        check_memory(f"a Q table of {values:,.0f} values", 16.0 * values)
         self._q = np.zeros((grid.num_features, n_actions))
         self._s = self._a = -1
         self._learn = self._first_learn  # then without numba's dispatch
@@ -151,6 +153,8 @@ class SarsaGroup:
 
     def __init__(self, grid: StateGrid, config: SarsaConfig, seeds: Sequence[int], n_actions=3):
         self.grid, self.config, k = grid, config, len(seeds)
+        values = float(k) * grid.num_features * n_actions  # the tables and a checkpoint's copy
+        check_memory(f"{k} Q tables of {values / k:,.0f} values", 16.0 * values)
         self.q = np.zeros((k, grid.num_features, n_actions))
         self.streams = [RandomStream(int(seed)) for seed in seeds]
         self.blocks = np.zeros((k, BLOCK + 2))

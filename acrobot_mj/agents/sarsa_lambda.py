@@ -14,7 +14,7 @@ import numpy as np
 
 from acrobot_mj.agents.base import DivergenceError, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import TileCoder, tile_active
-from acrobot_mj.checks import check_float
+from acrobot_mj.checks import check_float, check_memory
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
 
 TRACES = ("replacing", "accumulating")
@@ -162,6 +162,8 @@ class SarsaLambda:
                              f"(numpy's order), got {features.num_active}")  # fmt: skip
         self.features, self.n_actions = features, n_actions
         self.num_features = features.num_features
+        weights = float(n_actions) * self.num_features  # three arrays of their size: the
+        check_memory(f"Sarsa(lambda) with {weights:,.0f} weights", 24.0 * weights)  # index, a copy
         self.stream = RandomStream(seed)
         self._w = np.zeros(n_actions * self.num_features)  # w[a, i] at a * num_features + i
         room = min(self._w.size, 64 * features.num_active)
