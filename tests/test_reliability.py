@@ -364,6 +364,30 @@ def trained(tmp_path) -> Path:
     return run
 
 
+@pytest.mark.parametrize(
+    ("edit", "commands", "says"),
+    [
+        ({"config": "x"}, ["evaluate", "render", "curves"], "config must be a JSON object"),
+        ({"config": ["x"]}, ["evaluate", "curves"], "config must be a JSON object"),
+        ({"episode_lengths": None}, ["curves"], "a run record lacks 'episode_lengths'"),
+    ],
+)
+def test_a_hand_edited_run_record_is_one_line_not_a_traceback(
+    trained, edit, commands, says, exits, capsys
+) -> None:
+    record = json.loads((trained / "run.json").read_text())
+    record.update(edit)
+    record = {k: v for k, v in record.items() if v is not None}
+    (trained / "run.json").write_text(json.dumps(record))
+    out = {"render": ["--out", str(trained.parent / "x.mp4")],
+           "curves": ["--out", str(trained.parent / "x.png")]}  # fmt: skip
+    for command in commands:
+        assert exits([command, str(trained), *out.get(command, [])]) == 2, command
+        err = capsys.readouterr().err.strip()
+        assert says in err and len(err.splitlines()) == 1, err
+        assert command != "curves" or "run.json" in err or str(trained) in err
+
+
 @pytest.mark.parametrize("name", ["run.mp4", "eval.mp4", "summary.mp4"])
 def test_render_never_replaces_a_runs_own_records(trained, name, exits, capsys) -> None:
     assert exits(["evaluate", str(trained), "--episodes", "1"]) == 0  # writes eval.json
@@ -420,6 +444,23 @@ def test_a_sweep_reruns_unreadable_trial_records_and_says_so(
     summary = run_sweep(spec, tmp_path)
     assert "running base__seed=0 again: its record" in capsys.readouterr().err
     assert summary["points"][0]["runs"] == 1 and json.loads(record.read_text())["seed"] == 0
+
+
+@pytest.mark.parametrize("bad", ["", "[]", '{"summ', '{"summary": []}', '{"summary": {}}'])
+def test_a_sweep_evaluates_again_where_a_trials_evaluation_is_unreadable(
+    one_trial_sweep, tmp_path, bad, capsys
+) -> None:
+    from acrobot_mj.train.sweep import run_sweep
+
+    shutil.copytree(one_trial_sweep, tmp_path, dirs_exist_ok=True)
+    evaluation = tmp_path / "trials" / "base__seed=0" / "eval.json"
+    expected = json.loads(evaluation.read_text())["summary"]
+    evaluation.write_text(bad)  # truncated, or edited by hand
+    summary = run_sweep(parse_sweep(ONE_TRIAL), tmp_path)
+    err = capsys.readouterr().err
+    assert f"evaluating base__seed=0 again: {evaluation} is not a readable evaluation" in err
+    assert json.loads(evaluation.read_text())["summary"] == expected  # the same, evaluated again
+    assert summary["points"][0]["held_out_runs"] == 1
 
 
 def _mount_tmpfs(path: Path, options: str) -> None:

@@ -269,16 +269,34 @@ def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
     """The config and run records of a ``--seeds`` directory (its runs) or of one run."""
     summary_file, run_file = folder / SUMMARY_FILE, folder / RUN_FILE
     if summary_file.is_file():
-        summary = json.loads(summary_file.read_text())
-        if not summary.get("runs"):
+        summary = _record(summary_file)
+        if not isinstance(summary.get("runs"), list) or not summary["runs"]:
             raise ValueError(f"{summary_file} lists no runs: nothing to draw")
-        runs = [json.loads((folder / run / RUN_FILE).read_text()) for run in summary["runs"]]
-        return TrainConfig.from_dict(summary["config"]), runs
+        runs = [_record(folder / str(run) / RUN_FILE) for run in summary["runs"]]
+        return _config(summary_file, summary), runs
     if run_file.is_file():
-        record = json.loads(run_file.read_text())
-        return TrainConfig.from_dict(record["config"]), [record]
+        record = _record(run_file)
+        return _config(run_file, record), [record]
     raise FileNotFoundError(f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give "
                             "directories written by acrobot-mj train")  # fmt: skip
+
+
+def _record(path: Path) -> dict[str, Any]:
+    """A JSON record, or one line naming the file and what is wrong with it."""
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path} is not a readable record: {error}") from None
+    if not isinstance(record, dict):
+        raise ValueError(f"{path} is not a record: a JSON object was expected")
+    return record
+
+
+def _config(path: Path, record: dict[str, Any]) -> TrainConfig:
+    try:
+        return TrainConfig.from_dict(record["config"])
+    except (KeyError, ValueError, TypeError) as error:
+        raise ValueError(f"{path} holds no readable config: {error}") from None
 
 
 def curves_command(args: argparse.Namespace) -> None:
@@ -287,7 +305,10 @@ def curves_command(args: argparse.Namespace) -> None:
     for folder in args.run_dirs:
         config, records = _curve_records(Path(folder))
         score = get_task(config.task).score
-        groups[Path(folder).name] = [score.values(record) for record in records]
+        try:
+            groups[Path(folder).name] = [score.values(record) for record in records]
+        except KeyError as error:
+            raise ValueError(f"{folder}: a run record lacks {error}: not a training run") from None
     task = get_task(config.task)
     reference = task.reference(config.frame_skip) if args.minimum else None
     compare_curves(args.out, groups, args.title, [reference] if reference else [],

@@ -121,6 +121,8 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
         """The config of a record (an older one's settings that do not apply are ignored)."""
+        if not isinstance(data, dict):
+            raise ValueError(f"a run's config must be a JSON object of settings, got {data!r:.40}")
         data = {k: v for k, v in data.items() if k not in RETIRED and v is not None}
         algorithm, features = data.get("algorithm", "sarsa"), data.get("features", "grid")
         task = data.get("task", "height_goal")

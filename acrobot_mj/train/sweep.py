@@ -215,13 +215,21 @@ def write_trial(run: Path, record: dict[str, Any], evaluation: dict[str, Any] | 
 def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
     """A finished trial's default held-out evaluation: its ``eval.json`` if that is of this
     trial and protocol, else evaluated now (None without a checkpoint)."""
-    run_dir = trial_dir(out, trial)
-    if (run_dir / EVAL_FILE).exists():
-        saved = json.loads((run_dir / EVAL_FILE).read_text())
+    run_dir, quantity = trial_dir(out, trial), get_task(trial.config.task).score.quantity
+    path = run_dir / EVAL_FILE
+    if path.exists():
+        try:
+            saved = json.loads(path.read_text())
+            median = saved["summary"][quantity]["median"]
+        except (OSError, ValueError, TypeError, KeyError) as error:
+            saved, median = None, None
+            sys.stderr.write(f"sweep: evaluating {trial.name} again: {path} is not a readable "
+                             f"evaluation ({error!r})\n")  # fmt: skip
         mine = {"protocol": DEFAULT.to_dict(), "run_seed": trial.seed,
                 "config": trial.config.to_dict()}  # fmt: skip
-        if all(saved.get(k) == v for k, v in mine.items()):
-            return saved
+        if saved is not None and all(saved.get(k) == v for k, v in mine.items()):
+            if median is None or isinstance(median, (int, float)):
+                return saved
     return evaluate_run(run_dir) if (run_dir / CHECKPOINT_FILE).exists() else None
 
 
