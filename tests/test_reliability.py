@@ -388,6 +388,30 @@ def test_a_hand_edited_run_record_is_one_line_not_a_traceback(
         assert command != "curves" or "run.json" in err or str(trained) in err
 
 
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        ({"length": -7}, "length -7 is not a whole number of decisions"),
+        ({"length": 1e30}, "length 1e+30 is not a whole number"),
+        ({"length": 29}, "episodes take 59 decisions, but"),  # one decision less: 30 -> 29
+        ({"return": "x"}, "return 'x' is not a finite number"),
+        ({"success": "false"}, "success 'false' is not true or false"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),  # was a RecursionError
+    ],
+)
+def test_a_hand_edited_episode_log_is_refused_on_resume(trained, edit, says, exits, capsys):
+    log = trained / "episodes.jsonl"
+    lines = log.read_text().splitlines()
+    row = json.loads(lines[1])
+    lines[1] = json.dumps({**row, **edit}) if isinstance(edit, dict) else edit
+    log.write_text("\n".join(lines) + "\n")
+    args = ["train", "--preset", "report", "--episodes", "3", "--max-episode-steps", "30"]
+    assert exits([*args, "--out", str(trained), "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"{log} cannot give the episodes" in err or f"{log}'s episodes" in err, err
+    assert says in err and len(err.splitlines()) == 1, err
+
+
 @pytest.mark.parametrize("name", ["run.mp4", "eval.mp4", "summary.mp4"])
 def test_render_never_replaces_a_runs_own_records(trained, name, exits, capsys) -> None:
     assert exits(["evaluate", str(trained), "--episodes", "1"]) == 0  # writes eval.json

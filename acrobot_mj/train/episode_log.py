@@ -31,7 +31,10 @@ def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
         for line in itertools.islice(lines, count):
             if not line.endswith(b"\n"):
                 break
-            row = json.loads(line)
+            try:
+                row = json.loads(line)
+            except RecursionError:
+                raise ValueError(f"line {len(rows) + 1} is nested too deeply") from None
             if not isinstance(row, dict):
                 raise ValueError(f"line {len(rows) + 1} is not a JSON object")
             rows.append(row)

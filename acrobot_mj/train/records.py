@@ -232,13 +232,28 @@ def read_history(path: Path, meta: dict[str, Any]) -> History:
     history = History()
     try:
         for row in read_rows(log, count):  # a line cut short by a kill is not counted
-            history.add(int(row["length"]), float(row["return"]), bool(row["success"]))
+            history.add(*_episode(row))
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise CheckpointError(f"{log} cannot give the episodes of {path}: {error!r}") from None
     if len(history) != count:
         raise CheckpointError(f"{log} holds {len(history)} episodes, but {path} was saved "
                               f"after {count}")  # fmt: skip
+    if history.steps != meta["steps"]:  # an episode's length edited
+        raise CheckpointError(f"{log}'s episodes take {history.steps} decisions, but {path} "
+                              f"was saved after {meta['steps']}")  # fmt: skip
     return history
+
+
+def _episode(row: dict[str, Any]) -> tuple[int, float, bool]:
+    """A log line's ``(length, return, success)``, each of its own type (a hand edit is not)."""
+    length, total, success = row["length"], row["return"], row["success"]
+    if type(length) is not int or length < 1:
+        raise ValueError(f"length {length!r} is not a whole number of decisions >= 1")
+    if type(total) not in (int, float) or not np.isfinite(total):
+        raise ValueError(f"return {total!r} is not a finite number")
+    if type(success) is not bool:
+        raise ValueError(f"success {success!r} is not true or false")
+    return length, float(total), success
 
 
 def _differs(mine: dict[str, Any], theirs: dict[str, Any]) -> list[str]:
