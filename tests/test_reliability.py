@@ -144,6 +144,38 @@ def test_a_lockstep_resume_starts_a_seed_that_never_reached_a_checkpoint(tmp_pat
         assert all(np.array_equal(mine[1][k], theirs[1][k]) for k in mine[1])
 
 
+@pytest.mark.slow
+def test_a_resume_killed_after_adding_episodes_leaves_a_usable_run(tmp_path, exits) -> None:
+    # A finished 2-episode run, evaluated; resumed to 20,000 episodes and killed (-9) once its
+    # checkpoint has moved on. run.json said "interrupted": false with the old config, and
+    # evaluate and render refused the run (the configs disagreed); eval.json was stale.
+    run = tmp_path / "run"
+    assert exits(["train", "--preset", "book", "--episodes", "2", "--out", str(run)]) == 0
+    assert exits(["evaluate", str(run), "--episodes", "1"]) == 0
+    args = ["train", "--preset", "book", "--episodes", "20000", "--no-progress", "--resume"]
+    child = start([*args, "--out", "run"], tmp_path)
+    deadline = time.monotonic() + 60
+    while load_checkpoint(run / "checkpoint.npz")[0]["episodes_done"] == 2:
+        assert time.monotonic() < deadline, "the resumed run never saved a checkpoint"
+        time.sleep(0.05)
+    child.kill()
+    child.communicate(timeout=30)
+    record = json.loads((run / "run.json").read_text())
+    assert record["interrupted"] is True and record["config"]["episodes"] == 20000
+    assert not (run / "eval.json").exists()  # it evaluated the 2-episode agent
+    assert exits(["evaluate", str(run), "--episodes", "1"]) == 0
+
+
+def test_training_again_removes_the_evaluation_of_what_it_replaces(trained, exits) -> None:
+    assert exits(["evaluate", str(trained), "--episodes", "1"]) == 0
+    args = ["train", "--preset", "book", "--episodes", "1", "--out", str(trained)]
+    assert exits([*args, "--force"]) == 0  # another preset over the run: eval.json was stale
+    assert not (trained / "eval.json").exists()
+    assert exits(["evaluate", str(trained), "--episodes", "1"]) == 0
+    assert exits([*args[:4], "3", "--out", str(trained), "--resume"]) == 0  # more episodes
+    assert not (trained / "eval.json").exists()
+
+
 def complete_lines(path: Path) -> list[dict]:
     """The episode log's complete lines (a line a kill cut short is not one)."""
     lines = path.read_bytes().splitlines(keepends=True)

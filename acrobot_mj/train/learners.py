@@ -30,6 +30,7 @@ from acrobot_mj.train.records import (
     EPISODE_LOG,
     RECENT,
     RESUME_MAY_DIFFER,
+    RUN_FILE,
     SUMMARY_FILE,
     Checkpoints,
     History,
@@ -244,6 +245,11 @@ def train_one(
             raise ValueError("resume needs the run directory (out_dir)")
         history, arrays = read_for_resume(path, config, seed)
         load_into(agent.load_state_dict, arrays, path)
+        if (run.out / RUN_FILE).exists() and len(history) < config.episodes:
+            # The finished record no longer describes the run: until this one ends (or is
+            # killed, or diverges), it is this config's, interrupted where it resumed.
+            record = run_record(config, seed, history, 0.0, interrupted=True, env=env_name)
+            write_run(run.out, record, f"seed {seed}", curve=False)
     checkpoints.start(history)
     state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
     checkpoints.snapshot(state, history)
