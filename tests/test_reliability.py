@@ -444,6 +444,43 @@ def test_a_hand_edited_episode_log_is_refused_on_resume(trained, edit, says, exi
     assert says in err and len(err.splitlines()) == 1, err
 
 
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["demo", "--steps", "5", "--json", "{run}/run.json"],
+        ["demo", "--steps", "5", "--json", "{run}/checkpoint.npz"],
+        ["curves", "{run}", "--out", "{run}/learning_curve.png"],
+    ],
+)
+def test_no_command_writes_over_a_runs_own_records(trained, command, exits, capsys) -> None:
+    before = {p.name: p.read_bytes() for p in trained.iterdir() if p.is_file()}
+    assert exits([part.format(run=trained) for part in command]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "is a record of the run in" in err and len(err.splitlines()) == 1, err
+    assert {p.name: p.read_bytes() for p in trained.iterdir() if p.is_file()} == before
+
+
+@pytest.mark.slow
+def test_no_command_writes_into_a_run_that_is_training(tmp_path, exits, capsys) -> None:
+    train(PRESETS["report"].replace(episodes=2, max_episode_steps=30), 0, tmp_path / "other")
+    child = start([*LONG, "--out", "run"], tmp_path)
+    try:
+        wait_for(tmp_path / "run" / "checkpoint.npz")
+        other = str(tmp_path / "other")
+        for command in (["render", "--policy", "zero", "--steps", "5", "--out", "{run}/x.mp4"],
+                        ["demo", "--steps", "5", "--json", "{run}/notes.json"],
+                        ["curves", other, "--out", "{run}/other.png"]):  # fmt: skip
+            code = exits([part.format(run=tmp_path / "run") for part in command])
+            err = capsys.readouterr().err.strip()
+            assert code == 2 and "is in use by" in err and len(err.splitlines()) == 1, err
+        assert not {"x.mp4", "x.json", "notes.json", "other.png"} & set(
+            os.listdir(tmp_path / "run")
+        )
+    finally:
+        child.kill()
+        child.communicate(timeout=30)
+
+
 @pytest.mark.parametrize("name", ["run.mp4", "eval.mp4", "summary.mp4"])
 def test_render_never_replaces_a_runs_own_records(trained, name, exits, capsys) -> None:
     assert exits(["evaluate", str(trained), "--episodes", "1"]) == 0  # writes eval.json

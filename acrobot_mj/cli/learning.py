@@ -16,7 +16,7 @@ from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import DEFAULT
 from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, recent_score
+from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, recent_score
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.sweep import load_sweep, run_sweep, summary_table
 from acrobot_mj.train.trainer import train
@@ -311,6 +311,7 @@ def curves_command(args: argparse.Namespace) -> None:
             raise ValueError(f"{folder}: a run record lacks {error}: not a training run") from None
     task = get_task(config.task)
     reference = task.reference(config.frame_skip) if args.minimum else None
-    compare_curves(args.out, groups, args.title, [reference] if reference else [],
-                   task.score.label, task.score.log_scale)  # fmt: skip
+    with output_into(args.out, "curves"):
+        compare_curves(args.out, groups, args.title, [reference] if reference else [],
+                       task.score.label, task.score.log_scale)  # fmt: skip
     print(f"wrote {args.out}")

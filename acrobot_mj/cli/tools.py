@@ -20,7 +20,7 @@ from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import RenderSettings, render_policy
 from acrobot_mj.train.evaluate import render_run
-from acrobot_mj.train.records import History
+from acrobot_mj.train.records import History, output_into
 
 
 class Commands(Protocol):
@@ -66,7 +66,8 @@ def show_progress(args: argparse.Namespace) -> bool:
 def write_record(path: str | None, data: dict[str, Any]) -> None:
     """Write ``data`` as JSON to ``path`` (when given) and say so."""
     if path:
-        write_json(path, data)
+        with output_into(path, "write a record"):
+            write_json(path, data)
         print(f"wrote {path}")
 
 
@@ -95,10 +96,11 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError("give either a run directory or --policy, not both or neither")
     settings = RenderSettings(args.width, args.height, args.camera, args.captions, args.strip,
                               args.steps, args.seed, show_progress(args))  # fmt: skip
-    if args.run_dir is not None:
-        record = render_run(args.run_dir, args.out, settings)
-    else:
-        record = render_policy(args.policy, args.out, settings, args.frame_skip)
+    with output_into(args.out, "render"):
+        if args.run_dir is not None:
+            record = render_run(args.run_dir, args.out, settings)
+        else:
+            record = render_policy(args.policy, args.out, settings, args.frame_skip)
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
     if "balanced" in record:  # the balance task
         outcome = "stays balanced" if record["balanced"] else "does not stay balanced"

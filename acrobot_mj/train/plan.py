@@ -25,10 +25,10 @@ from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.report.balance import BalanceActor, balance_env, closed_loop
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.model_based import identified_model
-from acrobot_mj.train.records import RUN_FILE
+from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE
 
-#: ``run.json``'s ``kind`` of a balance-preset run, and its plan's file.
-KIND, TRAJECTORY_FILE = "identify_and_plan", "trajectory.json"
+#: ``run.json``'s ``kind`` of a balance-preset run.
+KIND = "identify_and_plan"
 
 
 @dataclass(frozen=True)

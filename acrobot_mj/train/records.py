@@ -5,10 +5,11 @@ for several seeds, ``learner_K/`` for a population. Every file is written atomic
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import zipfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,9 +22,31 @@ from acrobot_mj.files import versions, write_atomic, write_json
 from acrobot_mj.report.plots import learning_curve
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import EpisodeLog, RunLog, read_rows
+from acrobot_mj.train.lock import LOCK_FILE, RunLock
 
 RUN_FILE, EVAL_FILE, CHECKPOINT_FILE = "run.json", "eval.json", "checkpoint.npz"
 CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = "learning_curve.png", "summary.json", "episodes.jsonl"
+TRAJECTORY_FILE = "trajectory.json"  # a balance-preset run's plan
+#: What a run directory holds of its own: no other command's output replaces it.
+RUN_RECORDS = (RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE, EPISODE_LOG,
+               TRAJECTORY_FILE)  # fmt: skip
+
+
+@contextlib.contextmanager
+def output_into(path: str | Path, command: str) -> Iterator[None]:
+    """While ``command`` writes ``path``: where its folder is a run directory, that run's lock
+    (a running run refuses), and never one of the run's own records."""
+    path = Path(path)
+    folder = path.parent
+    if not any((folder / name).exists() for name in (*RUN_RECORDS, LOCK_FILE)):
+        yield
+        return
+    if path.name in RUN_RECORDS:
+        raise FileExistsError(f"{path} is a record of the run in {folder}: choose another file")
+    with RunLock(folder, command, create=False):
+        yield
+
+
 HISTORY_KEYS = ("episode_lengths", "episode_returns", "episode_successes")
 #: Training episodes whose scores a run's recent performance is judged by.
 RECENT = 20
