@@ -402,6 +402,7 @@ def trained(tmp_path) -> Path:
         ({"config": "x"}, ["evaluate", "render", "curves"], "config must be a JSON object"),
         ({"config": ["x"]}, ["evaluate", "curves"], "config must be a JSON object"),
         ({"episode_lengths": None}, ["curves"], "a run record lacks 'episode_lengths'"),
+        ({"seed": "0"}, ["evaluate"], "is for seed 0 but {run}/run.json records seed '0'"),
     ],
 )
 def test_a_hand_edited_run_record_is_one_line_not_a_traceback(
@@ -416,7 +417,7 @@ def test_a_hand_edited_run_record_is_one_line_not_a_traceback(
     for command in commands:
         assert exits([command, str(trained), *out.get(command, [])]) == 2, command
         err = capsys.readouterr().err.strip()
-        assert says in err and len(err.splitlines()) == 1, err
+        assert says.format(run=trained) in err and len(err.splitlines()) == 1, err
         assert command != "curves" or "run.json" in err or str(trained) in err
 
 
@@ -732,3 +733,22 @@ def test_curves_of_a_summary_without_runs_is_a_clear_error(tmp_path, exits, caps
 def test_a_sweep_key_given_twice_is_refused(text, message) -> None:
     with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
         parse_sweep(text)
+
+
+def test_the_resume_hint_only_where_a_checkpoint_was_saved(tmp_path, monkeypatch, exits, capsys):
+    # A Ctrl-C before the first checkpoint said "continue with --resume", which then failed.
+    from acrobot_mj.cli import learning
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt("interrupted while starting")
+
+    monkeypatch.setattr(learning, "train", interrupted)
+    args = ["train", "--preset", "book", "--out", str(tmp_path / "run")]
+    assert exits(args) == 130
+    err = capsys.readouterr().err.strip()
+    assert err == "acrobot-mj train: interrupted while starting", err
+    monkeypatch.undo()
+    train(PRESETS["report"].replace(episodes=1, max_episode_steps=5), 0, tmp_path / "run")
+    monkeypatch.setattr(learning, "train", interrupted)
+    assert exits([*args, "--resume"]) == 130
+    assert capsys.readouterr().err.strip().endswith("; continue with --resume")

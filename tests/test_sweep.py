@@ -57,6 +57,10 @@ def test_grid_expansion() -> None:
         ("overrides = 3", "overrides"),
         ("[grid]\nalpha = [0.5, 0.5]", "repeats"),
         ("[grid]\nalpha = [1, 1.0]", "same config"),
+        # Values JSON cannot hold, or that cannot be compared: named (were a bare TypeError).
+        ("episodes = 1979-05-27", r"episodes value datetime.date\(1979, 5, 27\) is not a number"),
+        ("[grid]\nalpha = [[0.1]]", r"grid alpha value \[0.1\] is not a number, string"),
+        ("[overrides]\nalpha = {a = 1}", r"alpha value \{'a': 1\} is not a number"),
     ],
 )
 def test_bad_sweep_files(text, match) -> None:

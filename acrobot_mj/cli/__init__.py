@@ -14,9 +14,7 @@ from acrobot_mj.cli import learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.files import __version__
 from acrobot_mj.train.lock import RunDirectoryBusy
-from acrobot_mj.train.plan import PlanConfig
-from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import CheckpointError
+from acrobot_mj.train.records import CheckpointError, resumable
 
 COMMANDS = (learning.add_train, learning.add_evaluate, tools.add_render, tools.add_validate,
             tools.add_balance, learning.add_sweep, learning.add_curves, tools.add_bench,
@@ -56,8 +54,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise  # the whole traceback, for bug reports
         parser.exit(2, f"acrobot-mj {args.command}: error: {error}\n")
     except KeyboardInterrupt as interrupt:
-        resumable = args.command == "train" and not isinstance(PRESETS[args.preset], PlanConfig)
-        hint = "; continue with --resume" if resumable else ""
+        out = getattr(args, "run_out", None)  # a run that trains by episodes, where it trains
+        saved = out is not None and any(resumable(d) for d in (out, *out.glob("seed_*")))
+        hint = "; continue with --resume" if saved else ""
         code = 143 if isinstance(interrupt, Terminated) else 130  # 128 + the signal's number
         parser.exit(code, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
     return 0

@@ -119,7 +119,9 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
                          "population's learners train one by one: faster here)")  # fmt: skip
     if args.seeds is not None:
         return _train_seeds(args, config, progress)
-    out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}")
+    out = args.run_out = Path(
+        args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}"
+    )
     record = train(config, args.seed, out, resume=args.resume, progress=progress,
                    overwrite=args.force, tensorboard=args.tensorboard)  # fmt: skip
     task = get_task(config.task)
@@ -139,7 +141,9 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) -> dict:
-    out = Path(args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}")
+    out = args.run_out = Path(
+        args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}"
+    )
     seeds = list(range(args.seed, args.seed + args.seeds))
     summary = train_seeds(config, seeds, out, jobs=args.jobs, resume=args.resume,
                           progress=progress, overwrite=args.force, tensorboard=args.tensorboard,

@@ -120,7 +120,7 @@ class RunLock:
         previous = _read_owner(path)
         if previous is not None and previous["pid"] not in _owners():
             sys.stderr.write(f"acrobot-mj: taking over {self.directory} from "
-                             f"{_describe(previous)}, which is not running any more\n")  # fmt: skip
+                             f"{_describe(previous)}, which no longer holds it\n")  # fmt: skip
             _remove_temporaries(self.directory)
         record = {"pid": os.getpid(), "host": socket.gethostname(), "command": self.command,
                   "started": time.time()}  # fmt: skip

@@ -325,9 +325,9 @@ def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
         recorded, recorded_seed = TrainConfig.from_dict(record["config"]), record["seed"]
     except (OSError, ValueError, TypeError, KeyError) as error:
         raise CheckpointError(f"{run_file} is not a readable run record: {error!r}") from None
-    if recorded_seed != seed:
-        raise CheckpointError(f"{path} is for seed {seed} but {run_file} records seed "
-                              f"{recorded_seed}")  # fmt: skip
+    if type(recorded_seed) is not int or recorded_seed != seed:
+        raise CheckpointError(f"{path} is for seed {seed!r} but {run_file} records seed "
+                              f"{recorded_seed!r}")  # fmt: skip
     mine, theirs = config.to_dict(), recorded.to_dict()
     differs = _differs(mine, theirs)
     if differs:

@@ -105,6 +105,12 @@ def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
     if not isinstance(grid, dict):
         raise ValueError(f"{source}: [grid] must be a table of lists")
     top = {k: v for k, v in data.items() if k in names}
+    for where, key, value in [*(("", k, v) for k, v in {**top, **extra}.items()),
+                              *(("grid ", k, v) for k, vs in grid.items()
+                                for v in (vs if isinstance(vs, list) else []))]:  # fmt: skip
+        if not isinstance(value, (bool, int, float, str)):
+            raise ValueError(f"{source}: {where}{key} value {value!r} is not a number, string "
+                             "or boolean")  # fmt: skip
     if set(top) & set(extra):
         raise ValueError(f"{source}: {sorted(set(top) & set(extra))[0]} is set at the top level "
                          "and in [overrides]")  # fmt: skip
