@@ -598,6 +598,35 @@ def test_a_read_only_folder_gives_one_line(tmp_path, exits, capsys) -> None:
         subprocess.run(["umount", str(folder)], check=False)
 
 
+def test_a_run_on_a_read_only_mount_renders_elsewhere(tmp_path, exits, capsys) -> None:
+    # The lock could not be created there, so render refused; reading needs no lock where no
+    # process can write.
+    folder = tmp_path / "mount"
+    _mount_tmpfs(folder, "rw")
+    try:
+        train(PRESETS["report"].replace(episodes=1, max_episode_steps=5), 0, folder / "run")
+        (folder / "run" / ".lock").unlink()  # as a run copied onto read-only media has none
+        subprocess.run(["mount", "-o", "remount,ro", str(folder)], check=True)
+        out = tmp_path / "v.mp4"
+        assert exits(["render", str(folder / "run"), "--steps", "2", "--out", str(out)]) == 0
+        assert out.stat().st_size > 0
+    finally:
+        subprocess.run(["umount", str(folder)], check=False)
+
+
+def test_a_fifo_named_like_a_lock_neither_hangs_nor_is_taken(tmp_path) -> None:
+    # A FIFO named .lock in a parent hung train --out parent/sub (reading it blocks).
+    (tmp_path / "parent").mkdir()
+    os.mkfifo(tmp_path / "parent" / ".lock")
+    args = ["train", "--preset", "report", "--episodes", "1", "--max-episode-steps", "5"]
+    done = _cli([*args, "--out", "parent/sub"], tmp_path)  # times out at 120 s if it hangs
+    assert done.returncode == 0, done.stderr
+    done = _cli([*args, "--out", "parent"], tmp_path)  # the directory's own lock: refused
+    assert done.returncode == 2
+    assert done.stderr.strip().endswith("parent/.lock is not a lock file: remove it, or choose "
+                                        "another directory")  # fmt: skip
+
+
 # -- GL only when rendering -----------------------------------------------------------------
 
 

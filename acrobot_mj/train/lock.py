@@ -4,6 +4,7 @@ holder is ours: lock holders pass their pids to workers in ``ACROBOT_MJ_LOCK_OWN
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import socket
@@ -49,6 +50,8 @@ def _describe(owner: dict[str, Any]) -> str:
 
 
 def _read_owner(path: Path) -> dict[str, Any] | None:
+    if not path.is_file():  # none, or not a lock (a FIFO would block the read)
+        return None
     try:
         owner = json.loads(path.read_text() or "null")
     except (OSError, ValueError):
@@ -98,12 +101,22 @@ class RunLock:
                     f"{_describe(owner)}: wait for it or stop it first"
                 )
         self.directory.mkdir(parents=True, exist_ok=True)
-        _HELD[self.directory] = [self._acquire(), 1]
+        try:
+            fd = self._acquire()
+        except OSError as error:
+            if self.create or error.errno not in (errno.EROFS, errno.EACCES):
+                raise
+            self._noop = True  # a directory this process cannot write: read it unlocked
+            return self
+        _HELD[self.directory] = [fd, 1]
         os.environ[OWNERS_VARIABLE] = ",".join(str(p) for p in sorted(_owners()))
         return self
 
     def _acquire(self) -> int:
         path = self.directory / LOCK_FILE
+        if path.exists() and not path.is_file():
+            raise FileExistsError(f"{path} is not a lock file: remove it, or choose another "
+                                  "directory")  # fmt: skip
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             if fcntl is not None:
