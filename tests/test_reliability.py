@@ -287,6 +287,24 @@ def test_a_sweep_with_idle_workers_stops_at_once_without_tracebacks(tmp_path, si
 
 
 @pytest.mark.slow
+def test_a_sweep_leaves_a_trial_directory_another_process_trains_in(tmp_path, capsys) -> None:
+    # The sweep wrote its error.json into the other run's directory, where it stayed.
+    from acrobot_mj.train.sweep import run_sweep
+
+    trial = tmp_path / "sw" / "trials" / "base__seed=0"
+    child = start([*LONG, "--out", str(trial)], tmp_path)
+    try:
+        wait_for(trial / "checkpoint.npz")
+        spec = parse_sweep('preset = "report"\nepisodes = 2\nseeds = [0]\n')
+        summary = run_sweep(spec, tmp_path / "sw", jobs=1)
+        assert "sweep: trial base__seed=0 left unfinished:" in capsys.readouterr().err
+        assert summary["unfinished"] == 1 and not (trial / "error.json").exists()
+    finally:
+        child.kill()
+        child.communicate(timeout=30)
+
+
+@pytest.mark.slow
 def test_workers_stop_with_a_killed_sweep_driver(tmp_path) -> None:
     (tmp_path / "s.toml").write_text(SWEEP.replace("episodes = 400", "episodes = 5000"))
     child = start(["sweep", "s.toml", "--jobs", "2", "--out", "sw"], tmp_path)

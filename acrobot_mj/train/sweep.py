@@ -21,7 +21,7 @@ from acrobot_mj.report.plots import Series, line_plot
 from acrobot_mj.train.config import TrainConfig, field_names
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT
-from acrobot_mj.train.lock import RunLock
+from acrobot_mj.train.lock import RunDirectoryBusy, RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.progress import Progress
@@ -185,8 +185,13 @@ def train_or_error(config: dict[str, Any], seed: int, run_dir: str | None) -> di
 
 
 def run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
-    record = train_or_error(config, seed, run_dir)
-    write_trial(Path(run_dir), record, None)
+    try:
+        with RunLock(run_dir, "sweep trial"):  # held through the trial's records
+            record = train_or_error(config, seed, run_dir)
+            write_trial(Path(run_dir), record, None)
+    except RunDirectoryBusy as busy:  # another process's: nothing written there, unfinished
+        sys.stderr.write(f"sweep: trial {Path(run_dir).name} left unfinished: {busy}\n")
+        return {"busy": str(busy), "seed": seed, "config": config}
     if "error" not in record:
         evaluate_run(run_dir)
     return record
