@@ -11,6 +11,7 @@ import ctypes.util
 import os
 import platform
 import sys
+import warnings
 from collections.abc import Callable
 
 BACKENDS = ("egl", "osmesa")
@@ -207,10 +208,16 @@ def make_renderer(model, width: int, height: int):
         )
     import mujoco
 
-    try:
-        return mujoco.Renderer(model, height=height, width=width)
-    except Exception as error:
-        attempts = dict(ATTEMPTS)
-        if backend in BACKENDS:
-            attempts[backend] = f"{backend} failed to create a context: {error!r}"
-        raise backend_error(attempts, f"MUJOCO_GL={backend} does not work") from error
+    with warnings.catch_warnings(record=True) as said:  # GLFW's errors come as warnings
+        warnings.simplefilter("always")
+        try:
+            renderer = mujoco.Renderer(model, height=height, width=width)
+        except Exception as error:
+            attempts = dict(ATTEMPTS)
+            if backend in BACKENDS:
+                attempts[backend] = f"{backend} failed to create a context: {error!r}"
+            first = f" ({said[0].message})" if said else ""
+            raise backend_error(attempts, f"MUJOCO_GL={backend} does not work{first}") from error
+    for warning in said:  # a renderer was made all the same: shown as they came
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+    return renderer
