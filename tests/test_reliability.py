@@ -369,6 +369,23 @@ def test_a_diverging_learner_stops_with_the_cause_and_a_finite_checkpoint(tmp_pa
     config = load_learner(out).config
     assert load_checkpoint(out / "checkpoint.npz")[0]["episodes_done"] >= 1
     assert config.alpha == 0.2 and not (out / "run.json").exists()
+    assert err.strip().endswith(
+        f"; {out / 'checkpoint.npz'} keeps the state after episode "
+        f"{load_checkpoint(out / 'checkpoint.npz')[0]['episodes_done']}"
+    )
+
+
+def test_a_diverging_population_names_the_learner_and_its_checkpoint(tmp_path, exits, capsys):
+    # It named only the learner's own seed (drawn from the run's) and "the checkpoint", which
+    # is the learner's, not the run's (there is none at the top until the population ends).
+    out = tmp_path / "run"
+    args = ["train", "--preset", "book", "--population", "3", "--alpha", "0.2"]
+    assert exits([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "error: learner 0 of 3 of run seed 0: sarsa_lambda diverged in episode" in err, err
+    checkpoint = out / "learner_0" / "checkpoint.npz"
+    assert f"; {checkpoint} keeps the state after episode" in err and checkpoint.exists()
+    assert not (out / "checkpoint.npz").exists() and len(err.splitlines()) == 1
 
 
 @pytest.fixture

@@ -424,8 +424,8 @@ def test_a_diverging_learner_in_a_group_is_named_and_checkpointed(tmp_path) -> N
     from acrobot_mj.train.lockstep import train_lockstep
 
     config = PRESETS["report"].replace(step_reward=-1e308, episodes=3, max_episode_steps=20)
-    with pytest.raises(
-        DivergenceError, match=r"diverged in episode 1 of seed 4 .*step_reward -1e\+308"
-    ):
+    checkpoint = tmp_path / "seed_4" / CHECKPOINT_FILE
+    with pytest.raises(DivergenceError, match=r"diverged in episode 1 of seed 4 .*step_reward "
+                       rf"-1e\+308.*; {checkpoint} keeps the state after episode 0$"):  # fmt: skip
         train_lockstep(config, [4], tmp_path)
     assert load_checkpoint(tmp_path / "seed_4" / CHECKPOINT_FILE)[0]["episodes_done"] == 0

@@ -275,7 +275,7 @@ def train_one(
                 except DivergenceError as error:
                     checkpoints.save()  # the state after the last finite episode
                     checkpoints.close()
-                    raise diverged(config, seed, episode, len(history), error) from None
+                    raise diverged(config, seed, episode, len(history), error, path) from None
                 history.add_episode(result)
                 checkpoints.snapshot(state, history)
                 m.episode(episode, result.length, result.episode_return, result.success)
@@ -298,9 +298,10 @@ def train_one(
     return record, agent
 
 
-def diverged(config: TrainConfig, seed: int, episode: int, kept: int,
-             error: DivergenceError) -> DivergenceError:  # fmt: skip
-    """The error a run stops with when its learner diverges: where, and the likely cause."""
+def diverged(config: TrainConfig, seed: int, episode: int, kept: int, error: DivergenceError,
+             checkpoint: Path | None = None) -> DivergenceError:  # fmt: skip
+    """The error a run stops with when its learner diverges: where, the likely cause, and what
+    ``checkpoint`` keeps."""
     if error.rewards:
         cause = (f"the rewards (step_reward {config.step_reward}, goal_reward "
                  f"{config.goal_reward}) overflow a float")  # fmt: skip
@@ -312,7 +313,8 @@ def diverged(config: TrainConfig, seed: int, episode: int, kept: int,
         )
     return DivergenceError(
         f"{config.algorithm} diverged in episode {episode + 1} of seed {seed} ({error}); the "
-        f"likely cause is {cause}; the checkpoint keeps the state after episode {kept}"
+        f"likely cause is {cause}; "
+        + (f"{checkpoint} keeps the state after episode {kept}" if checkpoint else "not saved")
     )
 
 
@@ -347,6 +349,9 @@ def train_population(
         except KeyboardInterrupt as error:
             raise type(error)(f"interrupted in learner {k} of {config.population} ({error}); "
                               "resume to continue") from error  # fmt: skip
+        except DivergenceError as error:  # its seed is the learner's, drawn from the run's
+            raise DivergenceError(f"learner {k} of {config.population} of run seed {seed}: "
+                                  f"{error}", error.rewards) from None  # fmt: skip
         finally:
             if tee is not None:
                 tee.close()

@@ -177,7 +177,9 @@ class _Lockstep:
             episode = int(self.episode[i]) - 1
             if not math.isfinite(total[i]):
                 error = DivergenceError(f"the episode's return is {total[i]}", rewards=True)
-                raise diverged(self.config, self.seeds[i], episode, len(self.histories[i]), error)
+                path = None if self.dirs is None else self.dirs[i] / CHECKPOINT_FILE
+                raise diverged(self.config, self.seeds[i], episode, len(self.histories[i]), error,
+                               path)  # fmt: skip
             self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
             self.checkpoints[i].snapshot(partial(self.learners.state_dict, i), self.histories[i])
             self.monitors[i].episode(episode, int(length[i]), float(total[i]), bool(success[i]))
