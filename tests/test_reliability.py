@@ -375,6 +375,18 @@ def test_a_diverging_learner_stops_with_the_cause_and_a_finite_checkpoint(tmp_pa
     )
 
 
+@pytest.mark.parametrize("target", ["run.json", "missing.json"])  # a loop; a dangling link
+def test_a_run_json_that_is_a_broken_link_is_refused_not_skipped(trained, target, exits, capsys):
+    # A symlink loop made run.json "not exist", so the check of the checkpoint against it was
+    # skipped and the run evaluated as if it had no record.
+    (trained / "run.json").unlink()
+    (trained / "run.json").symlink_to(target)
+    assert exits(["evaluate", str(trained), "--episodes", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"{trained / 'run.json'} is not a readable run record" in err, err
+    assert len(err.splitlines()) == 1 and not (trained / "eval.json").exists()
+
+
 def test_a_diverging_population_names_the_learner_and_its_checkpoint(tmp_path, exits, capsys):
     # It named only the learner's own seed (drawn from the run's) and "the checkpoint", which
     # is the learner's, not the run's (there is none at the top until the population ends).

@@ -318,7 +318,7 @@ def load_into(load: Callable[[StateNow], None], arrays: StateNow, path: Path) ->
 def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
     """Refuse a checkpoint that is not the run ``run.json`` records (if there is one)."""
     run_file, path = run_dir / RUN_FILE, run_dir / CHECKPOINT_FILE
-    if not run_file.exists():
+    if not run_file.exists() and not run_file.is_symlink():  # a link that leads nowhere is read
         return
     try:
         record = json.loads(run_file.read_text())
