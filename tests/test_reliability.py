@@ -604,6 +604,27 @@ def test_a_sweep_evaluates_again_where_a_trials_evaluation_is_unreadable(
     assert summary["points"][0]["held_out_runs"] == 1
 
 
+def test_a_sweep_evaluates_again_where_a_trials_evaluation_was_edited(
+    one_trial_sweep, tmp_path, capsys
+) -> None:
+    # A hand-edited median in a trial's eval.json (of the right trial and protocol) entered the
+    # summary; eval.json now carries the digest of its contents.
+    from acrobot_mj.files import is_sealed
+    from acrobot_mj.train.sweep import run_sweep
+
+    shutil.copytree(one_trial_sweep, tmp_path, dirs_exist_ok=True)
+    evaluation = tmp_path / "trials" / "base__seed=0" / "eval.json"
+    record = json.loads(evaluation.read_text())
+    assert is_sealed(record)
+    true_median = record["summary"]["length"]["median"]
+    record["summary"]["length"]["median"] = 1.0
+    evaluation.write_text(json.dumps(record))
+    summary = run_sweep(parse_sweep(ONE_TRIAL), tmp_path)
+    assert f"{evaluation} was changed after it was written" in capsys.readouterr().err
+    assert summary["points"][0]["held_out_median"] == true_median != 1.0
+    assert is_sealed(json.loads(evaluation.read_text()))
+
+
 def _mount_tmpfs(path: Path, options: str) -> None:
     path.mkdir()
     result = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(path)],

@@ -14,7 +14,7 @@ import numpy as np
 
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.envs.rollout import run_episode
-from acrobot_mj.files import versions, write_json
+from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode
 from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.lock import RunLock
@@ -54,6 +54,7 @@ def evaluate_run(
               **({"kind": learner.kind} if learner.kind else {}),
               "config": learner.config.to_dict(), "versions": versions(),
               **evaluate_learner(learner, protocol, minima)}  # fmt: skip
+    record = sealed(record)  # a sweep tells an edited copy
     write_json(Path(run_dir) / EVAL_FILE, record)
     return record
 

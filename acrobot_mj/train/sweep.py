@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import write_json, write_text
+from acrobot_mj.files import is_sealed, sealed, write_json, write_text
 from acrobot_mj.report.plots import Series, line_plot
 from acrobot_mj.train.config import TrainConfig, field_names
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
@@ -220,7 +220,8 @@ def write_trial(run: Path, record: dict[str, Any], evaluation: dict[str, Any] | 
     (run / ERROR_FILE).unlink(missing_ok=True)
     if evaluation is not None:  # from elsewhere: this process writes them
         write_json(run / RUN_FILE, record)
-        write_json(run / EVAL_FILE, {**evaluation, "run": str(run)})
+        moved = {k: v for k, v in evaluation.items() if k != "sha256"} | {"run": str(run)}
+        write_json(run / EVAL_FILE, sealed(moved))
 
 
 def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
@@ -238,6 +239,10 @@ def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
                              f"evaluation ({error!r})\n")  # fmt: skip
         mine = {"protocol": DEFAULT.to_dict(), "run_seed": trial.seed,
                 "config": trial.config.to_dict()}  # fmt: skip
+        if saved is not None and not is_sealed(saved):
+            saved = None
+            sys.stderr.write(f"sweep: evaluating {trial.name} again: {path} was changed after "
+                             "it was written (or is older than its checksum)\n")  # fmt: skip
         if saved is not None and all(saved.get(k) == v for k, v in mine.items()):
             if median is None or isinstance(median, (int, float)):
                 return saved
