@@ -599,7 +599,7 @@ def test_a_sweep_evaluates_again_where_a_trials_evaluation_is_unreadable(
     evaluation.write_text(bad)  # truncated, or edited by hand
     summary = run_sweep(parse_sweep(ONE_TRIAL), tmp_path)
     err = capsys.readouterr().err
-    assert f"evaluating base__seed=0 again: {evaluation} is not a readable evaluation" in err
+    assert f"evaluating base__seed=0 again: {evaluation} is not as it was written" in err
     assert json.loads(evaluation.read_text())["summary"] == expected  # the same, evaluated again
     assert summary["points"][0]["held_out_runs"] == 1
 
@@ -620,7 +620,7 @@ def test_a_sweep_evaluates_again_where_a_trials_evaluation_was_edited(
     record["summary"]["length"]["median"] = 1.0
     evaluation.write_text(json.dumps(record))
     summary = run_sweep(parse_sweep(ONE_TRIAL), tmp_path)
-    assert f"{evaluation} was changed after it was written" in capsys.readouterr().err
+    assert f"{evaluation} is not as it was written" in capsys.readouterr().err
     assert summary["points"][0]["held_out_median"] == true_median != 1.0
     assert is_sealed(json.loads(evaluation.read_text()))
 

@@ -105,9 +105,9 @@ def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
     if not isinstance(grid, dict):
         raise ValueError(f"{source}: [grid] must be a table of lists")
     top = {k: v for k, v in data.items() if k in names}
-    for where, key, value in [*(("", k, v) for k, v in {**top, **extra}.items()),
-                              *(("grid ", k, v) for k, vs in grid.items()
-                                for v in (vs if isinstance(vs, list) else []))]:  # fmt: skip
+    values = [("", k, v) for k, v in {**top, **extra}.items()]
+    values += [("grid ", k, v) for k, vs in grid.items() if isinstance(vs, list) for v in vs]
+    for where, key, value in values:
         if not isinstance(value, (bool, int, float, str)):
             raise ValueError(f"{source}: {where}{key} value {value!r} is not a number, string "
                              "or boolean")  # fmt: skip
@@ -227,25 +227,20 @@ def write_trial(run: Path, record: dict[str, Any], evaluation: dict[str, Any] | 
 def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
     """A finished trial's default held-out evaluation: its ``eval.json`` if that is of this
     trial and protocol, else evaluated now (None without a checkpoint)."""
-    run_dir, quantity = trial_dir(out, trial), get_task(trial.config.task).score.quantity
+    run_dir = trial_dir(out, trial)
     path = run_dir / EVAL_FILE
     if path.exists():
         try:
             saved = json.loads(path.read_text())
-            median = saved["summary"][quantity]["median"]
-        except (OSError, ValueError, TypeError, KeyError) as error:
-            saved, median = None, None
-            sys.stderr.write(f"sweep: evaluating {trial.name} again: {path} is not a readable "
-                             f"evaluation ({error!r})\n")  # fmt: skip
+        except (OSError, ValueError):
+            saved = None
         mine = {"protocol": DEFAULT.to_dict(), "run_seed": trial.seed,
                 "config": trial.config.to_dict()}  # fmt: skip
-        if saved is not None and not is_sealed(saved):
-            saved = None
-            sys.stderr.write(f"sweep: evaluating {trial.name} again: {path} was changed after "
-                             "it was written (or is older than its checksum)\n")  # fmt: skip
-        if saved is not None and all(saved.get(k) == v for k, v in mine.items()):
-            if median is None or isinstance(median, (int, float)):
-                return saved
+        if not is_sealed(saved):  # its checksum fails: unreadable, cut short or edited
+            sys.stderr.write(f"sweep: evaluating {trial.name} again: {path} is not as it was "
+                             "written (unreadable, edited, or older than checksums)\n")  # fmt: skip
+        elif all(saved.get(k) == v for k, v in mine.items()):
+            return saved
     return evaluate_run(run_dir) if (run_dir / CHECKPOINT_FILE).exists() else None
 
 
