@@ -1,5 +1,6 @@
 """Learning agents, one algorithm per module: tabular SARSA (the report's) and Sarsa(lambda) (the
-book's), over the report's grid or tile coding; the registry :data:`AGENTS` builds them."""
+book's), over the report's grid or tile coding; the registry
+:data:`~acrobot_mj.agents.base.AGENTS` builds them."""
 
 from acrobot_mj.agents.base import (
     AGENTS,

@@ -56,7 +56,7 @@ class RandomStream:
         self.block, self.position = np.zeros(0), 0
 
     def reserve(self, count: int = 2) -> None:
-        """At least ``count`` unread draws in :attr:`block`, for a compiled learner to read."""
+        """At least ``count`` unread draws in ``block``, for a compiled learner to read."""
         if len(self.block) - self.position < count:
             self.block = np.concatenate([self.block[self.position :], self.generator.random(BLOCK)])
             self.position = 0
@@ -163,6 +163,7 @@ class AgentSpec:
     group: Callable[[Any, Any, Sequence[int]], Any] | None = None
 
 
+#: The registered algorithms by name (:func:`register_agent` adds one).
 AGENTS: dict[str, AgentSpec] = {}
 
 

@@ -72,7 +72,7 @@ def group_begin(q, ids, s, a, epsilon, blocks, positions) -> None:
 
 class Sarsa:
     """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``; a
-    :class:`StateGrid`'s cells are found in the compiled update)."""
+    :class:`~acrobot_mj.agents.features.StateGrid`'s cells are found in the compiled update)."""
 
     def __init__(self, grid: StateGrid, n_actions: int = 3, alpha: float = 0.5,
                  gamma: float = 1.0, epsilon: float = 0.001,

@@ -1,5 +1,5 @@
 """Linear feedback: exact Jacobians of the env's step, discrete LQR at upright (saturated, its
-basin, and the bound no controller with |tau| <= 1 N m can beat), TVLQR along a swing-up
+basin, and the bound no controller with ``|tau| <= 1`` N m can beat), TVLQR along a swing-up
 (joining the LQR's cost at upright without a seam) and sigma-delta for {-1, 0, +1} torques."""
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 
+#: The fixed policies by name.
 POLICY_NAMES = ("pump", "zero", "random")
 
 

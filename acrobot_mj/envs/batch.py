@@ -179,7 +179,8 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
 
 
 def physical_parameters(model: MjModel) -> AcrobotParams:
-    """The model's links as :class:`AcrobotParams`, read by name at ``qpos = 0``."""
+    """The model's links as :class:`~acrobot_mj.physics.params.AcrobotParams`, read by name at
+    ``qpos = 0``."""
     data = MjData(model)
     mujoco.mj_kinematics(model, data)
     shoulder, elbow = model.joint("shoulder").id, model.joint("elbow").id

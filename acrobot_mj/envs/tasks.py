@@ -60,7 +60,8 @@ class Task(ABC):
     score: ClassVar[Score]
     #: The mean return that counts as solved with the registered defaults (or None).
     reward_threshold: ClassVar[float | None] = None
-    options: ClassVar[tuple[str, ...]] = ()  # constructor keywords besides start_noise
+    #: Constructor keywords besides ``start_noise``.
+    options: ClassVar[tuple[str, ...]] = ()
     start_keyframe: ClassVar[str] = "hanging"
     #: Names of the rule's ``values`` in ``info``, and the names success is reported under.
     info_keys: ClassVar[tuple[str, ...]] = ()
@@ -305,6 +306,7 @@ class Balance(Task):
         return f"error {float(info['upright_error']):.3f} rad"
 
 
+#: The registered tasks by name (:func:`register_task` adds one).
 TASKS: dict[str, type[Task]] = {}
 
 

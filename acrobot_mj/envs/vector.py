@@ -22,11 +22,13 @@ from acrobot_mj.envs.spaces import reset_noise, write_torques
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
 #: Sub-env attributes with one value per sub-env (get_attr), and those set_attr sets.
 PER_ENV = ("state", "np_random", "np_random_seed")
+#: The sub-env attributes set_attr sets.
 SETTABLE = ("np_random",)
 #: Sub-env attributes the batch shares (get_attr repeats the one value; set_attr refuses them).
 SHARED = ("frame_skip", "integrator", "continuous", "start_noise", "dt", "task", "model",
           "metadata", "render_mode", "width", "height", "camera", "action_space",
           "observation_space")  # fmt: skip
+#: The sub-env methods call runs on every sub-env.
 METHODS = ("set_state", "render")
 
 

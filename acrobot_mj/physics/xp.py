@@ -42,6 +42,7 @@ def wrap(angle: float) -> float:
     return wrapped - TWO_PI if wrapped >= math.pi else wrapped
 
 
+#: A float or an array of angles [rad].
 Angle = TypeVar("Angle", float, np.ndarray)
 
 
@@ -57,7 +58,9 @@ def wrap_angle(angle: Angle) -> Angle:
     return np.where(inside, angle, wrapped)
 
 
+#: The namespace of Python floats: this module (numba compiles its rules).
 FLOATS: ModuleType = sys.modules[__name__]
+#: The namespace of numpy arrays.
 ARRAY = SimpleNamespace(cos=np.cos, sin=np.sin, clip=np.clip, maximum=np.maximum, wrap=wrap_angle)
 
 

@@ -73,8 +73,9 @@ def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: A
 def closed_loop(trajectory: Trajectory, discrete: bool = False, hold: float = 60.0,
                 perturbation: Perturbation = Perturbation(), env: gym.Env | None = None,
                 record: Any = None) -> dict[str, Any]:  # fmt: skip
-    """:meth:`Balance.assess` of the controller on ``env``, with per-step ``torques`` and
-    ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead (videos)."""
+    """:meth:`~acrobot_mj.envs.tasks.Balance.assess` of the controller on ``env``, with per-step
+    ``torques`` and ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead
+    (videos)."""
     env = env or balance_env(trajectory, discrete, hold)
     model = env.unwrapped.model
     for name in ("link1", "link2"):

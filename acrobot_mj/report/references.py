@@ -21,7 +21,8 @@ from acrobot_mj.report.crosscheck import METHODS
 
 
 def controllers(quick: bool = False) -> dict[str, Any]:
-    """Energy pumping from rest, the saturated LQR and its basin, and the bound for |tau| <= 1."""
+    """Energy pumping from rest, the saturated LQR and its basin, and the bound for
+    ``|tau| <= 1``."""
     env = gym.make(HeightGoal.env_id, continuous=True)
     energies: list[float] = []
 
