@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -67,3 +67,26 @@ def check_memory(what: str, nbytes: float) -> None:
     if available is not None and nbytes > available:
         raise ValueError(f"{what} needs {_size(nbytes)} of memory; this machine has "
                          f"{_size(available)} free")  # fmt: skip
+
+
+#: A stop (Ctrl-C, SIGTERM) that was raised and not yet handled. A signal that arrives while
+#: numba loads compiled code lands in a ctypes callback, which reports the exception and drops
+#: it; :func:`check_stop` raises it again where the episode loops can take it.
+_PENDING: list[KeyboardInterrupt] = []
+
+
+def raise_stop(stop: KeyboardInterrupt) -> NoReturn:
+    """Raise ``stop`` from a signal handler, and keep it until :func:`clear_stop`."""
+    _PENDING[:] = [stop]
+    raise stop
+
+
+def check_stop() -> None:
+    """Raise the stop a signal asked for, if one was dropped before it was handled."""
+    if _PENDING:
+        raise _PENDING[0]
+
+
+def clear_stop() -> None:
+    """Forget the stop: it has been handled."""
+    _PENDING.clear()

@@ -50,7 +50,7 @@ def module_name(root: Path, path: Path) -> str:
 
 def rank(module: str) -> int:
     parts = module.split(".")
-    if len(parts) == 1:
+    if len(parts) == 1 or parts[1] == "__main__":  # the package, and `python -m acrobot_mj`
         return ROOT_RANK
     return LAYERS.get(parts[1], HELPERS)
 

@@ -7,6 +7,7 @@ KeyboardInterrupt, so each child gets SIGINT back at its default before it start
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import shutil
@@ -16,10 +17,13 @@ import sys
 import time
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
+from acrobot_mj.checks import clear_stop, raise_stop
 from acrobot_mj.cli import main
+from acrobot_mj.envs.rollout import PolicyActor, run_episode
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import (
@@ -42,7 +46,7 @@ def start(args: list[str], cwd: Path, new_group: bool = False, **env: str) -> su
     """``acrobot-mj ARGS`` in a new process, SIGINT at its default (``new_group``: in a process
     group of its own, whose id is its pid)."""
     return subprocess.Popen(
-        [sys.executable, "-m", "acrobot_mj.cli", *args],
+        [sys.executable, "-m", "acrobot_mj_main", *args],
         cwd=cwd,
         env={**os.environ, "PYTHONPATH": str(ROOT), **env},
         stdout=subprocess.PIPE,
@@ -124,6 +128,39 @@ def test_an_interrupted_run_of_several_seeds_resumes_every_seed(tmp_path) -> Non
         for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
             assert record[key] == alone[key], (seed, key)
     assert json.loads((tmp_path / "multi" / "summary.json").read_text())["seeds"] == [0, 1, 2]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_at_any_moment_of_the_start_is_one_line_and_its_exit_code(tmp_path, sig) -> None:
+    # From the first instant (the package loads for about a second, numba's cache after it) to
+    # the first episodes: never a traceback, never a stop lost (a signal that lands while numba
+    # loads compiled code is raised in a C callback that drops it), and the signal's exit code.
+    # Before Python runs the command's first line, the signal's default ends it, silently.
+    for i, delay in enumerate((0.0, 0.2, 0.5, 0.8, 1.1, 1.4, 1.8)):
+        child = start([*LONG, "--out", f"run{i}"], tmp_path)
+        time.sleep(delay)
+        child.send_signal(sig)
+        _, err = child.communicate(timeout=60)
+        quiet = child.returncode == -sig and err == ""
+        assert quiet or (child.returncode == 128 + sig and len(err.splitlines()) == 1), (delay, err)
+
+
+def test_a_stop_dropped_in_a_c_callback_is_raised_at_the_next_episode(monkeypatch) -> None:
+    # ctypes reports an exception raised in a callback and drops it (numba's cache loader is one):
+    # the stop is kept, and the episode loop raises it before its next episode.
+    dropped = []
+    monkeypatch.setattr(sys, "unraisablehook", dropped.append)
+    callback = ctypes.CFUNCTYPE(None)(lambda: raise_stop(KeyboardInterrupt("dropped")))
+    callback()
+    assert len(dropped) == 1  # it did not propagate
+    env = gym.make("acrobot_mj/Acrobot-v0")
+    try:
+        with pytest.raises(KeyboardInterrupt, match="dropped"):
+            run_episode(env, PolicyActor(lambda obs: 1))
+    finally:
+        clear_stop()
+    assert run_episode(env, PolicyActor(lambda obs: 1), max_steps=3).length == 3
 
 
 def test_a_lockstep_resume_starts_a_seed_that_never_reached_a_checkpoint(tmp_path) -> None:
@@ -701,7 +738,7 @@ def test_a_fifo_named_like_a_lock_neither_hangs_nor_is_taken(tmp_path) -> None:
 def _cli(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess:
     clean = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "ACROBOT_MJ_GL_PROBLEM")}
     return subprocess.run(
-        [sys.executable, "-m", "acrobot_mj.cli", *args],
+        [sys.executable, "-m", "acrobot_mj_main", *args],
         cwd=cwd,
         env={**clean, "PYTHONPATH": str(ROOT), **env},
         capture_output=True,

@@ -140,7 +140,7 @@ def test_a_resumed_population_rebuilds_its_log_without_duplicates(tmp_path) -> N
 
 def _cli(args: list[str], cwd: Path, **kwargs) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "acrobot_mj.cli", *args],
+        [sys.executable, "-m", "acrobot_mj_main", *args],
         cwd=cwd,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
         text=True,
@@ -166,7 +166,7 @@ def _on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
     # A new pseudo-terminal is 0 x 0; a real one has a size (tqdm fits its bar to it).
     fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 160, 0, 0))
     child = subprocess.Popen(
-        [sys.executable, "-m", "acrobot_mj.cli", *args],
+        [sys.executable, "-m", "acrobot_mj_main", *args],
         cwd=cwd,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
         stdin=subprocess.DEVNULL,

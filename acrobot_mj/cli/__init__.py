@@ -9,7 +9,9 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from typing import Any
 
+from acrobot_mj.checks import clear_stop, raise_stop
 from acrobot_mj.cli import learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.files import __version__
@@ -38,15 +40,27 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, handled as Ctrl-C is: runs save their checkpoints and say so."""
 
 
-def _terminate(signum: int, frame: object) -> None:
-    raise Terminated("terminated (SIGTERM)")
+def _stop(signum: int, frame: object) -> None:
+    raise_stop(
+        Terminated("terminated (SIGTERM)") if signum == signal.SIGTERM else KeyboardInterrupt()
+    )
+
+
+def _unraisable(report: Any) -> None:
+    # A stop raised in a C callback (numba's loader) is dropped there and raised again by
+    # check_stop: it is not reported twice.
+    if not isinstance(report.exc_value, KeyboardInterrupt):
+        sys.__unraisablehook__(report)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _terminate)
+    clear_stop()
+    main_thread = threading.current_thread() is threading.main_thread()
+    if main_thread:  # restored on return: main may run inside another program (the tests)
+        before = [signal.signal(s, _stop) for s in (signal.SIGINT, signal.SIGTERM)]
+        hook, sys.unraisablehook = sys.unraisablehook, _unraisable
     try:
         args.func(args)
     except ERRORS as error:
@@ -59,6 +73,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         hint = "; continue with --resume" if saved else ""
         code = 143 if isinstance(interrupt, Terminated) else 130  # 128 + the signal's number
         parser.exit(code, f"acrobot-mj {args.command}: {str(interrupt) or 'interrupted'}{hint}\n")
+    finally:
+        clear_stop()
+        if main_thread:
+            signal.signal(signal.SIGINT, before[0])
+            signal.signal(signal.SIGTERM, before[1])
+            sys.unraisablehook = hook
     return 0
 
 

@@ -12,6 +12,8 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from acrobot_mj.checks import check_stop
+
 #: A policy maps an observation ``(q1, q2, dq1, dq2)`` to an action of the env's space.
 Policy = Callable[[np.ndarray], Any]
 
@@ -74,6 +76,7 @@ def run_episode(
     """Run one episode of ``actor`` on ``env`` from ``env.reset(seed, options)`` until it ends
     or has taken ``max_steps`` actions (the actor sees a truncation; the Episode the env's
     flag)."""
+    check_stop()  # a stop that numba's loader dropped: taken between episodes
     obs, info = env.reset(seed=seed, options=options)
     if on_reset is not None:
         on_reset(obs, info)

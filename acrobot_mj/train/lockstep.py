@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
+from acrobot_mj.checks import check_stop
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
@@ -143,6 +144,7 @@ class _Lockstep:
         actions[active] = self._restart(active)
         try:
             while active.any():
+                check_stop()  # a stop that numba's loader dropped
                 obs, reward, terminated, truncated, info = self.vec.step(actions)
                 ids = np.flatnonzero(active)
                 length[ids] += 1

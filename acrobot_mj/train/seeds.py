@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from acrobot_mj.checks import raise_stop
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.train.config import TrainConfig
@@ -47,7 +48,7 @@ def _interrupt(signum: int, frame: Any) -> None:
     # Only a running call is interrupted: an idle worker waits on the pool's queue, and an
     # exception there can leave the queue's lock held, which hangs the pool's shutdown.
     if _RUNNING:
-        raise KeyboardInterrupt("stopped by the driver")
+        raise_stop(KeyboardInterrupt("stopped by the driver"))
 
 
 def _watch(stop: Any, parent: int) -> None:

@@ -1,7 +1,0 @@
-"""``python -m acrobot_mj.cli``: the ``acrobot-mj`` command."""
-
-import sys
-
-from acrobot_mj.cli import main
-
-sys.exit(main())
