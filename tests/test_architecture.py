@@ -71,9 +71,9 @@ def test_the_checker_finds_every_kind_of_violation(tmp_path) -> None:
 
 
 def _layout_paths() -> list[str]:
-    """The paths of the layout tree in docs/layout.md (names in the first 24 columns, two spaces
-    of indentation per level; lines with nothing there continue a description)."""
-    text = (ROOT / "docs" / "layout.md").read_text()
+    """The paths of the layout tree in docs/explain/layout.md (names in the first 24 columns, two
+    spaces of indentation per level; lines with nothing there continue a description)."""
+    text = (ROOT / "docs" / "explain" / "layout.md").read_text()
     block = text.split("# Layout", 1)[1].split("```", 2)[1]
     paths, parents = [], []
     for line in block.splitlines():
@@ -92,11 +92,11 @@ def _layout_paths() -> list[str]:
 def test_the_readme_layout_matches_the_code() -> None:
     listed = _layout_paths()
     missing = [path for path in listed if not (ROOT / path).exists()]
-    assert missing == [], f"docs/layout.md lists paths that do not exist: {missing}"
+    assert missing == [], f"docs/explain/layout.md lists paths that do not exist: {missing}"
     modules = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "acrobot_mj").rglob("*.py"))
     # Package __init__ files other than the root's, the registry's and the CLI's hold only
     # a docstring or re-exports; every other module must be listed.
     quiet = {f"acrobot_mj/{pkg}/__init__.py" for pkg in ("physics", "control", "envs")}
     quiet |= {"acrobot_mj/report/__init__.py", "acrobot_mj/train/__init__.py"}
     unlisted = [m for m in modules if m not in listed and m not in quiet]
-    assert unlisted == [], f"modules missing from docs/layout.md: {unlisted}"
+    assert unlisted == [], f"modules missing from docs/explain/layout.md: {unlisted}"

@@ -10,7 +10,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
-PAGES = sorted((ROOT / "docs").glob("*.md"))
+DOCS = ROOT / "docs"
+#: Every page of the docs site, in every folder (the built site in docs/_build aside).
+PAGES = sorted(p for p in DOCS.rglob("*.md") if "_build" not in p.relative_to(DOCS).parts)
 
 
 def _blocks(text: str) -> list[str]:
@@ -28,13 +30,15 @@ def test_the_readme_python_examples_run(capsys, tmp_path, monkeypatch) -> None:
     assert capsys.readouterr().out.startswith("96 100.0 {'tip_height': 1.357")
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES if _blocks(p.read_text())], ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "page", [p for p in PAGES if _blocks(p.read_text())], ids=lambda p: str(p.relative_to(DOCS))
+)
 def test_the_docs_python_examples_run(page, tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
     namespace: dict = {"__name__": "docs"}  # one session per page, in order
     for block in _blocks(page.read_text()):
         exec(
-            compile("import gymnasium as gym\nimport acrobot_mj\n" + block, page.name, "exec"),
+            compile("import gymnasium as gym\nimport acrobot_mj\n" + block, str(page), "exec"),
             namespace,
         )
 
