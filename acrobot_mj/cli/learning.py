@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -201,7 +202,9 @@ def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
     given = {"episodes": args.episodes, "start_noise": args.start_noise, "seed": args.seed}
     protocol = {k: v for k, v in given.items() if v is not None}
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
-    print(evaluation_words(record) + f"; wrote {Path(args.run_dir) / EVAL_FILE}")
+    path = Path(args.run_dir) / EVAL_FILE
+    wrote = f"wrote {path}" if os.access(args.run_dir, os.W_OK) else f"{args.run_dir} is read-only"
+    print(f"{evaluation_words(record)}; {wrote}")
     return record
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import signal
+import sys
 import threading
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -137,17 +138,29 @@ def solve_or_none(opti: Any) -> Any:
 
         return handle
 
+    class Stderr:  # after a stop, CasADi warns of it (in pieces); the caller says it in one line
+        def __init__(self, stream: Any) -> None:
+            self.stream = stream
+
+        def write(self, text: str) -> int:
+            return len(text) if caught else self.stream.write(text)
+
+        def __getattr__(self, name: str) -> Any:
+            return getattr(self.stream, name)
+
     kept = {}
     if threading.current_thread() is threading.main_thread():
         kept = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
         for s, handler in kept.items():
             if callable(handler):
                 signal.signal(s, keeping(handler))
+    stderr, sys.stderr = sys.stderr, Stderr(sys.stderr)
     try:
         solution = opti.solve()
     except RuntimeError:
         solution = None
     finally:
+        sys.stderr = stderr
         for s, handler in kept.items():
             signal.signal(s, handler)
     if caught:

@@ -227,10 +227,10 @@ def _check_type(name: str, kind: Any, value: Any) -> None:
 
 
 def _check_ranges(c: TrainConfig) -> None:
-    for name in ("frame_skip", "max_episode_steps", "episodes", "population", "checkpoint_every"):
+    for name in ("max_episode_steps", "episodes", "population", "checkpoint_every"):
         if getattr(c, name) < 1:
             raise ValueError(f"config {name} must be >= 1, got {getattr(c, name)}")
-    if c.frame_skip > MAX_FRAME_SKIP:
+    if not 1 <= c.frame_skip <= MAX_FRAME_SKIP:
         raise ValueError(f"config frame_skip must be in [1, {MAX_FRAME_SKIP}] (0.05 s physics "
                          f"steps per decision), got {c.frame_skip}")  # fmt: skip
     for name in ("noise_until", "start_noise"):

@@ -36,15 +36,16 @@ def evaluate(
     """Greedy episodes of a run from the held-out starts of ``protocol`` (default: its
     learner's; a dict changes some of its settings) and from rest; writes and returns
     ``eval.json``. ``minima``: compare with ``"stored"`` per-start minima where they apply,
-    ``"compute"`` them otherwise, or ``"none"``. Locks the run directory."""
-    with RunLock(Path(run_dir), "evaluate", create=False):
-        return evaluate_run(run_dir, protocol, minima)
+    ``"compute"`` them otherwise, or ``"none"``. Locks the run directory; one that cannot be
+    written (a read-only mount) is evaluated without writing ``eval.json``."""
+    with RunLock(Path(run_dir), "evaluate", create=False) as lock:
+        return evaluate_run(run_dir, protocol, minima, write=not lock.read_only)
 
 
-def evaluate_run(
-    run_dir: str | Path, protocol: Protocol | dict | None = None, minima: str = "stored"
-) -> dict[str, Any]:
-    """:func:`evaluate` for a caller that holds the lock (of the run or of one above it)."""
+def evaluate_run(run_dir: str | Path, protocol: Protocol | dict | None = None,
+                 minima: str = "stored", write: bool = True) -> dict[str, Any]:  # fmt: skip
+    """:func:`evaluate` for a caller that holds the lock (of the run or of one above it);
+    ``write``: ``eval.json`` too."""
     if minima not in MINIMA:
         raise ValueError(f"minima must be one of {MINIMA}, got {minima!r}")
     learner = load_learner(run_dir)
@@ -55,7 +56,8 @@ def evaluate_run(
               "config": learner.config.to_dict(), "versions": versions(),
               **evaluate_learner(learner, protocol, minima)}  # fmt: skip
     record = sealed(record)  # a sweep tells an edited copy
-    write_json(Path(run_dir) / EVAL_FILE, record)
+    if write:
+        write_json(Path(run_dir) / EVAL_FILE, record)
     return record
 
 

@@ -84,6 +84,8 @@ class RunLock:
         self.directory = Path(directory).resolve()
         self.command, self.create = command, create
         self._noop = False
+        #: True where the directory cannot be written (a read-only mount): read, not locked.
+        self.read_only = False
 
     def __enter__(self) -> RunLock:
         if not self.create and not self.directory.is_dir():
@@ -106,7 +108,7 @@ class RunLock:
         except OSError as error:
             if self.create or error.errno not in (errno.EROFS, errno.EACCES):
                 raise
-            self._noop = True  # a directory this process cannot write: read it unlocked
+            self._noop = self.read_only = True  # a directory this process cannot write
             return self
         _HELD[self.directory] = [fd, 1]
         os.environ[OWNERS_VARIABLE] = ",".join(str(p) for p in sorted(_owners()))
