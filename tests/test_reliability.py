@@ -242,6 +242,7 @@ def test_a_resume_killed_after_adding_episodes_leaves_a_usable_run(tmp_path, exi
     assert record["interrupted"] is True and record["config"]["episodes"] == 20000
     assert not (run / "eval.json").exists()  # it evaluated the 2-episode agent
     assert exits(["evaluate", str(run), "--episodes", "1"]) == 0
+    assert exits(["render", str(run), "--steps", "3", "--out", str(tmp_path / "v.mp4")]) == 0
 
 
 def test_training_again_removes_the_evaluation_of_what_it_replaces(trained, exits) -> None:
@@ -603,6 +604,10 @@ def test_a_hand_edited_episode_log_is_refused_on_resume(trained, edit, says, exi
     [
         ["demo", "--steps", "5", "--json", "{run}/run.json"],
         ["demo", "--steps", "5", "--json", "{run}/checkpoint.npz"],
+        ["demo", "--steps", "5", "--json", "{run}/episodes.jsonl"],
+        ["demo", "--steps", "5", "--json", "{run}/eval.json"],
+        ["demo", "--steps", "5", "--json", "{run}/summary.json"],
+        ["demo", "--steps", "5", "--json", "{run}/trajectory.json"],
         ["curves", "{run}", "--out", "{run}/learning_curve.png"],
     ],
 )
