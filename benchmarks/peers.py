@@ -39,7 +39,7 @@ PEERS = ("envpool", "gymnax")
 SIZES = (1, 64, 1024)
 #: Fewest steps of all N per measurement (fewer time mostly the call and threads waking up).
 MIN_STEPS = 500
-#: What to install where a peer is missing (docs/speed.md has the whole recipe).
+#: What to install where a peer is missing (docs/guide/benchmarks.md has the whole recipe).
 INSTALL = {
     "envpool": "pip install 'acrobot-mj[bench]' (or envpool) beside the package",
     "gymnax": "it needs a peer env of its own, see docs/speed.md",

@@ -1,6 +1,6 @@
 """SAC (Stable-Baselines3) on the balance task, acrobot_mj/AcrobotBalance-v0 with continuous
 torques in [-1, 1] N m at 0.2 s decisions: a model-free baseline for the ``balance`` preset
-(docs/balance-learned.md), evaluated from the same held-out starts.
+(docs/guide/balance.md), evaluated from the same held-out starts.
 
     python examples/sac_balance.py [--steps 20000] [--seed 0] [--out DIR] [--episodes 100]
 

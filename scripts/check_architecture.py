@@ -34,7 +34,7 @@ NO_SIMULATOR = ("physics", "control")
 #: Documented public functions whose names start with an underscore.
 PUBLIC_UNDERSCORED = {"os._exit"}
 SIMULATORS = ("mujoco",)
-#: Text that points outside the repository (its own docs/design.md is fine), or at a tracker
+#: Text that points outside the repository (its own docs/explain/design.md is fine), or at a tracker
 #: (the words are assembled so that this file does not match itself).
 OUTSIDE = re.compile(r"\bDESIGN\.md|\.\./shared\b|\bshared/DESIGN")
 TRACKER = re.compile(r"\b" + "iss" + r"ues?\b|\btick" + r"ets?\b", re.IGNORECASE)

@@ -1,4 +1,5 @@
-"""The Gymnasium environment: API conformance, the height goal (docs/design.md), determinism."""
+"""The Gymnasium environment: API conformance, the height goal (docs/envs/acrobot.md),
+determinism."""
 
 from __future__ import annotations
 

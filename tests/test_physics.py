@@ -46,7 +46,7 @@ def test_rk4_conserves_energy_and_drift_shrinks_with_dt() -> None:
 
 
 def test_explicit_euler_pumps_energy_and_semi_implicit_does_not() -> None:
-    # docs/design.md, integrators: the report's forward Euler gains energy at dt = 0.05 s,
+    # docs/explain/design.md, integrators: the report's forward Euler gains energy at dt = 0.05 s,
     # MuJoCo's semi-implicit Euler (symplectic) keeps it bounded.
     x0 = np.array([-np.pi / 2 + 0.5, 0.0, 0.0, 0.0])
     e0 = dynamics.total_energy(x0[:2], x0[2:])
@@ -68,7 +68,7 @@ def test_equilibria_have_zero_acceleration() -> None:
 
 
 def test_design_eigenvalues() -> None:
-    # docs/design.md, errata: hanging is a centre with +-2.82i, +-1.88i; upright has +-2.82,
+    # docs/explain/design.md, errata: hanging is a centre with +-2.82i, +-1.88i; upright has +-2.82,
     # +-1.88.
     hanging = np.linalg.eigvals(dynamics.linearize([-np.pi / 2, 0.0])[0])
     upright = np.linalg.eigvals(dynamics.linearize([np.pi / 2, 0.0])[0])

@@ -145,8 +145,8 @@ def test_lqr_recovers_inside_its_basin_and_nothing_beats_the_bound(report) -> No
     _, r = report
     low, high = r["controllers"]["lqr"]["q1_basin_rad"]
     bound = r["controllers"]["bound_any_controller_q1_rad"]
-    # Computed independently by hand (docs/design.md): no bounded controller recovers beyond
-    # about 0.084 rad.
+    # Computed independently by hand (docs/explain/validation.md): no bounded controller recovers
+    # beyond about 0.084 rad.
     assert bound == pytest.approx(0.084, abs=5e-4)
     assert 0.005 < high < bound and -bound < low < -0.005
     controller = lqr.LQR()

@@ -10,7 +10,7 @@ import numpy as np
 
 _PACKAGE = Path(__file__).resolve().parent.parent  # acrobot_mj/
 
-#: Names the package reads the model by (``docs/design.md``).
+#: Names the package reads the model by (``docs/explain/design.md``).
 REQUIRED_NAMES: dict[mujoco.mjtObj, tuple[str, ...]] = {
     mujoco.mjtObj.mjOBJ_BODY: ("link1", "link2"),
     mujoco.mjtObj.mjOBJ_JOINT: ("shoulder", "elbow"),
