@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import argparse
 import json
+import subprocess
+import sys
 
 import pytest
 
-from acrobot_mj.cli import main
+from acrobot_mj import __version__
+from acrobot_mj.cli import build_parser, main
 
 
 def test_demo_pump_reaches_the_goal_and_writes_json(tmp_path, capsys) -> None:
@@ -49,3 +53,33 @@ def test_bad_arguments_exit_with_usage(argv, capsys) -> None:
         main(argv)
     assert exit_info.value.code == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_no_command_prints_the_help(capsys) -> None:
+    assert main([]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: acrobot-mj") and "acrobot-mj COMMAND --help" in out
+
+
+def _commands() -> dict:
+    parser = build_parser()
+    return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+
+@pytest.mark.parametrize("name", sorted(_commands()))
+def test_every_command_and_option_says_what_it_is_in_plain_text(name) -> None:
+    command = _commands()[name]
+    assert command.description, f"{name} has no description"
+    unexplained = [a.option_strings or a.dest for a in command._actions if not a.help]
+    assert unexplained == [], f"{name}: options without help: {unexplained}"
+    text = command.format_help()
+    markup = [m for m in (":mod:", ":class:", ":func:", "``") if m in text]
+    assert markup == [], f"{name}'s help shows markup: {markup}"
+    # A default is said once, by the help text or by the formatter.
+    assert "(default: None)" not in text and "default: default" not in text
+
+
+def test_python_dash_m_runs_the_command() -> None:
+    done = subprocess.run([sys.executable, "-m", "acrobot_mj", "--version"], capture_output=True,
+                          text=True, timeout=60)  # fmt: skip
+    assert done.returncode == 0 and done.stdout.strip() == __version__

@@ -27,10 +27,16 @@ ERRORS = (ValueError, TypeError, OSError, ImportError, ArithmeticError, Checkpoi
           GLBackendError, RunDirectoryBusy)  # fmt: skip
 
 
+#: What ``acrobot-mj --help`` says above the commands.
+DESCRIPTION = ("The Acrobot on MuJoCo: train learners that swing it up, evaluate them on held-out "
+               "starts, render videos, balance it upright, and check the physics.")  # fmt: skip
+EPILOG = "Each command has its own help: acrobot-mj COMMAND --help."
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="acrobot-mj", description=__doc__)
+    parser = argparse.ArgumentParser(prog="acrobot-mj", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=__version__)
-    commands = parser.add_subparsers(dest="command", required=True)
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMANDS:
         add(commands)
     return parser
@@ -56,6 +62,9 @@ def _unraisable(report: Any) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command is None:  # no command: what there is to do
+        parser.print_help()
+        return 0
     clear_stop()
     main_thread = threading.current_thread() is threading.main_thread()
     if main_thread:  # restored on return: main may run inside another program (the tests)

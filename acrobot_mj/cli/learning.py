@@ -32,6 +32,40 @@ PLAN_OPTIONS = (
 )
 
 
+#: Help for each setting (a config field); every default is the preset's.
+SETTING_HELP = {
+    "task": "what counts as success: height_goal (the report's) or balance",
+    "algorithm": "sarsa (tabular) or sarsa_lambda (linear, tile coding)",
+    "features": "grid (the report's table) or tiles (tile coding)",
+    "alpha": "step size; a fraction is allowed, e.g. 0.2/48",
+    "epsilon": "exploration: the probability of a random action",
+    "gamma": "discount factor",
+    "lam": "sarsa_lambda: trace decay lambda",
+    "trace_cutoff": "sarsa_lambda: traces below this are dropped",
+    "traces": "sarsa_lambda: replacing or accumulating",
+    "angle_bins": "grid: bins per angle",
+    "velocity_bins": "grid: bins per angular velocity",
+    "velocity_centre_max": "grid: half-width of the velocity bins' range [rad/s]",
+    "tilings": "tiles: number of tilings",
+    "subset_tilings": "tiles: add tilings over subsets of the state (true or false)",
+    "angle_tiles": "tiles: tiles per angle in each tiling",
+    "velocity_tiles": "tiles: tiles per velocity in each tiling",
+    "frame_skip": "physics steps of 0.05 s per decision, 1 to 1000",
+    "integrator": "euler (semi-implicit, the report's) or rk4",
+    "max_episode_steps": "decisions before an episode is truncated",
+    "start_noise": "half-width of the uniform noise on the start state, 0 to 1",
+    "noise_until": "fraction of the episodes that start with noise, 0 to 1",
+    "step_reward": "reward of each step (the report's: -1)",
+    "goal_reward": "reward on reaching the goal (the report's: +100)",
+    "energy_shaping": "weight of a potential-based energy shaping term (0: none)",
+    "episodes": "training episodes",
+    "population": "learners trained; the best by its last 20 episodes is kept",
+    "max_decisions": "a cap on the decisions of training (0: none)",
+    "identify_decisions": "decisions of data to identify a model first, then learn in it",
+    "checkpoint_every": "episodes between checkpoints",
+}
+
+
 def _flag(name: str) -> str:
     return f"--{name.replace('_', '-')}"
 
@@ -41,7 +75,8 @@ def add_train(commands: tools.Commands) -> None:
                     "train a learner, write run.json, checkpoint and learning curve",
                     "Train a preset's learner. Every setting can be overridden with --FIELD VALUE "
                     "(floats may be fractions, e.g. --alpha 0.2/48).")  # fmt: skip
-    p.add_argument("--preset", choices=sorted(PRESETS), default="report")
+    p.add_argument("--preset", choices=sorted(PRESETS), default="report",
+                   help="the settings to start from")  # fmt: skip
     p.add_argument("--seed", type=seed, default=0, help="seed (the first one with --seeds)")
     p.add_argument("--seeds", type=positive_int, help="train K seeds, write summary.json")
     p.add_argument("--jobs", type=positive_int, default=1, help="processes for --seeds")
@@ -55,7 +90,7 @@ def add_train(commands: tools.Commands) -> None:
     p.add_argument("--tensorboard", metavar="DIR", help="episode scalars to DIR for TensorBoard")
     group = p.add_argument_group("settings (defaults: the preset's)")
     for name in field_names():
-        group.add_argument(_flag(name), dest=name, metavar="VALUE")
+        group.add_argument(_flag(name), dest=name, metavar="VALUE", help=SETTING_HELP[name])
     for name in RETIRED:
         group.add_argument(_flag(name), dest=name, help=argparse.SUPPRESS)
     plan = p.add_argument_group("balance preset (identify, plan, TVLQR)")
@@ -239,7 +274,8 @@ def add_sweep(commands: tools.Commands) -> None:
                     "task per trial on ray.init(address=...) (a local Ray without "
                     "--address).")  # fmt: skip
     p.add_argument("sweep_file", help="the sweep's TOML file")
-    p.add_argument("--backend", choices=("local", "ray"), default="local")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="where trials run: local processes, or Ray (the ray extra)")  # fmt: skip
     p.add_argument("--address", help="Ray cluster address (e.g. auto or ray://host:10001)")
     p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
@@ -268,7 +304,7 @@ def add_curves(commands: tools.Commands) -> None:
                    help="directories written by train: of --seeds (their median and band) or "
                    "one run's (a population's learner_K among them)")  # fmt: skip
     p.add_argument("--out", required=True, help="the figure: .png, .svg or .pdf (by its suffix)")
-    p.add_argument("--title", default="Learning curves")
+    p.add_argument("--title", default="Learning curves", help="the figure's title")
     p.add_argument("--minimum", action="store_true", help="draw the task's best known minimum")
 
 

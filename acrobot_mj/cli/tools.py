@@ -29,11 +29,25 @@ class Commands(Protocol):
     def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser: ...
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """Each option's default after its help, where it has one the help does not already say."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (action.option_strings and default not in (None, False, argparse.SUPPRESS)
+                and "default" not in text):  # fmt: skip
+            text += f" (default: {default})"
+        return text
+
+
 def add_command(
     commands: Commands, name: str, func: Callable, text: str, description: str | None = None
 ) -> argparse.ArgumentParser:
-    """Command ``name`` (``text``: its help) that runs ``func(args)``."""
-    p = commands.add_parser(name, help=text, description=description)
+    """Command ``name`` (``text``: its help, and its description unless one is given) that runs
+    ``func(args)``."""
+    p = commands.add_parser(name, help=text, description=description or text[0].upper() + text[1:]
+                            + ".", formatter_class=HelpFormatter)  # fmt: skip
     p.set_defaults(func=func)
     return p
 
@@ -82,8 +96,8 @@ def add_render(commands: Commands) -> None:
     p.add_argument("--steps", type=positive_int, help="most steps (default: the whole episode)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env, ties and --policy random")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="with --policy only")
-    p.add_argument("--width", type=positive_int, default=480)
-    p.add_argument("--height", type=positive_int, default=480)
+    p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
+    p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
     p.add_argument("--camera", default="side", help="a camera of the model: side or wide")
     p.add_argument("--strip", metavar="PNG", help="also write a strip of 6 frames")
     p.add_argument("--captions", action=argparse.BooleanOptionalAction, default=True,
@@ -162,7 +176,8 @@ def add_demo(commands: Commands) -> None:
     p.add_argument("--steps", type=positive_int, default=1000, help="most actions to take")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env and the random policy")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="physics steps per action")
-    p.add_argument("--integrator", choices=("euler", "rk4"), default="euler")
+    p.add_argument("--integrator", choices=("euler", "rk4"), default="euler",
+                   help="semi-implicit Euler (the report's) or RK4")  # fmt: skip
     p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")
     p.add_argument("--json", metavar="FILE", help="also write the run record as JSON")
 
@@ -219,9 +234,10 @@ def add_balance(commands: Commands) -> None:
     p.add_argument("--hold", type=float, default=60.0, help="seconds to balance after it")
     p.add_argument("--out", default="runs/balance", help="folder for balance.json and the video")
     p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
-    p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True)
-    p.add_argument("--width", type=positive_int, default=480)
-    p.add_argument("--height", type=positive_int, default=480)
+    p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
+                   help="render an MP4 of the closed loop")  # fmt: skip
+    p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
+    p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
     add_progress(p)
 
 
