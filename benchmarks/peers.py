@@ -42,7 +42,7 @@ MIN_STEPS = 500
 #: What to install where a peer is missing (docs/guide/benchmarks.md has the whole recipe).
 INSTALL = {
     "envpool": "pip install 'acrobot-mj[bench]' (or envpool) beside the package",
-    "gymnax": "it needs a peer env of its own, see docs/speed.md",
+    "gymnax": "it needs a peer env of its own, see docs/guide/benchmarks.md",
 }
 
 

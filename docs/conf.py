@@ -8,7 +8,6 @@ Build (strict: warnings are errors, every cross-reference must resolve):
 from __future__ import annotations
 
 import os
-import re
 import subprocess
 import sys
 
@@ -57,25 +56,11 @@ nitpick_ignore = [
     # Names imported from gymnasium and mujoco, annotated by their short names.
     ("py:class", "AutoresetMode"),
     ("py:class", "MjModel"),
-    # Short names in acrobot_mj.train's docstrings, which resolve once written in full:
-    ("py:class", "AgentLearner"),  # train/model_based.py: ~acrobot_mj.train.learners.AgentLearner
-    ("py:func", "run_trial"),  # train/sweep.py: ~acrobot_mj.train.sweep.run_trial
 ]
 # Gymnasium's own docstrings (reset, step) are Gymnasium's to document.
 autodoc_inherit_docstrings = False
 # A dataclass without a docstring gets its signature as __doc__: not parsed as a signature.
 autodoc_docstring_signature = False
-
-
-def _plain_text_in_train(app, what, name, obj, options, lines) -> None:
-    """acrobot_mj.train's docstrings write ``|tau|`` for an absolute value (reST reads ``|x|`` as
-    a substitution) and ``learn``s (an inline literal must end before a letter); render them as
-    meant until those docstrings are edited."""
-    if not name.startswith("acrobot_mj.train"):
-        return
-    for i, line in enumerate(lines):
-        line = line.replace(" |tau| ", r" \|tau\| ")
-        lines[i] = re.sub(r"(``[^`]+``)([a-z])", r"\1\\ \2", line)
 
 
 class CommandHelp(SphinxDirective):
@@ -93,5 +78,4 @@ class CommandHelp(SphinxDirective):
 
 
 def setup(app) -> None:
-    app.connect("autodoc-process-docstring", _plain_text_in_train)
     app.add_directive("acrobot-mj-help", CommandHelp)

@@ -111,4 +111,4 @@ def test_peer_script_says_what_is_missing() -> None:
     result = json.loads(out.stdout.splitlines()[-1])
     assert result["peers"] == {}
     why = result["skipped"]["gymnax"]
-    assert "not installed" in why and "docs/speed.md" in why
+    assert "not installed" in why and "docs/guide/benchmarks.md" in why

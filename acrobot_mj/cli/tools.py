@@ -150,8 +150,9 @@ def add_bench(commands: Commands) -> None:
     p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
     p.add_argument("--peer-python", metavar="PATH",
-                   help="a Python with gymnax and jax (see docs/speed.md) for the peers' rows; "
-                   "default $ACROBOT_MJ_PEER_PYTHON, else those rows are skipped")  # fmt: skip
+                   help="a Python with gymnax and jax (docs/guide/benchmarks.md) for the "
+                   "peers' rows; default $ACROBOT_MJ_PEER_PYTHON, else those rows are "
+                   "skipped")  # fmt: skip
 
 
 def bench_command(args: argparse.Namespace) -> dict[str, Any]:

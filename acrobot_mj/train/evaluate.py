@@ -1,5 +1,5 @@
 """Evaluating and rendering any run: greedy episodes from held-out starts (``eval.json``, each
-episode's start state and actions, replayable; see docs/learning.md), compared per start with
+episode's start state and actions, replayable; see docs/guide/evaluate.md), compared per start with
 a beam search's minimum time (``heldout_minima.json``), and a video of the episode from rest."""
 
 from __future__ import annotations

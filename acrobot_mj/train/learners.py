@@ -108,8 +108,8 @@ DEFAULT = Protocol()
 
 
 class Learner(ABC):
-    """A trained thing: it ``learn``s into a run directory, acts through ``env`` and ``actor``,
-    and is ``load``ed back from the directory."""
+    """A trained thing: it learns into a run directory (``learn``), acts through ``env`` and
+    ``actor``, and is loaded back from the directory (``load``)."""
 
     #: ``run.json``'s ``kind`` (absent for agents).
     kind: ClassVar[str | None] = None

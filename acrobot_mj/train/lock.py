@@ -1,6 +1,7 @@
 """One owner at a time for a run directory: an exclusive ``flock`` on ``DIR/.lock``, the file
-naming the owner (docs/reliability.md). A directory inside a held one counts as held, unless its
-holder is ours: lock holders pass their pids to workers in ``ACROBOT_MJ_LOCK_OWNERS``."""
+naming the owner (docs/explain/reliability.md). A directory inside a held one counts as held,
+unless its holder is ours: lock holders pass their pids to workers in
+``ACROBOT_MJ_LOCK_OWNERS``."""
 
 from __future__ import annotations
 

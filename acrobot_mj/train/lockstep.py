@@ -32,7 +32,7 @@ from acrobot_mj.train.records import (
 )
 
 #: Seeds of one process from which they go in lockstep unless told otherwise: in smaller groups
-#: one process per seed is faster (docs/learning.md).
+#: one process per seed is faster (docs/guide/train.md).
 LOCKSTEP_GROUP_FROM = 25
 
 

@@ -108,7 +108,8 @@ def identified_model(env: gym.Env, decisions: int, seed: int,
 
 
 class ModelBasedLearner(AgentLearner):
-    """An :class:`AgentLearner` that trains in a model identified from a few env decisions."""
+    """An :class:`~acrobot_mj.train.learners.AgentLearner` that trains in a model identified
+    from a few env decisions."""
 
     def train(self, run: Run) -> tuple[dict[str, Any], Agent]:
         config, seed = self.config, self.seed

@@ -1,6 +1,7 @@
-"""The ``balance`` preset: a model-based learner that swings up AND balances with |tau| <= 1 N m:
-it identifies the lumped parameters from random-torque decisions, plans a minimum-time swing-up
-on the model with ``|u| <= reserve``, and follows it with TVLQR, then LQR at upright."""
+"""The ``balance`` preset: a model-based learner that swings up AND balances with
+``|tau| <= 1`` N m: it identifies the lumped parameters from random-torque decisions, plans a
+minimum-time swing-up on the model with ``|u| <= reserve``, and follows it with TVLQR, then LQR
+at upright."""
 
 from __future__ import annotations
 

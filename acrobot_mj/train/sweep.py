@@ -1,4 +1,4 @@
-"""Sweeps: seeds x a grid of settings from a TOML file (docs/sweeps.md), on this machine or on
+"""Sweeps: seeds x a grid of settings from a TOML file (docs/guide/sweeps.md), on this machine or on
 a Ray cluster; resumable, each trial (grid point x seed) in ``DIR/trials/NAME``, a failing one
 writing ``error.json``, and a summary (``summary.json``, ``.md``, ``.png``) at the end."""
 
@@ -198,7 +198,7 @@ def run_trial(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]
 
 
 def run_trial_in_worker(config: dict[str, Any], seed: int, run_dir: str) -> dict[str, Any]:
-    """:func:`run_trial` in a worker: stopped by its driver, it returns, not kills the worker."""
+    """``run_trial`` in a worker: stopped by its driver, it returns, not kills the worker."""
     try:
         return run_trial(config, seed, run_dir)
     except KeyboardInterrupt:
