@@ -115,7 +115,7 @@ def test_bad_continuous_actions_are_refused(actions, match) -> None:
     ("kwargs", "error", "match"),
     [
         ({"num_envs": 0}, ValueError, "num_envs"),
-        ({"autoreset_mode": "same_step"}, ValueError, "autoreset_mode"),
+        ({"autoreset_mode": "sometimes"}, ValueError, "autoreset_mode"),
         ({"frame_skip": 0}, ValueError, "frame_skip"),
         ({"render_mode": "human"}, ValueError, "render_mode"),
         ({"num_envs": 3, "render_envs": 4}, ValueError, "render_envs"),
@@ -205,3 +205,66 @@ def test_a_bad_state_is_refused_naming_the_sub_env(field, value, sub_env) -> Non
     vec.batch.bind(field)[sub_env, 0] = value
     with pytest.raises(RuntimeError, match=rf"sub-envs \[{sub_env}\] reached a non-finite"):
         vec.step(np.ones(n, dtype=np.int64))
+
+
+def _steps(env, n: int, steps: int):
+    """``steps`` steps of pumping (even sub-envs: they terminate) and a fixed torque (odd ones:
+    truncated at the limit); deterministic, so that both autoreset modes act alike."""
+    obs, _ = env.reset(seed=3)
+    out = []
+    for _ in range(steps):
+        actions = np.array([(0 if obs[k, 2] > 0 else 2) if k % 2 == 0 else 2 for k in range(n)])
+        obs, reward, terminated, truncated, info = env.step(actions)
+        out.append((obs, reward, terminated, truncated, info))
+    return out
+
+
+@pytest.mark.parametrize("env_id", [acrobot_mj.ENV_ID, "acrobot_mj/AcrobotBalance-v0"])
+def test_same_step_autoreset_is_sync_vector_envs(env_id) -> None:
+    # Observations, rewards, flags and infos bit for bit; final_obs (an object array, None where
+    # no episode ended) and final_info with their masks. tip_height is numba's sin in the batch
+    # and Python's in the single env: 1 ulp apart at most.
+    n, kwargs = 4, {"frame_skip": 4, "start_noise": 0.1, "max_episode_steps": 60}
+    ours = gym.make_vec(env_id, num_envs=n, autoreset_mode="same_step", **kwargs)
+    same = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    theirs = gym.make_vec(env_id, n, vectorization_mode="sync", vector_kwargs=same, **kwargs)
+    assert ours.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    ended = 0
+    for mine, sync in zip(_steps(ours, n, 200), _steps(theirs, n, 200), strict=True):
+        for a, b in zip(mine[:4], sync[:4], strict=True):
+            np.testing.assert_array_equal(a, b)
+        info, expected = mine[4], sync[4]
+        assert set(info) == set(expected)
+        if "final_obs" in expected:
+            ended += int(expected["_final_obs"].sum())
+            np.testing.assert_array_equal(info["_final_obs"], expected["_final_obs"])
+            assert info["final_obs"].dtype == object
+            for a, b in zip(info["final_obs"], expected["final_obs"], strict=True):
+                assert (a is None and b is None) or np.array_equal(a, b)
+            assert set(info["final_info"]) == set(expected["final_info"])
+            for key, value in expected["final_info"].items():
+                assert info["final_info"][key].dtype == value.dtype, key
+                np.testing.assert_allclose(info["final_info"][key], value, rtol=0, atol=1e-15)
+        for key, value in expected.items():
+            if key not in ("final_obs", "final_info"):
+                np.testing.assert_allclose(info[key], value, rtol=0, atol=1e-15, err_msg=key)
+    assert ended >= 6  # episodes ended, terminated and truncated, some sub-envs alone
+
+
+@pytest.mark.parametrize("backend", ["mujoco", "analytic"])
+def test_same_step_autoreset_runs_the_episodes_of_next_step(backend) -> None:
+    # Each sub-env's episodes are the same in both modes: next-step's reset step is same-step's
+    # final_obs moved to its own step.
+    n = 4
+    kwargs = {"frame_skip": 4, "max_episode_steps": 50, "backend": backend}
+    same = _steps(AcrobotVectorEnv(n, autoreset_mode="same_step", **kwargs), n, 300)
+    nxt = _steps(AcrobotVectorEnv(n, autoreset_mode="next_step", **kwargs), n, 300)
+    for k in range(n):
+        a, b = [], [step[0][k].tolist() for step in nxt]
+        for obs, _, terminated, truncated, info in same:
+            ended = terminated[k] or truncated[k]
+            a.append((info["final_obs"][k] if ended else obs[k]).tolist())
+            if ended:
+                a.append(obs[k].tolist())  # the reset's
+        assert a[: len(b) - 10] == b[: len(b) - 10]  # the same states, in the same order
+        assert sum(t[k] or u[k] for _, _, t, u, _ in same) >= 3

@@ -113,7 +113,7 @@ def test_bad_names_and_values_are_refused(method, args, error, match) -> None:
 
 def test_render_is_the_single_envs_frame() -> None:
     size = {"width": 96, "height": 64}
-    vec = AcrobotVectorEnv(num_envs=3, render_mode="rgb_array", **KWARGS, **size)
+    vec = AcrobotVectorEnv(num_envs=3, render_mode="rgb_array", render_envs=1, **KWARGS, **size)
     singles = [
         gym.make(acrobot_mj.ENV_ID, render_mode="rgb_array", **KWARGS, **size) for _ in range(3)
     ]
@@ -147,8 +147,12 @@ def test_render_grid_and_every_frame() -> None:
     np.testing.assert_array_equal(grid[:24, 32:], frames[1])
     np.testing.assert_array_equal(grid[24:, :32], frames[2])
     assert not grid[24:, 32:].any()  # no fourth sub-env: black
-    vec.render_envs = None
+    vec.render_envs = None  # the default: every frame, as SyncVectorEnv's
     assert isinstance(vec.render(), tuple) and len(vec.render()) == 3
+    default = AcrobotVectorEnv(num_envs=3, render_mode="rgb_array", width=32, height=24)
+    default.reset(seed=0, options={"start_noise": 0.5})
+    for mine, sync in zip(default.render(), frames, strict=True):
+        np.testing.assert_array_equal(mine, sync)
     with pytest.warns(UserWarning, match="render_mode=None"):  # as the single env
         assert AcrobotVectorEnv(num_envs=2).render() is None
     with pytest.warns(UserWarning, match="render_mode=None"):  # as SyncVectorEnv's
@@ -156,11 +160,9 @@ def test_render_grid_and_every_frame() -> None:
 
 
 def test_gymnasium_vector_record_video_records_every_sub_env(tmp_path) -> None:
-    pytest.importorskip("moviepy")
-    vec = gym.make_vec(
-        acrobot_mj.ENV_ID, num_envs=2, render_mode="rgb_array", width=32, height=32,
-        render_envs=None, max_episode_steps=5,
-    )  # fmt: skip
+    pytest.importorskip("moviepy")  # the wrapper with its defaults, the env with its own
+    vec = gym.make_vec(acrobot_mj.ENV_ID, num_envs=2, render_mode="rgb_array", width=32,
+                       height=32, max_episode_steps=5)  # fmt: skip
     folder = tmp_path / "videos"
     env = gym.wrappers.vector.RecordVideo(vec, str(folder), episode_trigger=lambda e: e == 0)
     env.reset(seed=0)

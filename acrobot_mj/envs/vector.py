@@ -39,9 +39,11 @@ class AcrobotVectorEnv(VectorEnv):
     ``nthread``: None for one thread below :data:`~acrobot_mj.envs.batch.THREADED_FROM`
     sub-envs and all CPUs from there, 0 for all (the numbers do not depend on it). ``backend``:
     ``"mujoco"`` (``mujoco.batch``, the reference) or ``"analytic"`` (the lumped model compiled,
-    matching MuJoCo to rounding). ``render()`` gives sub-env 0's frame, the first
-    ``render_envs`` frames in a grid, or with None a tuple of all. ``get_attr``, ``set_attr`` and
-    ``call`` work as ``SyncVectorEnv``'s. ``batch`` is the ``mujoco.batch.Batch`` (or None).
+    matching MuJoCo to rounding). ``render()`` gives a tuple of every sub-env's frame, as
+    ``SyncVectorEnv``'s (so ``gymnasium.wrappers.vector.RecordVideo`` records them), or with
+    ``render_envs=k`` the first ``k`` frames in one image (a grid; 1: sub-env 0's frame).
+    ``get_attr``, ``set_attr`` and ``call`` work as ``SyncVectorEnv``'s. ``batch`` is the
+    ``mujoco.batch.Batch`` (or None).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["rgb_array"]}
@@ -54,7 +56,7 @@ class AcrobotVectorEnv(VectorEnv):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         nthread: int | None = None,
         render_mode: str | None = None,
-        render_envs: int | None = 1,
+        render_envs: int | None = None,
         backend: str = "mujoco",
         **env_kwargs: Any,
     ) -> None:
@@ -90,6 +92,7 @@ class AcrobotVectorEnv(VectorEnv):
         self._every, self._none = np.ones(self.num_envs, dtype=bool), np.zeros(self.num_envs, bool)
         self._mask_names: dict[str, str] = {}  # info key -> its mask's key
         self._next_step = mode == AutoresetMode.NEXT_STEP
+        self._same_step = mode == AutoresetMode.SAME_STEP
         self._pending = np.zeros(self.num_envs, dtype=bool)  # reset at the next step
         self._rngs, self._rng_seeds = map(
             list, zip(*(seeding.np_random() for _ in range(self.num_envs)), strict=True)
@@ -111,6 +114,7 @@ class AcrobotVectorEnv(VectorEnv):
         state = dict(state)
         rows = state.pop("batch_state")
         state.setdefault("backend", "mujoco")  # pickled before there were backends
+        state.setdefault("_same_step", False)  # pickled before SAME_STEP
         self.__dict__.update(state)
         self._build_batch()
         self.physics.restore(rows)
@@ -187,7 +191,33 @@ class AcrobotVectorEnv(VectorEnv):
             info["is_success"] &= going
         if self._next_step:
             self._pending = terminated | truncated
+        elif self._same_step:
+            ended = terminated | truncated
+            if np.count_nonzero(ended):
+                return obs, reward, terminated, truncated, self._reset_ended(ended, obs, info)
         return obs, reward, terminated, truncated, self._masked(info)
+
+    def _reset_ended(self, ended: np.ndarray, obs: np.ndarray, info: dict) -> dict[str, Any]:
+        """SAME_STEP: reset the sub-envs that ended in this step, in it; ``obs`` becomes their
+        reset observations, and the info theirs, with the ended step's observation and info
+        under ``final_obs`` (an object array: None elsewhere) and ``final_info`` (zeros elsewhere),
+        as ``SyncVectorEnv``'s."""
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in np.flatnonzero(ended):
+            final_obs[i] = obs[i].copy()
+        final_info: dict[str, Any] = {}
+        for key, value in info.items():
+            final_info[key] = np.where(ended, value, np.zeros_like(value))
+            final_info[f"_{key}"] = ended.copy()
+        self._reset_envs(ended, self.task.start_noise)
+        obs[ended] = self.physics.observe()[ended]
+        _, _, fresh = self.task.outcomes(*self.physics.columns)
+        fresh["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
+        info = self._masked(
+            {key: np.where(ended, fresh[key], value) for key, value in info.items()}
+        )
+        return {**info, "final_obs": final_obs, "_final_obs": ended.copy(),
+                "final_info": final_info, "_final_info": ended.copy()}  # fmt: skip
 
     @property
     def nthread(self) -> int:
@@ -271,7 +301,7 @@ class AcrobotVectorEnv(VectorEnv):
         return self.get_attr(name)
 
     def render(self) -> np.ndarray | tuple[np.ndarray, ...] | None:
-        """Sub-env 0's frame, ``render_envs`` frames in a grid, or (None) every frame."""
+        """Every frame (``render_envs`` None), or the first ``render_envs`` in a grid."""
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None: nothing is rendered")
             return None
@@ -293,8 +323,9 @@ class AcrobotVectorEnv(VectorEnv):
 
 
 def _autoreset_mode(mode: Any) -> AutoresetMode:
-    names = {"next_step": AutoresetMode.NEXT_STEP, "disabled": AutoresetMode.DISABLED}
+    names = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP,
+             "disabled": AutoresetMode.DISABLED}  # fmt: skip
     found = names.get(mode, mode) if isinstance(mode, (str, AutoresetMode)) else None
     if found not in names.values():
-        raise ValueError(f"autoreset_mode must be 'next_step' or 'disabled', got {mode!r}")
+        raise ValueError(f"autoreset_mode must be one of {list(names)}, got {mode!r}")
     return found
