@@ -21,6 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 import acrobot_mj  # registers acrobot_mj/Acrobot-v0
+from acrobot_mj.envs.wrappers import CosSinObservation
 from acrobot_mj.files import write_json
 from acrobot_mj.train.evaluate import compare, stored_minima
 from acrobot_mj.train.learners import DEFAULT, Protocol
@@ -35,18 +36,11 @@ FRAME_SKIP = 4
 TRAIN_START_NOISE = 0.05
 
 
-class CosSin(gym.ObservationWrapper):
-    """Observe (cos q1, sin q1, cos q2, sin q2, dq1, dq2), as Gymnasium's Acrobot-v1 does: no
-    jump where a wrapped angle crosses pi. The wrapped env's state and reset options are kept."""
-
-    def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
-        high = np.array([1.0, 1.0, 1.0, 1.0, 4 * np.pi, 9 * np.pi])
-        self.observation_space = gym.spaces.Box(-high, high, dtype=np.float64)
-
-    def observation(self, obs: np.ndarray) -> np.ndarray:
-        q1, q2, dq1, dq2 = obs
-        return np.array([np.cos(q1), np.sin(q1), np.cos(q2), np.sin(q2), dq1, dq2])
+def CosSin(env: gym.Env) -> gym.Env:
+    """Observe (cos q1, sin q1, cos q2, sin q2, dq1, dq2), as Gymnasium's Acrobot-v1 does, in
+    float64 (the examples' measurements were made so). The wrapped env's state and reset
+    options are kept."""
+    return CosSinObservation(env, dtype=np.float64)
 
 
 def env_kwargs(continuous: bool = False, start_noise: float = TRAIN_START_NOISE) -> dict:

@@ -245,3 +245,86 @@ def test_options_are_read_only_after_construction() -> None:
 def test_models_are_independent_per_instance() -> None:
     a, b = AcrobotEnv(integrator="rk4"), AcrobotEnv()
     assert a.model.opt.integrator != b.model.opt.integrator
+
+
+RL_IDS = {
+    "acrobot_mj/AcrobotRL-v0": ("height_goal", False, 0.0),
+    "acrobot_mj/AcrobotRLContinuous-v0": ("height_goal", True, 0.0),
+    "acrobot_mj/AcrobotBalanceRL-v0": ("balance", False, 300.0),
+    "acrobot_mj/AcrobotBalanceRLContinuous-v0": ("balance", True, 300.0),
+}
+
+
+@pytest.mark.parametrize("env_id", sorted(RL_IDS))
+def test_the_rl_ready_ids_have_gymnasiums_acrobot_defaults(env_id) -> None:
+    # Acrobot-v1's: 0.2 s decisions, 500 of them, float32 (cos q1, sin q1, cos q2, sin q2, dq1,
+    # dq2), rest plus U(-0.1, 0.1) on each coordinate drawn from the seed.
+    task, continuous, threshold = RL_IDS[env_id]
+    env = gym.make(env_id)
+    assert env.spec.max_episode_steps == 500 and env.spec.reward_threshold == threshold
+    assert env.unwrapped.task.name == task and env.unwrapped.continuous is continuous
+    assert env.unwrapped.dt == pytest.approx(0.2)
+    assert env.observation_space.dtype == np.float32 and env.observation_space.shape == (6,)
+    obs, _ = env.reset(seed=7)
+    q1, q2, dq1, dq2 = env.unwrapped.state
+    assert obs.dtype == np.float32 and obs in env.observation_space
+    # Computed here from the state, independently of the env's conversion.
+    expected = [math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2), dq1, dq2]
+    np.testing.assert_array_equal(obs, np.array(expected, dtype=np.float32))
+    offsets = env.unwrapped.state - np.array([-math.pi / 2, 0.0, 0.0, 0.0])
+    assert np.all(np.abs(offsets) <= 0.1) and np.any(offsets != 0.0)
+    assert not np.array_equal(env.reset(seed=8)[0], obs)  # another seed, another start
+    np.testing.assert_array_equal(env.reset(seed=7)[0], obs)
+    action = np.array([0.5], dtype=np.float32) if continuous else 2
+    obs, *_ = env.step(action)
+    assert obs.dtype == np.float32 and obs in env.observation_space
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the checker has nothing to say
+        check_env(gym.make(env_id).unwrapped)
+
+
+def test_the_rl_ready_vector_env_is_its_single_envs() -> None:
+    vec = gym.make_vec("acrobot_mj/AcrobotRL-v0", num_envs=3)
+    sync = gym.make_vec("acrobot_mj/AcrobotRL-v0", num_envs=3, vectorization_mode="sync")
+    assert vec.single_observation_space == sync.single_observation_space
+    np.testing.assert_array_equal(vec.reset(seed=2)[0], sync.reset(seed=2)[0])
+    for t in range(120):  # pumping: through the goal and autoresets
+        actions = np.array([0 if t % 7 else 2, 2, 1])
+        for a, b in zip(vec.step(actions)[:4], sync.step(actions)[:4], strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_the_rl_ready_thresholds_separate_pumping_from_random_torques() -> None:
+    # Pumping (tau = -sign(dq1) on the cos/sin observation) reaches the height goal in about
+    # 100 decisions; random torques never do in 500.
+    env = gym.make("acrobot_mj/AcrobotRL-v0")
+    rng, returns = np.random.default_rng(0), {"pump": [], "random": []}
+    for kind in returns:
+        for seed in range(5):
+            obs, _ = env.reset(seed=seed)
+            total, done = 0.0, False
+            while not done:
+                action = (0 if obs[4] > 0 else 2) if kind == "pump" else int(rng.integers(3))
+                obs, reward, terminated, truncated, _ = env.step(action)
+                total, done = total + reward, terminated or truncated
+            returns[kind].append(total)
+    assert np.mean(returns["pump"]) >= env.spec.reward_threshold > np.mean(returns["random"])
+
+
+def test_an_unknown_observation_kind_is_refused() -> None:
+    with pytest.raises(ValueError, match="observation must be one of"):
+        AcrobotEnv(observation="pixels")
+
+
+def test_the_cos_sin_wrapper_observes_as_the_rl_ids() -> None:
+    from acrobot_mj.envs.wrappers import CosSinObservation
+
+    kwargs = {"frame_skip": 4, "start_noise": 0.1}
+    wrapped = CosSinObservation(gym.make(acrobot_mj.ENV_ID, **kwargs))
+    native = gym.make(acrobot_mj.ENV_ID, observation="cos_sin", **kwargs)
+    assert wrapped.observation_space == native.observation_space
+    np.testing.assert_array_equal(wrapped.reset(seed=4)[0], native.reset(seed=4)[0])
+    for _ in range(30):
+        np.testing.assert_array_equal(wrapped.step(2)[0], native.step(2)[0])
+    with pytest.raises(ValueError, match="expected"):
+        CosSinObservation(native)  # already 6 numbers

@@ -22,6 +22,7 @@ from acrobot_mj.envs.spaces import (
     TORQUE_OF,
     action_space,
     action_torque,
+    cos_sin,
     observation_space,
     reset_noise,
     reset_state,
@@ -63,8 +64,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     of 0.05 s, or with ``continuous=True`` ``Box(-1, 1, (1,))`` [N m]; anything else raises.
     Observations ``(q1, q2, dq1, dq2)``: q1 from the horizontal, q2 relative to link 1, wrapped
     into [-pi, pi) [rad]; velocities [rad/s] clipped to ``(4 pi, 9 pi)`` after every physics
-    step. ``model_path``: an MJCF file instead of ``scene.xml``; ``reset`` takes
-    ``options={"start_noise": s}`` or ``{"state": x}``.
+    step; with ``observation="cos_sin"`` float32 ``(cos q1, sin q1, cos q2, sin q2, dq1, dq2)``
+    as Gymnasium's ``Acrobot-v1``. ``model_path``: an MJCF file instead of ``scene.xml``;
+    ``reset`` takes ``options={"start_noise": s}`` or ``{"state": x}``.
 
     Ten +1 N m steps from rest (the analytic model's numbers), then the bang-bang law
     ``tau = -sign(dq1)`` reaching the goal on step 300:
@@ -97,6 +99,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         *,
         task: str | type[Task] = "height_goal",
         continuous: bool = False,
+        observation: str = "state",
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
@@ -141,7 +144,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self._renderer = None  # created by the first render(), released by close()
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
         self.action_space = action_space(continuous)
-        self.observation_space = observation_space()
+        self.observation_space = observation_space(observation)  # raises on an unknown kind
+        self._observation, self._cos_sin = observation, observation == "cos_sin"
         # step()'s fast path for integer actions (none for continuous ones)
         self._torque_of = {} if continuous else TORQUE_OF
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
@@ -172,6 +176,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     frame_skip = property(lambda self: self._frame_skip, doc="Physics steps per action.")
     integrator = property(lambda self: self._integrator, doc='"euler" or "rk4".')
     continuous = property(lambda self: self._continuous, doc="Box actions instead of Discrete.")
+    observation = property(lambda self: self._observation, doc='"state" or "cos_sin".')
     start_noise = property(lambda self: self.task.start_noise, doc="The task's start noise.")
 
     @property
@@ -217,7 +222,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         q1, q2 = self._qpos.tolist()
         v1, v2 = self._qvel.tolist()
         values = self._rule(q1, q2, v1, v2)[3]
-        return np.array((wrap(q1), wrap(q2), v1, v2)), self._info(values, False)  # no success
+        obs = np.array((wrap(q1), wrap(q2), v1, v2))
+        return (cos_sin(obs) if self._cos_sin else obs), self._info(values, False)  # no success
 
     def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
         torque = self._torque_of.get(action) if action.__class__ in INT_TYPES else None
@@ -238,6 +244,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         w1 = q1 if _MIN_PI <= q1 < _PI else wrap(q1)
         w2 = q2 if _MIN_PI <= q2 < _PI else wrap(q2)
         obs = np.array((w1, w2, v1, v2))
+        if self._cos_sin:
+            obs = cos_sin(obs)
         return obs, reward, terminated, False, self._info(values, success)
 
     def _raise_bad_state(self) -> None:

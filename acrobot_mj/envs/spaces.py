@@ -23,12 +23,28 @@ INT_TYPES = (int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np
 TORQUE_OF = dict(enumerate(TORQUES))
 #: The single env's reset options: this episode's noise, or an exact start state.
 RESET_OPTIONS = ("start_noise", "state")
+#: What the envs observe: the state as it is, or Gymnasium's ``Acrobot-v1`` form.
+OBSERVATIONS = ("state", "cos_sin")
 
 
-def observation_space() -> spaces.Box:
-    """``(q1, q2, dq1, dq2)``: angles in [-pi, pi), velocities to their limits."""
+def observation_space(kind: str = "state") -> spaces.Box:
+    """``"state"``: ``(q1, q2, dq1, dq2)`` float64, angles in [-pi, pi), velocities to their
+    limits. ``"cos_sin"``: ``(cos q1, sin q1, cos q2, sin q2, dq1, dq2)`` float32, as
+    Gymnasium's ``Acrobot-v1`` (no jump where an angle wraps)."""
+    if kind == "cos_sin":
+        high = np.array([1.0, 1.0, 1.0, 1.0, MAX_VEL1, MAX_VEL2], dtype=np.float32)
+        return spaces.Box(-high, high, dtype=np.float32)
+    if kind != "state":
+        raise ValueError(f"observation must be one of {OBSERVATIONS}, got {kind!r}")
     high = np.array([math.pi, math.pi, MAX_VEL1, MAX_VEL2])
     return spaces.Box(-high, high, dtype=np.float64)
+
+
+def cos_sin(states: np.ndarray) -> np.ndarray:
+    """``"cos_sin"`` observations of ``"state"`` ones, shape ``(..., 4)`` -> ``(..., 6)``."""
+    q1, q2, dq1, dq2 = np.moveaxis(np.asarray(states), -1, 0)
+    out = np.stack([np.cos(q1), np.sin(q1), np.cos(q2), np.sin(q2), dq1, dq2], axis=-1)
+    return out.astype(np.float32)
 
 
 def action_space(continuous: bool) -> spaces.Space:

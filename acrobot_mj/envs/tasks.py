@@ -58,8 +58,10 @@ class Task(ABC):
     env_id: ClassVar[str]  # the Gymnasium id
     max_episode_steps: ClassVar[int]  # truncation
     score: ClassVar[Score]
-    #: The mean return that counts as solved with the registered defaults (or None).
+    #: The mean return that counts as solved with the registered defaults (or None), and with
+    #: those of the RL-ready variants (``VARIANTS``).
     reward_threshold: ClassVar[float | None] = None
+    rl_reward_threshold: ClassVar[float | None] = None
     #: Constructor keywords besides ``start_noise``.
     options: ClassVar[tuple[str, ...]] = ()
     start_keyframe: ClassVar[str] = "hanging"
@@ -160,8 +162,10 @@ class HeightGoal(Task):
     name = "height_goal"
     env_id = "acrobot_mj/Acrobot-v0"
     max_episode_steps = 1000
-    # Acrobot-v1's -100 (the goal within 20 s): the goal at step 401 of 0.05 s returns -300.
+    # Acrobot-v1's -100 (the goal within 20 s): the goal at step 401 of 0.05 s returns -300,
+    # at decision 101 of 0.2 s (the RL variants) 0.
     reward_threshold = -300.0
+    rl_reward_threshold = 0.0
     score = Score(
         "length",
         lower_is_better=True,
@@ -240,8 +244,9 @@ class Balance(Task):
     name = "balance"
     env_id = "acrobot_mj/AcrobotBalance-v0"
     max_episode_steps = 2000
-    # The report's objective: 60 s (1200 steps of 0.05 s) balanced.
+    # The report's objective: 60 s (1200 steps of 0.05 s; 300 of the RL variants' 0.2 s) balanced.
     reward_threshold = 1200.0
+    rl_reward_threshold = 300.0
     score = Score(
         "return", lower_is_better=False, label="return per episode", unit="", best_word="highest"
     )
@@ -308,6 +313,13 @@ class Balance(Task):
 
 #: The registered tasks by name (:func:`register_task` adds one).
 TASKS: dict[str, type[Task]] = {}
+#: RL-ready variants registered beside each task's id (``acrobot_mj/AcrobotRL-v0`` beside
+#: ``acrobot_mj/Acrobot-v0``): Gymnasium's ``Acrobot-v1`` defaults (0.2 s decisions, float32
+#: cos/sin observations, a start of rest plus ``U(-0.1, 0.1)`` drawn from the seed, 500
+#: decisions), with discrete or continuous torques. Name suffix -> keyword arguments.
+RL = {"frame_skip": 4, "start_noise": 0.1, "observation": "cos_sin"}
+VARIANTS = {"RL": RL, "RLContinuous": {**RL, "continuous": True}}
+RL_MAX_EPISODE_STEPS = 500
 
 
 def register_task(task: type[Task]) -> type[Task]:
@@ -321,15 +333,20 @@ def register_task(task: type[Task]) -> type[Task]:
     known = TASKS.setdefault(task.name, task)
     if known is not task:
         raise ValueError(f"a task named {task.name!r} is already registered ({known.__name__})")
-    if task.env_id not in gymnasium.registry:
-        gymnasium.register(
-            id=task.env_id,
-            entry_point="acrobot_mj.envs.acrobot:AcrobotEnv",
-            vector_entry_point="acrobot_mj.envs.vector:AcrobotVectorEnv",
-            max_episode_steps=task.max_episode_steps,
-            reward_threshold=task.reward_threshold,
-            kwargs={"task": task.name},
-        )
+    base, version = task.env_id.rsplit("-", 1)
+    ids = {task.env_id: ({}, task.max_episode_steps, task.reward_threshold)}
+    for suffix, kwargs in VARIANTS.items():
+        ids[f"{base}{suffix}-{version}"] = (kwargs, RL_MAX_EPISODE_STEPS, task.rl_reward_threshold)
+    for env_id, (kwargs, steps, threshold) in ids.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(
+                id=env_id,
+                entry_point="acrobot_mj.envs.acrobot:AcrobotEnv",
+                vector_entry_point="acrobot_mj.envs.vector:AcrobotVectorEnv",
+                max_episode_steps=steps,
+                reward_threshold=threshold,
+                kwargs={"task": task.name, **kwargs},
+            )
     return task
 
 

@@ -17,7 +17,7 @@ from gymnasium.vector.utils import batch_space
 from acrobot_mj.checks import check_int
 from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
-from acrobot_mj.envs.spaces import reset_noise, write_torques
+from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
 
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
 #: Sub-env attributes with one value per sub-env (get_attr), and those set_attr sets.
@@ -25,8 +25,8 @@ PER_ENV = ("state", "np_random", "np_random_seed")
 #: The sub-env attributes set_attr sets.
 SETTABLE = ("np_random",)
 #: Sub-env attributes the batch shares (get_attr repeats the one value; set_attr refuses them).
-SHARED = ("frame_skip", "integrator", "continuous", "start_noise", "dt", "task", "model",
-          "metadata", "render_mode", "width", "height", "camera", "action_space",
+SHARED = ("frame_skip", "integrator", "continuous", "observation", "start_noise", "dt", "task",
+          "model", "metadata", "render_mode", "width", "height", "camera", "action_space",
           "observation_space")  # fmt: skip
 #: The sub-env methods call runs on every sub-env.
 METHODS = ("set_state", "render")
@@ -79,6 +79,7 @@ class AcrobotVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self._frame_skip = self._template.frame_skip
         self._continuous = self._template.continuous
+        self._cos_sin = self._template.observation == "cos_sin"
         self._nthread = None if nthread is None else check_int("nthread", nthread, 0)
         self._build_batch()
         start = self.model.key(self.task.start_keyframe)
@@ -115,6 +116,7 @@ class AcrobotVectorEnv(VectorEnv):
         rows = state.pop("batch_state")
         state.setdefault("backend", "mujoco")  # pickled before there were backends
         state.setdefault("_same_step", False)  # pickled before SAME_STEP
+        state.setdefault("_cos_sin", False)  # pickled before observation kinds
         self.__dict__.update(state)
         self._build_batch()
         self.physics.restore(rows)
@@ -151,7 +153,7 @@ class AcrobotVectorEnv(VectorEnv):
                 if s is not None:
                     self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
-        obs = self.physics.observe()  # raises on a bad state
+        obs = self._observe()  # raises on a bad state
         _, _, info = self.task.outcomes(*self.physics.columns)
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
         return obs, self._masked(info)
@@ -178,7 +180,7 @@ class AcrobotVectorEnv(VectorEnv):
         resetting = self._pending.copy() if np.count_nonzero(self._pending) else None
         if resetting is not None:
             self._reset_envs(resetting, self.task.start_noise)
-        obs = physics.observe()
+        obs = self._observe()
         reward, terminated, info = self.task.outcomes(*physics.columns)
         # As TimeLimit: truncated at the limit even when terminating; none before the oldest.
         limit = self._steps - self.max_episode_steps
@@ -210,7 +212,7 @@ class AcrobotVectorEnv(VectorEnv):
             final_info[key] = np.where(ended, value, np.zeros_like(value))
             final_info[f"_{key}"] = ended.copy()
         self._reset_envs(ended, self.task.start_noise)
-        obs[ended] = self.physics.observe()[ended]
+        obs[ended] = self._observe()[ended]
         _, _, fresh = self.task.outcomes(*self.physics.columns)
         fresh["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
         info = self._masked(
@@ -218,6 +220,10 @@ class AcrobotVectorEnv(VectorEnv):
         )
         return {**info, "final_obs": final_obs, "_final_obs": ended.copy(),
                 "final_info": final_info, "_final_info": ended.copy()}  # fmt: skip
+
+    def _observe(self) -> np.ndarray:
+        obs = self.physics.observe()
+        return cos_sin(obs) if self._cos_sin else obs
 
     @property
     def nthread(self) -> int:

@@ -1,4 +1,5 @@
-"""Wrappers: reward shaping with the acrobot's energy, and Acrobot-v1 in the report's convention.
+"""Wrappers: reward shaping with the acrobot's energy, cos/sin observations, and Acrobot-v1 in
+the report's convention.
 
 Potential-based shaping (Ng, Harada and Russell, 1999) leaves the optimal policies unchanged; a
 terminal state needs ``phi = 0`` for that (Grzes, 2017).
@@ -12,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.envs.spaces import observation_space
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, cos_sin, observation_space
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, energies
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.physics.xp import wrap
@@ -57,6 +58,31 @@ class EnergyShaping(gym.Wrapper):
         shaped = float(reward) + self.gamma * phi - self._phi
         self._phi = None if (terminated or truncated) else phi
         return obs, shaped, terminated, truncated, {**info, "unshaped_reward": float(reward)}
+
+
+class CosSinObservation(gym.ObservationWrapper):
+    """``(q1, q2, dq1, dq2)`` observed as ``(cos q1, sin q1, cos q2, sin q2, dq1, dq2)``, as
+    Gymnasium's ``Acrobot-v1`` (no jump where a wrapped angle crosses pi), in ``dtype``
+    (float32 as the RL-ready ids; float64 keeps every digit). The env's state and reset options
+    are the wrapped env's. The registered ``...RL-v0`` ids observe this way without a wrapper."""
+
+    def __init__(self, env: gym.Env, dtype: type = np.float32) -> None:
+        super().__init__(env)
+        if getattr(env.observation_space, "shape", None) != (4,):
+            raise ValueError(
+                f"expected (q1, q2, dq1, dq2) observations, got {env.observation_space}"
+            )
+        self.dtype = np.dtype(dtype)
+        if self.dtype.kind != "f":
+            raise TypeError(f"dtype must be a float type, got {dtype!r}")
+        high = np.array([1.0, 1.0, 1.0, 1.0, MAX_VEL1, MAX_VEL2], dtype=self.dtype)
+        self.observation_space = gym.spaces.Box(-high, high, dtype=self.dtype)
+
+    def observation(self, observation: np.ndarray) -> np.ndarray:
+        if self.dtype == np.float32:
+            return cos_sin(observation)
+        q1, q2, dq1, dq2 = np.asarray(observation, dtype=np.float64)
+        return np.array([np.cos(q1), np.sin(q1), np.cos(q2), np.sin(q2), dq1, dq2], self.dtype)
 
 
 class ReportObservation(gym.ObservationWrapper):
