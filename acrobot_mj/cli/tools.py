@@ -18,8 +18,8 @@ from acrobot_mj.envs.rollout import PolicyActor, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import describe
-from acrobot_mj.report.video import RenderSettings, render_policy
-from acrobot_mj.train.evaluate import render_run
+from acrobot_mj.report.video import RenderSettings, render_policy, watch_policy
+from acrobot_mj.train.evaluate import render_run, watch_run
 from acrobot_mj.train.records import History, output_into
 
 
@@ -92,7 +92,9 @@ def add_render(commands: Commands) -> None:
                     "headless).")  # fmt: skip
     p.add_argument("run_dir", nargs="?", help="a directory written by acrobot-mj train")
     p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
-    p.add_argument("--out", required=True, help="the .mp4 file (a .json record goes beside it)")
+    p.add_argument("--out", help="the .mp4 file (a .json record goes beside it)")
+    p.add_argument("--live", action="store_true", help="show the episode in MuJoCo's viewer "
+                   "window at real time instead (needs a display)")  # fmt: skip
     p.add_argument("--steps", type=positive_int, help="most steps (default: the whole episode)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env, ties and --policy random")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="with --policy only")
@@ -110,6 +112,21 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError("give either a run directory or --policy, not both or neither")
     settings = RenderSettings(args.width, args.height, args.camera, args.captions, args.strip,
                               args.steps, args.seed, show_progress(args))  # fmt: skip
+    if args.live:
+        if args.out is not None or args.strip is not None:
+            raise ValueError("--live shows the episode in a window and writes nothing: give no "
+                             "--out or --strip")  # fmt: skip
+        if args.run_dir is not None:
+            record = watch_run(args.run_dir, settings)
+        else:
+            record = watch_policy(args.policy, settings, args.frame_skip)
+        print(
+            f"showed {record['length']} actions; the goal was "
+            + ("reached" if record["success"] else "not reached")
+        )
+        return record
+    if args.out is None:
+        raise ValueError("give --out FILE.mp4 for the video, or --live to watch in a window")
     with output_into(args.out, "render"):
         if args.run_dir is not None:
             record = render_run(args.run_dir, args.out, settings)

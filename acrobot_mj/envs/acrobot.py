@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +14,7 @@ import numpy as np
 
 from acrobot_mj.checks import check_bool, check_int
 from acrobot_mj.envs.assets import link_lengths, load_model
-from acrobot_mj.envs.gl import make_renderer
+from acrobot_mj.envs.gl import close_viewer, make_renderer, open_viewer
 from acrobot_mj.envs.spaces import (
     INT_TYPES,
     MAX_VEL1,
@@ -90,7 +91,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     (300, 100.0, True, 1.044545016)
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+    metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 20}
 
     def __init__(
         self,
@@ -142,6 +143,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             )
         self.camera, self.render_mode = camera, render_mode
         self._renderer = None  # created by the first render(), released by close()
+        self._human, self._viewer, self._shown_at = render_mode == "human", None, 0.0
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
         self.action_space = action_space(continuous)
         self.observation_space = observation_space(observation)  # raises on an unknown kind
@@ -166,9 +168,10 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     def __getstate__(self) -> dict[str, Any]:
         views = ("_qpos", "_qvel", "_ctrl", "_rule", "_info")
         state = {key: value for key, value in self.__dict__.items() if key not in views}
-        return {**state, "_renderer": None}  # a GL context cannot be copied
+        return {**state, "_renderer": None, "_viewer": None}  # GL contexts cannot be copied
 
     def __setstate__(self, state: dict[str, Any]) -> None:
+        state = {"_human": False, "_viewer": None, "_shown_at": 0.0, **state}  # older copies
         self.__dict__.update(state)
         self._bind()
 
@@ -223,6 +226,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         v1, v2 = self._qvel.tolist()
         values = self._rule(q1, q2, v1, v2)[3]
         obs = np.array((wrap(q1), wrap(q2), v1, v2))
+        if self._human:
+            self._show()
         return (cos_sin(obs) if self._cos_sin else obs), self._info(values, False)  # no success
 
     def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
@@ -246,6 +251,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         obs = np.array((w1, w2, v1, v2))
         if self._cos_sin:
             obs = cos_sin(obs)
+        if self._human:
+            self._show()
         return obs, reward, terminated, False, self._info(values, success)
 
     def _raise_bad_state(self) -> None:
@@ -262,20 +269,44 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         )
 
     def render(self) -> np.ndarray | None:
-        """The current frame, ``uint8`` ``(height, width, 3)`` from ``camera`` (headless GL:
-        :func:`acrobot_mj.envs.gl.make_renderer`)."""
+        """The current frame from ``camera``: ``"rgb_array"`` ``uint8`` ``(height, width, 3)``,
+        ``"depth_array"`` float32 ``(height, width)`` distances [m] (headless GL:
+        :func:`acrobot_mj.envs.gl.make_renderer`); ``"human"`` shows it in MuJoCo's viewer
+        window (as every reset and step does) and returns None."""
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None: nothing is rendered")
             return None
+        if self._human:
+            self._show()
+            return None
         if self._renderer is None:
             self._renderer = make_renderer(self.model, self.width, self.height)
+            if self.render_mode == "depth_array":
+                self._renderer.enable_depth_rendering()
         # mj_step leaves positions, cameras and lights at the start of the last step.
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)
         self._renderer.update_scene(self.data, camera=self.camera)
         return self._renderer.render()
 
+    def _show(self) -> None:
+        """The state in the viewer window, at most ``render_fps`` frames a second of wall time;
+        nothing once the user has closed the window."""
+        if self._viewer is None:
+            self._viewer = open_viewer(self.model, self.data, self.camera)
+        elif not self._viewer.is_running():
+            return
+        wait = self._shown_at + self.dt - time.perf_counter()
+        if wait > 0:
+            time.sleep(wait)
+        mujoco.mj_kinematics(self.model, self.data)  # the positions after the last step
+        self._viewer.sync()
+        self._shown_at = time.perf_counter()
+
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        if self._viewer is not None:
+            close_viewer(self._viewer)
+            self._viewer = None

@@ -1,4 +1,5 @@
-"""Headless OpenGL for MuJoCo: choose EGL or OSMesa before MuJoCo is imported, never a window.
+"""OpenGL for MuJoCo: a headless backend (EGL or OSMesa) chosen before MuJoCo is imported for
+frames and videos, and MuJoCo's viewer window (GLFW) where a display is asked for.
 
 MuJoCo reads ``MUJOCO_GL`` once, on import, so ``import acrobot_mj`` calls :func:`configure_gl`
 first; this module must not import ``mujoco`` at module level.
@@ -6,13 +7,16 @@ first; this module must not import ``mujoco`` at module level.
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import ctypes.util
 import os
 import platform
 import sys
+import threading
 import warnings
 from collections.abc import Callable
+from typing import Any
 
 BACKENDS = ("egl", "osmesa")
 INSTALL_HINTS = {
@@ -183,6 +187,59 @@ def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBacken
 def probe_all() -> dict[str, str | None]:
     """Every probe's result (only before MuJoCo opens a GL context)."""
     return {name: _run(probe) for name, probe in PROBES.items()}
+
+
+#: Viewer windows open, each with the thread that draws it: a process that ends while one is
+#: open, or being torn down, crashes; they are closed, and their threads joined, at exit.
+_VIEWERS: dict[int, tuple[Any, threading.Thread | None]] = {}
+
+
+def close_viewer(viewer: Any) -> None:
+    """Close a window of :func:`open_viewer` and wait until it is gone."""
+    viewer.close()
+    _, drawing = _VIEWERS.pop(id(viewer), (None, None))
+    if drawing is not None:
+        drawing.join(timeout=10)
+
+
+def _close_viewers() -> None:
+    for viewer, _ in list(_VIEWERS.values()):
+        close_viewer(viewer)
+
+
+def open_viewer(model: Any, data: Any, camera: str) -> Any:
+    """MuJoCo's passive viewer window on ``model`` and ``data``, looking through ``camera``
+    (close it with :func:`close_viewer`); :class:`GLBackendError` where no window can open (no
+    display, or one that does not answer: GLFW would end the process)."""
+    display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    if platform.system() == "Linux" and not display:
+        raise GLBackendError(
+            "render_mode='human' opens a window and no display is set (DISPLAY); use "
+            "render_mode='rgb_array', or a virtual display (xvfb-run)"
+        )
+    import glfw
+    import mujoco
+    import mujoco.viewer
+
+    with warnings.catch_warnings(record=True) as said:  # GLFW's errors come as warnings
+        warnings.simplefilter("always")
+        opened = glfw.init()
+    if not opened:
+        why = str(said[-1].message) if said else "GLFW could not start"
+        raise GLBackendError(f"render_mode='human' cannot open a window: {why}")
+    glfw.terminate()  # the viewer starts GLFW again on its own thread
+    before = set(threading.enumerate())
+    viewer = mujoco.viewer.launch_passive(model, data, show_left_ui=False, show_right_ui=False)
+    drawing = next((t for t in threading.enumerate() if t not in before), None)
+    # After the viewer's exit handlers (it registers glfw.terminate as it opens), so that this
+    # one runs first (last in, first out): GLFW ended under an open window crashes.
+    atexit.unregister(_close_viewers)
+    atexit.register(_close_viewers)
+    _VIEWERS[id(viewer)] = (viewer, drawing)
+    with viewer.lock():
+        viewer.cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        viewer.cam.fixedcamid = model.camera(camera).id
+    return viewer
 
 
 def make_renderer(model, width: int, height: int):

@@ -68,6 +68,9 @@ class AcrobotVectorEnv(VectorEnv):
         self.render_envs = (
             None if render_envs is None else check_int("render_envs", render_envs, 1, self.num_envs)
         )
+        modes = self.metadata["render_modes"]
+        if render_mode is not None and render_mode not in modes:  # no window, no depth video
+            raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
         # One single env validates the options, builds the model and renders each sub-env.
         self._template = AcrobotEnv(render_mode=render_mode, **env_kwargs)
         self.task = self._template.task

@@ -220,6 +220,27 @@ def record_episode(env: Any, actor: Actor, path: str | Path,
     return record
 
 
+def watch(env: gym.Env, actor: Actor, settings: RenderSettings = RenderSettings(),
+          reset_options: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
+    """An episode of ``actor`` on ``env`` (``render_mode="human"``) in MuJoCo's viewer window
+    at real time, closed at the end; its length and outcome."""
+    try:
+        episode = run_episode(
+            env, actor, settings.seed, reset_options, max_steps=settings.max_steps
+        )
+    finally:
+        env.close()
+    return {"length": episode.length, "success": episode.success}
+
+
+def watch_policy(name: str, settings: RenderSettings = RenderSettings(),
+                 frame_skip: int = 1) -> dict[str, Any]:  # fmt: skip
+    """A fixed policy from rest, live in a window (see :func:`watch`)."""
+    env = gym.make(HeightGoal.env_id, frame_skip=frame_skip, render_mode="human",
+                   camera=settings.camera)  # fmt: skip
+    return watch(env, PolicyActor(make_policy(name, settings.seed)), settings)
+
+
 def render_policy(name: str, out: str | Path, settings: RenderSettings = RenderSettings(),
                   frame_skip: int = 1) -> dict[str, Any]:  # fmt: skip
     """A video of a fixed policy (``pump``, ``zero`` or ``random``) from rest."""

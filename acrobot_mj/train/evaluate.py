@@ -15,7 +15,7 @@ import numpy as np
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.files import sealed, versions, write_json
-from acrobot_mj.report.video import RenderSettings, record_episode
+from acrobot_mj.report.video import RenderSettings, record_episode, watch
 from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import EVAL_FILE, History, spread
@@ -139,6 +139,14 @@ def render_run(
     record.update(run=str(run_dir), run_seed=learner.seed, policy=policy)
     write_json(Path(out).with_suffix(".json"), record)
     return record
+
+
+def watch_run(run_dir: str | Path, settings: RenderSettings = _RENDER) -> dict[str, Any]:
+    """A run's greedy episode from rest, live in MuJoCo's viewer window at real time."""
+    with RunLock(Path(run_dir), "render", create=False):
+        learner = load_learner(run_dir)
+    env = learner.env(render_mode="human", camera=settings.camera)
+    return watch(env, learner.actor(env, 0), settings, {"start_noise": 0.0})
 
 
 def env_settings(env: gym.Env) -> dict[str, Any] | None:
