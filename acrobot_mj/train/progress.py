@@ -74,11 +74,6 @@ class Progress:
         if self.bar is not None and units:
             self.bar.update(-units)
 
-    def advance(self, count: int = 1) -> None:
-        """Count ``count`` units done without episode statistics (a finished trial)."""
-        if self.bar is not None:
-            self.bar.update(count)
-
     def close(self) -> None:
         if self.bar is not None:
             self.bar.set_postfix_str(self.stats(), refresh=False)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from acrobot_mj.bars import Steps
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import is_sealed, sealed, write_json, write_text
 from acrobot_mj.report.plots import Series, line_plot
@@ -24,7 +25,6 @@ from acrobot_mj.train.learners import DEFAULT
 from acrobot_mj.train.lock import RunDirectoryBusy, RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.progress import Progress
 from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     EVAL_FILE,
@@ -358,17 +358,15 @@ def run_sweep(
             todo += [trial] if record is None else []
             if record is None and why != "not run yet":
                 sys.stderr.write(f"sweep: running {trial.name} again: {why}\n")
-        bar = Progress(len(todo), f"sweep {out.name}", progress, unit="trials")
+        where = {"address": address} if address else {"num_cpus": ray_num_cpus}
         try:
-            if backend == "local":
-                _run_local(todo, out, jobs, bar, lockstep)
-            else:
-                _run_ray(todo, out, {"address": address} if address else {"num_cpus": ray_num_cpus},
-                         bar)  # fmt: skip
+            with Steps(len(todo), f"sweep {out.name}", progress, unit="trials") as bar:
+                if backend == "local":
+                    _run_local(todo, out, jobs, bar, lockstep)
+                else:
+                    _run_ray(todo, out, where, bar)
         except KeyboardInterrupt as interrupt:
             stop = interrupt
-        finally:
-            bar.close()
         summary = summarize_sweep(spec, out)
     if stop:
         raise type(stop)(f"sweep interrupted: {summary['unfinished']} of {summary['trials']} "
@@ -377,7 +375,7 @@ def run_sweep(
     return summary
 
 
-def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress, lockstep) -> None:
+def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Steps, lockstep) -> None:
     """One lockstep run per grid point whose seeds go together (those with checkpoints apart
     from the others), then every other trial in a process of its own."""
     left, groups = Counter(t.point_name for t in todo), {}
@@ -393,22 +391,22 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Progress, lo
         except Exception:  # one trial at a time, each failure recorded
             for t in group:
                 run_trial(t.config.to_dict(), t.seed, str(trial_dir(out, t)))
-                bar.advance()
+                bar.done()
             continue
         for path in dirs:  # train_lockstep wrote each run.json; an earlier failure is over
             (path / ERROR_FILE).unlink(missing_ok=True)
-        bar.advance(len(group))
+        bar.done(count=len(group))
     calls = [(t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in todo
              if id(t) not in together]  # fmt: skip
     if jobs == 1:  # in this process, one after the other
         for call in calls:
             run_trial(*call)
-            bar.advance()
+            bar.done()
         return
     with WorkerPool(jobs) as pool:
         for future in pool.run(run_trial_in_worker, calls):
             future.result()
-            bar.advance()
+            bar.done()
 
 
 def _check_reachable(address: str) -> None:
@@ -422,7 +420,7 @@ def _check_reachable(address: str) -> None:
         raise ConnectionError(f"no Ray cluster answers at {address}: {error}") from None
 
 
-def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Progress) -> None:
+def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Steps) -> None:
     """Each trial a Ray task; this process writes its record and evaluation."""
     try:
         import ray
@@ -445,7 +443,7 @@ def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Progress)
                           "config": trial.config.to_dict()}  # fmt: skip
                 evaluation = None
             write_trial(trial_dir(out, trial), record, evaluation)
-            bar.advance()
+            bar.done()
     finally:
         for ref in pending:  # Ctrl-C: the queued and running tasks are given up
             ray.cancel(ref)
