@@ -88,3 +88,33 @@ def test_the_balance_example_trains_and_writes_a_replayable_record(tmp_path, cap
         replayed = sum(env.step(np.array([a], dtype=np.float32))[1] for a in actions)
         assert replayed == pytest.approx(total, abs=1e-9)  # the same sum, maybe in another order
     assert record["episode_returns"] == stored["episode_returns"]
+
+
+#: The zoo's scripts other than train take no --gym-packages: this imports the package first.
+ZOO = (
+    "import acrobot_mj, runpy; runpy.run_module('rl_zoo3.{}', run_name='__main__', alter_sys=True)"
+)
+
+
+@pytest.mark.slow
+def test_the_rl_zoo_trains_with_the_shipped_hyperparameters_and_records_a_video(tmp_path):
+    pytest.importorskip("rl_zoo3", reason="the RL Baselines3 Zoo (examples extra)")
+    import subprocess
+
+    conf = Path(__file__).resolve().parents[1] / "acrobot_mj" / "zoo" / "ppo.yml"
+    env = ["--algo", "ppo", "--env", "acrobot_mj/AcrobotRL-v0"]
+    train = [sys.executable, "-m", "rl_zoo3.train", *env, "--gym-packages", "acrobot_mj",
+             "-conf", str(conf), "-n", "4096", "--seed", "0", "-f", "logs",
+             "--eval-freq", "-1"]  # fmt: skip
+    done = subprocess.run(train, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "Using 'default' hyperparameters" not in done.stdout  # the shipped ones
+    assert "('n_envs', 16)" in done.stdout and "('gae_lambda', 0.94)" in done.stdout
+    video = [sys.executable, "-c", ZOO.format("record_video"), *env, "-f", "logs", "-n", "20"]
+    done = subprocess.run(video, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert len(list((tmp_path / "logs").rglob("*.mp4"))) == 1
+    enjoy = [sys.executable, "-c", ZOO.format("enjoy"), *env, "-f", "logs", "-n", "50",
+             "--no-render", "--deterministic"]  # fmt: skip
+    done = subprocess.run(enjoy, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
