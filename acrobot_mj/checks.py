@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import os
+import signal
+import threading
 from typing import Any, NoReturn
 
 import numpy as np
@@ -90,3 +92,42 @@ def check_stop() -> None:
 def clear_stop() -> None:
     """Forget the stop: it has been handled."""
     _PENDING.clear()
+
+
+#: The signals that stop a run: Ctrl-C, SIGTERM, and a sweep driver's SIGUSR1 to its workers.
+STOP_SIGNALS = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGUSR1") if hasattr(signal, name)
+)
+
+
+class SafePoints:
+    """Hold the stop signals while the block runs, and act on them at its safe points
+    (:meth:`check`) or as it ends, by calling the handler each signal had (which raises). A
+    training loop checks between episodes, so a stop never lands between an update of the
+    learner and its record. Only Python handlers are held, and only in the main thread."""
+
+    def __enter__(self) -> SafePoints:
+        self._held: list[tuple[int, Any]] = []
+        self._handlers: dict[int, Any] = {}
+        if threading.current_thread() is threading.main_thread():
+            for number in STOP_SIGNALS:
+                handler = signal.getsignal(number)
+                if callable(handler):
+                    self._handlers[number] = handler
+                    signal.signal(number, self._hold)
+        return self
+
+    def _hold(self, signum: int, frame: Any) -> None:
+        self._held.append((signum, frame))
+
+    def check(self) -> None:
+        """Act on the signals held so far (a handler's exception comes out here)."""
+        while self._held:
+            signum, frame = self._held.pop(0)
+            self._handlers[signum](signum, frame)
+
+    def __exit__(self, kind: type[BaseException] | None, *rest: object) -> None:
+        for number, handler in self._handlers.items():
+            signal.signal(number, handler)
+        if kind is None:
+            self.check()

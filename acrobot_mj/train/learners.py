@@ -18,7 +18,7 @@ import numpy as np
 
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
-from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.checks import SafePoints, check_float, check_int
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
@@ -258,31 +258,33 @@ def train_one(
         started = time.perf_counter()
         stop = None
         try:
-            for episode in range(len(history), config.episodes):
-                cap = config.learner_decisions
-                left = None if cap == 0 else max(cap - history.steps, 0)
-                if left == 0:
-                    break
-                noise = config.start_noise_at(episode)
-                options = {"start_noise": noise} if noise > 0 else None
-                try:
-                    with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
-                        result = run_episode(env, Learning(agent), episode_seed(seed, episode),
-                                             options, max_steps=left)  # fmt: skip
-                    if not math.isfinite(result.episode_return):
-                        raise DivergenceError(f"the episode's return is {result.episode_return}",
-                                              rewards=True)  # fmt: skip
-                except DivergenceError as error:
-                    checkpoints.save()  # the state after the last finite episode
-                    checkpoints.close()
-                    raise diverged(config, seed, episode, len(history), error, path) from None
-                history.add_episode(result)
-                checkpoints.snapshot(state, history)
-                m.episode(episode, result.length, result.episode_return, result.success)
-                if (episode + 1) % config.checkpoint_every == 0:
-                    checkpoints.save()
-                if run.on_episode is not None:
-                    run.on_episode(episode, history)
+            with SafePoints() as stops:  # a stop lands between episodes
+                for episode in range(len(history), config.episodes):
+                    stops.check()
+                    cap = config.learner_decisions
+                    left = None if cap == 0 else max(cap - history.steps, 0)
+                    if left == 0:
+                        break
+                    noise = config.start_noise_at(episode)
+                    options = {"start_noise": noise} if noise > 0 else None
+                    try:
+                        with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
+                            result = run_episode(env, Learning(agent), episode_seed(seed, episode),
+                                                 options, max_steps=left)  # fmt: skip
+                        if not math.isfinite(result.episode_return):
+                            total = result.episode_return
+                            raise DivergenceError(f"the episode's return is {total}", rewards=True)
+                    except DivergenceError as error:
+                        checkpoints.save()  # the state after the last finite episode
+                        checkpoints.close()
+                        raise diverged(config, seed, episode, len(history), error, path) from None
+                    history.add_episode(result)
+                    checkpoints.snapshot(state, history)
+                    m.episode(episode, result.length, result.episode_return, result.success)
+                    if (episode + 1) % config.checkpoint_every == 0:
+                        checkpoints.save()
+                    if run.on_episode is not None:
+                        run.on_episode(episode, history)
         except KeyboardInterrupt as interrupt:
             stop = interrupt
     elapsed = time.perf_counter() - started

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
-from acrobot_mj.checks import check_stop
+from acrobot_mj.checks import SafePoints
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
@@ -143,23 +143,24 @@ class _Lockstep:
         actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
         actions[active] = self._restart(active)
         try:
-            while active.any():
-                check_stop()  # a stop that numba's loader dropped
-                obs, reward, terminated, truncated, info = self.vec.step(actions)
-                ids = np.flatnonzero(active)
-                length[ids] += 1
-                total[ids] += reward[ids]
-                learned = self.learners.learn(ids, reward[ids], obs[ids], terminated[ids],
-                                              truncated[ids])  # fmt: skip
-                actions[ids] = np.where(learned >= 0, learned, 1)
-                done = np.zeros(k, dtype=bool)
-                done[ids] = terminated[ids] | truncated[ids]
-                self._finish_episodes(done, length, total, info["is_success"])
-                length[done], total[done] = 0, 0.0
-                active &= self.episode < config.episodes
-                again = done & active
-                if again.any():
-                    actions[again] = self._restart(again)
+            with SafePoints() as stops:  # a stop lands between steps
+                while active.any():
+                    stops.check()
+                    obs, reward, terminated, truncated, info = self.vec.step(actions)
+                    ids = np.flatnonzero(active)
+                    length[ids] += 1
+                    total[ids] += reward[ids]
+                    learned = self.learners.learn(ids, reward[ids], obs[ids], terminated[ids],
+                                                  truncated[ids])  # fmt: skip
+                    actions[ids] = np.where(learned >= 0, learned, 1)
+                    done = np.zeros(k, dtype=bool)
+                    done[ids] = terminated[ids] | truncated[ids]
+                    self._finish_episodes(done, length, total, info["is_success"])
+                    length[done], total[done] = 0, 0.0
+                    active &= self.episode < config.episodes
+                    again = done & active
+                    if again.any():
+                        actions[again] = self._restart(again)
         except (KeyboardInterrupt, DivergenceError) as stop:
             for checkpoint in self.checkpoints:  # each learner's last finite state
                 checkpoint.save()
