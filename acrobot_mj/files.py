@@ -27,8 +27,12 @@ def versions() -> dict[str, str]:
 
 
 def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
-    """Call ``write(file)`` on a temporary file beside ``path``, then rename it to ``path``."""
+    """Call ``write(file)`` on a temporary file beside ``path``, then rename it to ``path``
+    (refused where ``path`` is not a regular file: the rename would replace a device)."""
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise IsADirectoryError(f"{path} exists and is not a regular file (a folder, a device or "
+                                "a pipe): name a file")  # fmt: skip
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
@@ -40,6 +44,15 @@ def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
     finally:
         tmp.unlink(missing_ok=True)
     return path
+
+
+def read_json(path: str | Path) -> Any:
+    """The JSON document at ``path``; ValueError where it is not one (nested too deeply
+    included: Python's parser would raise RecursionError)."""
+    try:
+        return json.loads(Path(path).read_text())
+    except RecursionError:
+        raise ValueError(f"{path} is nested too deeply to be a record") from None
 
 
 def write_text(path: str | Path, text: str) -> Path:

@@ -104,7 +104,7 @@ def test_continuous_actions_outside_the_space(action, error, match) -> None:
         ({"start_noise": -0.1}, ValueError, "start_noise"),
         ({"start_noise": 2.0}, ValueError, "start_noise"),
         ({"continuous": 1}, TypeError, "continuous"),
-        ({"render_mode": "human"}, ValueError, "render_mode"),
+        ({"render_mode": "ansi"}, ValueError, "render_mode"),
         ({"width": 0}, ValueError, "width"),
         ({"height": 10_000}, ValueError, "height"),
         ({"camera": "top"}, ValueError, "camera"),

@@ -99,7 +99,8 @@ def test_resume_continues_a_run(tmp_path, capsys) -> None:
         (["train", "--alpha", "fast"], "config alpha needs a float"),
         (["train", "--algorithm", "dqn"], "algorithm must be one of"),
         (["train", "--resume", "--out", "nowhere"], "checkpoint not found"),
-        (["evaluate", "nowhere"], "checkpoint not found"),
+        (["evaluate", "nowhere"], "'nowhere' holds no run (no run.json or checkpoint.npz)"),
+        (["evaluate", ""], "'' holds no run"),  # and no .lock is created in the cwd
         # Removed: the kernel choice (one compiled Sarsa(lambda)) and lockstep populations.
         (["train", "--preset", "book", "--kernel", "numba"], "--kernel was removed: Sarsa(lambda)"),
         (["train", "--population", "3", "--lockstep"], "--lockstep trains several seeds together"),
@@ -114,6 +115,7 @@ def test_bad_arguments_give_a_clear_error(argv, message, tmp_path, monkeypatch, 
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / ".lock").exists() and not (tmp_path / "nowhere").exists()
 
 
 def test_corrupt_checkpoint_gives_a_clear_error(tmp_path, capsys) -> None:

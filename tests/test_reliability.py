@@ -8,6 +8,7 @@ KeyboardInterrupt, so each child gets SIGINT back at its default before it start
 from __future__ import annotations
 
 import ctypes
+import io
 import json
 import os
 import shutil
@@ -16,6 +17,7 @@ import socket
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 
 import gymnasium as gym
@@ -35,6 +37,7 @@ from acrobot_mj.train.records import (
     History,
     load_checkpoint,
     read_history,
+    save_checkpoint,
 )
 from acrobot_mj.train.sweep import parse_sweep
 from acrobot_mj.train.trainer import load_learner, train
@@ -1016,3 +1019,92 @@ def test_the_resume_hint_only_where_a_checkpoint_was_saved(tmp_path, monkeypatch
     monkeypatch.setattr(learning, "train", interrupted)
     assert exits([*args, "--resume"]) == 130
     assert capsys.readouterr().err.strip().endswith("; continue with --resume")
+
+
+# -- the second fuzz round ------------------------------------------------------------------
+
+
+def test_records_are_never_renamed_over_a_pipe_or_a_folder(tmp_path, exits, capsys) -> None:
+    # demo --json /dev/null (as root) replaced the device with a regular file.
+    os.mkfifo(tmp_path / "pipe")
+    (tmp_path / "folder").mkdir()
+    for target in ("pipe", "folder", ""):
+        with pytest.raises(SystemExit) as stop:
+            main(["demo", "--steps", "2", "--json", str(tmp_path / target) if target else ""])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert "argument --json" in err and ("not a regular file" in err or "name a file" in err)
+    assert (tmp_path / "pipe").is_fifo() and (tmp_path / "folder").is_dir()
+    with pytest.raises(IsADirectoryError, match="not a regular file"):
+        write_json(tmp_path / "pipe", {})  # the library refuses too
+
+
+def test_video_sizes_and_options_a_run_ignores_are_refused(trained, tmp_path, exits, capsys):
+    out = str(tmp_path / "v.mp4")
+    for argv, says in [
+        (["render", "--policy", "pump", "--width", "17", "--out", out], "must be even, got 17"),
+        (["render", str(trained), "--frame-skip", "2", "--out", out], "--frame-skip is for"),
+    ]:
+        assert exits(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert says in err and len(err.splitlines()) == 1, err
+    assert not Path(out).exists()
+
+
+def _forged(run: Path, change) -> Path:
+    """The run's checkpoint changed by ``change(meta, arrays)``, its checksum made good again."""
+    meta, arrays = load_checkpoint(run / CHECKPOINT_FILE)
+    change(meta, arrays)
+    save_checkpoint(run / CHECKPOINT_FILE, arrays, meta)
+    return run
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (lambda m, a: a.update(q=a["q"].astype(np.float32)), "q holds float32 values"),
+        (lambda m, a: a.update(q=a["q"].astype(np.complex128)), "q holds complex128 values"),
+        (lambda m, a: a.update(q=a["q"].astype(np.int8)), "q holds int8 values"),
+        (lambda m, a: m.update(episodes_done=-3), "bad or missing ['episodes_done']"),
+        (lambda m, a: m.update(agent="evil"), "is of agent 'evil'"),
+    ],
+)
+def test_a_resealed_checkpoint_of_the_wrong_kind_is_refused(trained, change, says, exits, capsys):
+    # Each was accepted: weights cast to float64 (a ComplexWarning, or wrapped int8 values that
+    # then trained on), a negative episode count, an unknown agent.
+    _forged(trained, change)
+    assert exits(["evaluate", str(trained), "--episodes", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert says in err and len(err.splitlines()) == 1, err
+
+
+def test_a_checkpoint_declaring_a_huge_array_is_refused_before_allocating(trained, exits, capsys):
+    # A few kilobytes whose header declares 3 x 4e9 floats: numpy allocated 89 GiB and failed.
+    path = trained / CHECKPOINT_FILE
+    members = {}
+    with zipfile.ZipFile(path) as archive:
+        for info in archive.infolist():
+            members[info.filename] = archive.read(info)
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "<f8", "fortran_order": False, "shape": (3, 4_000_000_000)}
+    )
+    members["q.npy"] = header.getvalue() + members["q.npy"][len(header.getvalue()) :]
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    assert exits(["evaluate", str(trained)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "q.npy declares 96,000,000,000 bytes" in err and len(err.splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("command", [["evaluate", "{run}"], ["curves", "{run}", "--out", "{out}"],
+                                     ["render", "{run}", "--out", "{out}.mp4"]])  # fmt: skip
+def test_a_record_nested_too_deeply_is_one_line(trained, tmp_path, command, exits, capsys):
+    # Valid JSON 200,000 levels deep: Python's parser raised RecursionError.
+    text = (trained / "run.json").read_text().rstrip()[:-1]
+    (trained / "run.json").write_text(text + ', "deep": ' + "[" * 200_000 + "]" * 200_000 + "}")
+    argv = [part.format(run=trained, out=tmp_path / "c.png") for part in command]
+    assert exits(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "nested too deeply" in err and len(err.splitlines()) == 1, err

@@ -106,8 +106,11 @@ class RandomStream:
 
 
 def checked_values(state: dict[str, Any], name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """``state[name]`` as float64; ValueError unless it has ``shape`` and is finite."""
-    values = np.asarray(state[name], dtype=np.float64)
+    """``state[name]``; ValueError unless it is float64 (as saved: anything else was edited, and
+    a cast would change the numbers), has ``shape`` and is finite."""
+    values = np.asarray(state[name])
+    if values.dtype != np.float64:
+        raise ValueError(f"{name} holds {values.dtype} values, this agent saves float64")
     if values.shape != shape:
         raise ValueError(f"{name} has shape {values.shape}, this agent needs {shape}")
     if not np.all(np.isfinite(values)):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
 from pathlib import Path
 from typing import Any
@@ -11,6 +10,7 @@ from typing import Any
 from acrobot_mj.cli import tools
 from acrobot_mj.cli.tools import add_command, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.files import read_json
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
 from acrobot_mj.train.evaluate import evaluate
@@ -303,7 +303,8 @@ def add_curves(commands: tools.Commands) -> None:
     p.add_argument("run_dirs", nargs="+",
                    help="directories written by train: of --seeds (their median and band) or "
                    "one run's (a population's learner_K among them)")  # fmt: skip
-    p.add_argument("--out", required=True, help="the figure: .png, .svg or .pdf (by its suffix)")
+    p.add_argument("--out", required=True, type=tools.output_file,
+                   help="the figure: .png, .svg or .pdf (by its suffix)")  # fmt: skip
     p.add_argument("--title", default="Learning curves", help="the figure's title")
     p.add_argument("--minimum", action="store_true", help="draw the task's best known minimum")
 
@@ -327,7 +328,7 @@ def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
 def _record(path: Path) -> dict[str, Any]:
     """A JSON record, or one line naming the file and what is wrong with it."""
     try:
-        record = json.loads(path.read_text())
+        record = read_json(path)
     except (OSError, ValueError) as error:
         raise ValueError(f"{path} is not a readable record: {error}") from None
     if not isinstance(record, dict):

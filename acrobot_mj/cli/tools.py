@@ -77,6 +77,24 @@ def show_progress(args: argparse.Namespace) -> bool:
     return sys.stderr.isatty() if args.progress is None else args.progress
 
 
+def output_file(text: str) -> str:
+    """An argparse type: a file to write, checked before any work is done (not empty, not a
+    folder, a device or a pipe: renaming a record over ``/dev/null`` replaced the device)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a file, got ''")
+    if Path(text).exists() and not Path(text).is_file():
+        raise argparse.ArgumentTypeError(f"{text} exists and is not a regular file (a folder, "
+                                         "a device or a pipe): name a file")  # fmt: skip
+    return text
+
+
+def check_output(path: str | None, command: str) -> None:
+    """Refuse at once, not after the work, an output that :func:`output_into` would refuse."""
+    if path:
+        with output_into(path, command):
+            pass
+
+
 def write_record(path: str | None, data: dict[str, Any]) -> None:
     """Write ``data`` as JSON to ``path`` (when given) and say so."""
     if path:
@@ -92,16 +110,18 @@ def add_render(commands: Commands) -> None:
                     "headless).")  # fmt: skip
     p.add_argument("run_dir", nargs="?", help="a directory written by acrobot-mj train")
     p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
-    p.add_argument("--out", help="the .mp4 file (a .json record goes beside it)")
+    p.add_argument("--out", type=output_file, help="the .mp4 file (a .json record goes beside it)")
     p.add_argument("--live", action="store_true", help="show the episode in MuJoCo's viewer "
                    "window at real time instead (needs a display)")  # fmt: skip
     p.add_argument("--steps", type=positive_int, help="most steps (default: the whole episode)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env, ties and --policy random")
-    p.add_argument("--frame-skip", type=positive_int, default=1, help="with --policy only")
+    p.add_argument("--frame-skip", type=positive_int, help="with --policy only (default: 1; a "
+                   "run renders at its own)")  # fmt: skip
     p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
     p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
     p.add_argument("--camera", default="side", help="a camera of the model: side or wide")
-    p.add_argument("--strip", metavar="PNG", help="also write a strip of 6 frames")
+    p.add_argument("--strip", metavar="PNG", type=output_file,
+                   help="also write a strip of 6 frames")  # fmt: skip
     p.add_argument("--captions", action=argparse.BooleanOptionalAction, default=True,
                    help="time, torque and tip height on each frame")  # fmt: skip
     add_progress(p)
@@ -110,6 +130,9 @@ def add_render(commands: Commands) -> None:
 def render_command(args: argparse.Namespace) -> dict[str, Any]:
     if (args.run_dir is None) == (args.policy is None):
         raise ValueError("give either a run directory or --policy, not both or neither")
+    if args.run_dir is not None and args.frame_skip is not None:
+        raise ValueError("--frame-skip is for --policy: a run renders at its own frame skip")
+    frame_skip = args.frame_skip or 1
     settings = RenderSettings(args.width, args.height, args.camera, args.captions, args.strip,
                               args.steps, args.seed, show_progress(args))  # fmt: skip
     if args.live:
@@ -119,7 +142,7 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
         if args.run_dir is not None:
             record = watch_run(args.run_dir, settings)
         else:
-            record = watch_policy(args.policy, settings, args.frame_skip)
+            record = watch_policy(args.policy, settings, frame_skip)
         print(
             f"showed {record['length']} actions; the goal was "
             + ("reached" if record["success"] else "not reached")
@@ -131,7 +154,7 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
         if args.run_dir is not None:
             record = render_run(args.run_dir, args.out, settings)
         else:
-            record = render_policy(args.policy, args.out, settings, args.frame_skip)
+            record = render_policy(args.policy, args.out, settings, frame_skip)
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
     if "balanced" in record:  # the balance task
         outcome = "stays balanced" if record["balanced"] else "does not stay balanced"
@@ -165,7 +188,8 @@ def add_bench(commands: Commands) -> None:
     p = add_command(commands, "bench", bench_command, "steps per second against "
                     "Gymnasium's Acrobot-v1 and MuJoCo's ceiling")  # fmt: skip
     p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
-    p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.add_argument("--json", metavar="FILE", type=output_file,
+                   help="also write the results as JSON")  # fmt: skip
     p.add_argument("--peer-python", metavar="PATH",
                    help="a Python with gymnax and jax (docs/guide/benchmarks.md) for the "
                    "peers' rows; default $ACROBOT_MJ_PEER_PYTHON, else those rows are "
@@ -177,6 +201,7 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     if not suite_path.is_file():
         raise FileNotFoundError(f"acrobot-mj bench runs the benchmarks of a source checkout; "
                                 f"{suite_path} is not there (clone the repository)")  # fmt: skip
+    check_output(args.json, "bench")
     spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
     suite = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(suite)
@@ -197,11 +222,13 @@ def add_demo(commands: Commands) -> None:
     p.add_argument("--integrator", choices=("euler", "rk4"), default="euler",
                    help="semi-implicit Euler (the report's) or RK4")  # fmt: skip
     p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")
-    p.add_argument("--json", metavar="FILE", help="also write the run record as JSON")
+    p.add_argument("--json", metavar="FILE", type=output_file,
+                   help="also write the run record as JSON")  # fmt: skip
 
 
 def demo(args: argparse.Namespace) -> dict[str, Any]:
     """Roll out a fixed policy from rest and print the state as it goes."""
+    check_output(args.json, "demo")
     env = gym.make(HeightGoal.env_id, frame_skip=args.frame_skip, integrator=args.integrator)
     states, tips = [], []
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import itertools
-import json
 import os
 import queue
 import re
@@ -25,7 +24,7 @@ from acrobot_mj.control.policies import make_policy
 from acrobot_mj.envs.rollout import Actor, PolicyActor, run_episode
 from acrobot_mj.envs.spaces import TORQUES
 from acrobot_mj.envs.tasks import HeightGoal
-from acrobot_mj.files import write_atomic, write_json
+from acrobot_mj.files import read_json, write_atomic, write_json
 
 #: x264's fastest preset at constant quality: software GL and the encoder share the CPU.
 FFMPEG_PARAMS = ["-preset", "ultrafast", "-crf", "30", "-pix_fmt", "yuv420p"]
@@ -40,7 +39,7 @@ class VideoWriter:
         self._tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.tmp.mp4")
         try:  # ffmpeg quiet: _failure reports in one line
             self._writer = imageio.get_writer(self._tmp, fps=fps, codec="libx264",
-                                              macro_block_size=8, ffmpeg_params=FFMPEG_PARAMS,
+                                              macro_block_size=2, ffmpeg_params=FFMPEG_PARAMS,
                                               ffmpeg_log_level="quiet")  # fmt: skip
         except OSError as error:
             raise self._failure(error) from None
@@ -136,7 +135,7 @@ def check_outputs(path: Path, strip: str | Path | None) -> None:
 
 def _json_object(path: Path) -> dict[str, Any]:
     try:
-        value = json.loads(path.read_text())
+        value = read_json(path)
     except (OSError, ValueError):
         return {}
     return value if isinstance(value, dict) else {}
@@ -170,6 +169,9 @@ def record_episode(env: Any, actor: Actor, path: str | Path,
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
     path, strip = Path(path), settings.strip
+    size = (env.unwrapped.width, env.unwrapped.height)
+    if size[0] % 2 or size[1] % 2:  # H.264 in yuv420p: ffmpeg would resize the video silently
+        raise ValueError(f"an MP4's width and height must be even, got {size[0]} x {size[1]}")
     check_outputs(path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
     fps, task, dt = env.metadata["render_fps"], env.unwrapped.task, env.unwrapped.dt

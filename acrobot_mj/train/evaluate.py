@@ -18,7 +18,7 @@ from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, watch
 from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.records import EVAL_FILE, History, spread
+from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
 
 MINIMA = ("stored", "compute", "none")
@@ -30,6 +30,18 @@ _RENDER = RenderSettings()
 PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state"}
 
 
+def run_lock(run_dir: str | Path, command: str) -> RunLock:
+    """The lock of a run directory to read; nothing is created where there is no run."""
+    path = Path(run_dir)
+    if not str(run_dir).strip() or not any(
+        (path / n).exists() for n in (RUN_FILE, CHECKPOINT_FILE)
+    ):
+        raise FileNotFoundError(f"{str(run_dir)!r} holds no run (no {RUN_FILE} or "
+                                f"{CHECKPOINT_FILE}): give a directory written by acrobot-mj "
+                                "train")  # fmt: skip
+    return RunLock(path, command, create=False)
+
+
 def evaluate(
     run_dir: str | Path, protocol: Protocol | dict | None = None, minima: str = "stored"
 ) -> dict[str, Any]:
@@ -38,7 +50,7 @@ def evaluate(
     ``eval.json``. ``minima``: compare with ``"stored"`` per-start minima where they apply,
     ``"compute"`` them otherwise, or ``"none"``. Locks the run directory; one that cannot be
     written (a read-only mount) is evaluated without writing ``eval.json``."""
-    with RunLock(Path(run_dir), "evaluate", create=False) as lock:
+    with run_lock(run_dir, "evaluate") as lock:
         return evaluate_run(run_dir, protocol, minima, write=not lock.read_only)
 
 
@@ -124,7 +136,7 @@ def render_run(
     run_dir: str | Path, out: str | Path, settings: RenderSettings = _RENDER
 ) -> dict[str, Any]:
     """A video of a run's greedy episode from rest, on the run's own env."""
-    with RunLock(Path(run_dir), "render", create=False):
+    with run_lock(run_dir, "render"):
         learner = load_learner(run_dir)
     env = learner.env(render_mode="rgb_array", **settings.env_kwargs())
     try:
@@ -143,7 +155,7 @@ def render_run(
 
 def watch_run(run_dir: str | Path, settings: RenderSettings = _RENDER) -> dict[str, Any]:
     """A run's greedy episode from rest, live in MuJoCo's viewer window at real time."""
-    with RunLock(Path(run_dir), "render", create=False):
+    with run_lock(run_dir, "render"):
         learner = load_learner(run_dir)
     env = learner.env(render_mode="human", camera=settings.camera)
     return watch(env, learner.actor(env, 0), settings, {"start_noise": 0.0})

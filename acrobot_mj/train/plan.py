@@ -6,7 +6,6 @@ at upright."""
 from __future__ import annotations
 
 import dataclasses
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +20,7 @@ from acrobot_mj.control.lqr import SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import versions, write_json
+from acrobot_mj.files import read_json, versions, write_json
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.report.balance import BalanceActor, balance_env, closed_loop
 from acrobot_mj.train.learners import Learner, Protocol, Run
@@ -136,7 +135,7 @@ class PlanLearner(Learner):
     def load(cls, run_dir: Path) -> PlanLearner:
         path = Path(run_dir) / RUN_FILE
         try:
-            record = json.loads(path.read_text())
+            record = read_json(path)
         except (OSError, ValueError) as error:
             raise ValueError(f"{path} is not a readable run record: {error}") from None
         if not isinstance(record, dict) or record.get("kind") != KIND:

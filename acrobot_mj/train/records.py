@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import zipfile
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -18,7 +19,7 @@ import numpy as np
 
 from acrobot_mj.envs.rollout import Episode
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import versions, write_atomic, write_json
+from acrobot_mj.files import read_json, versions, write_atomic, write_json
 from acrobot_mj.report.plots import learning_curve
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import EpisodeLog, RunLog, read_rows
@@ -86,15 +87,34 @@ def save_checkpoint(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[
     return write_atomic(path, lambda f: np.savez(f, **payload))
 
 
+def _check_sizes(path: Path) -> None:
+    """ValueError where an array of the file declares more bytes than the file holds for it
+    (a hand-made header would have numpy allocate them before finding out)."""
+    with zipfile.ZipFile(path) as archive:
+        for member in archive.infolist():
+            with archive.open(member) as f:
+                version = np.lib.format.read_magic(f)
+                read = {(1, 0): np.lib.format.read_array_header_1_0,
+                        (2, 0): np.lib.format.read_array_header_2_0}.get(version)  # fmt: skip
+                if read is None:
+                    raise ValueError(f"{member.filename} is an .npy of version {version}")
+                shape, _, dtype = read(f)
+            declared = math.prod(shape) * dtype.itemsize
+            if declared > member.file_size:
+                raise ValueError(f"{member.filename} declares {declared:,} bytes of {dtype} "
+                                 f"{shape}, the file holds {member.file_size:,}")  # fmt: skip
+
+
 def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Read and validate a checkpoint; return ``(meta, arrays)``."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint not found: {path}")
     try:
+        _check_sizes(path)
         with np.load(path, allow_pickle=False) as npz:
             data = {name: npz[name] for name in npz.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, MemoryError) as error:
         raise CheckpointError(f"{path} is not a readable checkpoint (truncated or corrupt?): "
                               f"{error}") from error  # fmt: skip
     missing = [name for name in _RESERVED if name not in data]
@@ -231,6 +251,8 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
     meta, arrays = load_checkpoint(path)
     kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int}
     wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
+    wrong += [key for key in ("seed", "episodes_done", "steps")
+              if key not in wrong and meta[key] < 0]  # fmt: skip
     if "history" in meta:  # written before the episode log: the episodes in the meta
         history = meta["history"]
         ok = isinstance(history, dict) and sorted(history) == sorted(HISTORY_KEYS)
@@ -244,6 +266,9 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
         config = TrainConfig.from_dict(meta["config"])
     except (TypeError, ValueError) as error:
         raise CheckpointError(f"{path} holds an invalid config: {error}") from error
+    if meta.get("agent", config.algorithm) != config.algorithm:  # older ones have none
+        raise CheckpointError(f"{path} is of agent {meta['agent']!r}, its config of "
+                              f"{config.algorithm!r}")  # fmt: skip
     return meta, arrays, config
 
 
@@ -321,7 +346,7 @@ def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
     if not run_file.exists() and not run_file.is_symlink():  # a link that leads nowhere is read
         return
     try:
-        record = json.loads(run_file.read_text())
+        record = read_json(run_file)
         recorded, recorded_seed = TrainConfig.from_dict(record["config"]), record["seed"]
     except (OSError, ValueError, TypeError, KeyError) as error:
         raise CheckpointError(f"{run_file} is not a readable run record: {error!r}") from None

@@ -17,7 +17,7 @@ from typing import Any
 
 from acrobot_mj.bars import Steps
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import is_sealed, sealed, write_json, write_text
+from acrobot_mj.files import is_sealed, read_json, sealed, write_json, write_text
 from acrobot_mj.report.plots import Series, line_plot
 from acrobot_mj.train.config import TrainConfig, field_names
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
@@ -156,7 +156,7 @@ def trial_state(out: Path, trial: Trial) -> tuple[dict[str, Any] | None, str]:
     if not path.exists():
         return None, "not run yet"
     try:
-        record = json.loads(path.read_text())
+        record = read_json(path)
     except (OSError, ValueError) as error:
         return None, f"its record {path} is unreadable ({error})"
     if not isinstance(record, dict) or not isinstance(record.get("config"), dict):
@@ -231,7 +231,7 @@ def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
     path = run_dir / EVAL_FILE
     if path.exists():
         try:
-            saved = json.loads(path.read_text())
+            saved = read_json(path)
         except (OSError, ValueError):
             saved = None
         mine = {"protocol": DEFAULT.to_dict(), "run_seed": trial.seed,

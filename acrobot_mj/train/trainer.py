@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
+from acrobot_mj.files import read_json
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
 from acrobot_mj.train.lock import RunLock
@@ -59,7 +59,7 @@ def load_learner(run_dir: str | Path) -> Learner:
     """The trained learner of a run directory, whatever it is."""
     run_dir = Path(run_dir)
     try:
-        kind = json.loads((run_dir / RUN_FILE).read_text()).get("kind")
+        kind = read_json(run_dir / RUN_FILE).get("kind")
     except (OSError, ValueError, AttributeError):
         kind = None  # an agent's run: its checkpoint says what is wrong
     return PlanLearner.load(run_dir) if kind == KIND else AgentLearner.load(run_dir)
