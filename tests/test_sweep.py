@@ -3,7 +3,13 @@ sweep on a local Ray."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +29,7 @@ seeds = [0, 1]
 alpha = [0.1, 0.5]
 frame_skip = [1, 4]
 """
+ROOT = Path(__file__).resolve().parents[1]
 #: Two grid points of two seeds: what most tests need.
 SMALL = TINY.replace("frame_skip = [1, 4]", "frame_skip = [4]")
 
@@ -205,15 +212,43 @@ def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch
     assert summary["points"][0]["failed_seeds"] == [1] and summary["points"][0]["runs"] == 2
 
 
+def _listening() -> set[str]:
+    """Local addresses (hex, as /proc/net gives them) of the TCP sockets listening now."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(table) as f:
+            for line in f.readlines()[1:]:
+                local, state = line.split()[1], line.split()[3]
+                if state == "0A":  # LISTEN
+                    found.add(local)
+    return found
+
+
+#: 127.0.0.1 in /proc/net/tcp, and as an IPv4-mapped or plain loopback in tcp6.
+LOOPBACK = ("0100007F:", "0000000000000000FFFF00000100007F:", "00000000000000000000000001000000:")
+
+
 @pytest.mark.slow
-def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
-    pytest.importorskip("ray", reason="needs the ray extra")
+def test_tiny_sweep_on_a_local_ray_instance(tmp_path) -> None:
+    if importlib.util.find_spec("ray") is None:
+        pytest.skip("needs the ray extra")
     sweep = tmp_path / "tiny.toml"
     sweep.write_text(SMALL)
     out = tmp_path / "ray"
-    assert (
-        main(["sweep", str(sweep), "--backend", "ray", "--num-cpus", "2", "--out", str(out)]) == 0
-    )
+    # The command as a user runs it, watched from outside: what listens while Ray runs.
+    command = ["sweep", str(sweep), "--backend", "ray", "--num-cpus", "2", "--out", str(out)]
+    before, seen = _listening(), set()
+    child = subprocess.Popen([sys.executable, "-m", "acrobot_mj_main", *command], cwd=tmp_path,
+                             env={**os.environ, "PYTHONPATH": str(ROOT)},
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    while child.poll() is None:
+        seen |= _listening() - before
+        time.sleep(0.1)
+    stdout, stderr = child.communicate()
+    assert child.returncode == 0, stderr[-2000:]
+    assert "4 trials" in stdout
+    # Ray's servers (GCS, raylet, workers) listened on every interface: 127.0.0.1 only now.
+    assert seen and all(address.startswith(LOOPBACK) for address in seen), seen
     runs = sorted((out / "trials").glob("*/run.json"))
     assert len(runs) == 4  # one run record per trial
     assert {json.loads(p.read_text())["seed"] for p in runs} == {0, 1}
@@ -222,7 +257,6 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path, capsys) -> None:
         evaluation = json.loads(run.with_name("eval.json").read_text())
         assert evaluation["run"] == str(run.parent) and len(evaluation["start_states"]) == 100
         assert not run.with_name("checkpoint.npz").exists()
-    assert "4 trials" in capsys.readouterr().out
 
 
 def test_a_changed_sweep_does_not_reuse_another_sweeps_trials(tmp_path) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import os
 import socket
 import sys
 import tempfile
@@ -422,6 +423,10 @@ def _check_reachable(address: str) -> None:
 
 def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Steps) -> None:
     """Each trial a Ray task; this process writes its record and evaluation."""
+    if "address" not in where:
+        # A local instance listens on 127.0.0.1 only (Ray's single-machine mode; on Linux its
+        # servers listen on every interface otherwise). Read when Ray is imported.
+        os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
     try:
         import ray
     except ImportError as error:
