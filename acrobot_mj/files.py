@@ -48,7 +48,10 @@ def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
 
 def read_json(path: str | Path) -> Any:
     """The JSON document at ``path``; ValueError where it is not one (nested too deeply
-    included: Python's parser would raise RecursionError)."""
+    included: Python's parser would raise RecursionError), or not a regular file (reading a
+    pipe would wait for a writer forever)."""
+    if Path(path).exists() and not Path(path).is_file():
+        raise ValueError(f"{path} is not a regular file")
     try:
         return json.loads(Path(path).read_text())
     except RecursionError:

@@ -1108,3 +1108,20 @@ def test_a_record_nested_too_deeply_is_one_line(trained, tmp_path, command, exit
     assert exits(argv) == 2
     err = capsys.readouterr().err.strip()
     assert "nested too deeply" in err and len(err.splitlines()) == 1, err
+
+
+@pytest.mark.parametrize(
+    ("record", "argv"),
+    [
+        ("run.json", ["evaluate", "{run}", "--episodes", "1"]),
+        ("episodes.jsonl", ["train", "--preset", "report", "--episodes", "3",
+                            "--max-episode-steps", "30", "--out", "{run}", "--resume"]),
+    ],
+)  # fmt: skip
+def test_a_pipe_in_place_of_a_record_is_one_line_not_a_hang(trained, record, argv, capsys):
+    # Reading a FIFO waits for a writer forever: evaluate and the resume hung.
+    (trained / record).unlink()
+    os.mkfifo(trained / record)
+    done = _cli([part.format(run=trained) for part in argv], trained.parent)  # 120 s if it hangs
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert f"{record} is not a regular file" in done.stderr

@@ -27,6 +27,8 @@ def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
     """The first ``count`` complete lines of a log as dicts (a line cut short by a kill is not
     one). Raises ``ValueError`` for a line that is not a JSON object, ``OSError`` if unreadable."""
     rows = []
+    if path.exists() and not path.is_file():  # a pipe would wait for a writer forever
+        raise ValueError(f"{path} is not a regular file")
     with open(path, "rb") as lines:
         for line in itertools.islice(lines, count):
             if not line.endswith(b"\n"):
