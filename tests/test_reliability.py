@@ -1125,3 +1125,19 @@ def test_a_pipe_in_place_of_a_record_is_one_line_not_a_hang(trained, record, arg
     done = _cli([part.format(run=trained) for part in argv], trained.parent)  # 120 s if it hangs
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert f"{record} is not a regular file" in done.stderr
+
+
+def test_a_video_cut_short_by_a_full_disk_is_not_left_as_the_video(tmp_path, exits, capsys):
+    # ffmpeg ended the file early without an error: the truncated video was renamed into place,
+    # and the record beside it failed with an errno that named no file.
+    disk = tmp_path / "disk"
+    _mount_tmpfs(disk, "size=1200k")
+    try:
+        out = disk / "p.mp4"
+        argv = ["render", "--policy", "pump", "--width", "1920", "--height", "1080"]
+        assert exits([*argv, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.endswith(f"cannot write the video {out}: no space left on the device"), err
+        assert list(disk.iterdir()) == []  # neither the video nor its record nor a temporary
+    finally:
+        subprocess.run(["umount", str(disk)], check=False)

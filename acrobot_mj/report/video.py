@@ -45,6 +45,7 @@ class VideoWriter:
             raise self._failure(error) from None
         self._queue: queue.Queue[np.ndarray | None] = queue.Queue(maxsize=queue_size)
         self._error: BaseException | None = None
+        self._frames = 0  # appended
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
 
@@ -61,6 +62,18 @@ class VideoWriter:
             self._tmp.unlink(missing_ok=True)
         return OSError(f"cannot write the video {self.path}: {reason}")
 
+    def _check_frames(self) -> BaseException | None:
+        """Why the encoded file is not the whole video (a full disk), or None."""
+        import imageio_ffmpeg
+
+        try:
+            frames, _ = imageio_ffmpeg.count_frames_and_secs(str(self._tmp))
+        except (RuntimeError, OSError) as error:
+            return OSError(f"the encoded file cannot be read back ({str(error).splitlines()[0]})")
+        if frames != self._frames:
+            return OSError(f"the encoded file holds {frames} of {self._frames} frames")
+        return None
+
     def _run(self) -> None:
         while (frame := self._queue.get()) is not None:
             if self._error is None:
@@ -73,6 +86,7 @@ class VideoWriter:
         if self._error is not None:
             self.close(complete=False)
         self._queue.put(frame)
+        self._frames += 1
 
     def close(self, complete: bool = True) -> None:
         """Finish the video (``complete``) and move it into place, or discard it."""
@@ -82,6 +96,8 @@ class VideoWriter:
             self._writer.close()
         except OSError as error:
             self._error = self._error or error
+        if self._error is None and complete:  # ffmpeg may end early without saying so
+            self._error = self._check_frames()
         if self._error is not None:
             raise self._failure(self._error)
         if complete:
