@@ -1141,3 +1141,22 @@ def test_a_video_cut_short_by_a_full_disk_is_not_left_as_the_video(tmp_path, exi
         assert list(disk.iterdir()) == []  # neither the video nor its record nor a temporary
     finally:
         subprocess.run(["umount", str(disk)], check=False)
+
+
+def test_training_replaces_no_file_of_someone_elses_and_no_stale_summary(tmp_path, exits, capsys):
+    # A folder holding a user's learning_curve.png (no run): it was overwritten, and a user's
+    # eval.json deleted. One seed of a --seeds run trained again: its summary stayed, stale.
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "learning_curve.png").write_text("precious")
+    args = ["train", "--preset", "report", "--episodes", "2", "--max-episode-steps", "20"]
+    assert exits([*args, "--out", str(folder)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "holds learning_curve.png but no run" in err and len(err.splitlines()) == 1, err
+    assert (folder / "learning_curve.png").read_text() == "precious"
+    multi = tmp_path / "multi"
+    assert exits([*args, "--seeds", "2", "--out", str(multi)]) == 0
+    assert (multi / "summary.json").exists()
+    assert exits([*args, "--seed", "7", "--force", "--out", str(multi / "seed_1")]) == 0
+    assert not (multi / "summary.json").exists() and not (multi / "learning_curve.png").exists()
+    assert exits([*args, "--seeds", "2", "--out", str(multi), "--resume"]) == 2  # seed 7 found

@@ -244,6 +244,12 @@ def check_fresh(out: Path) -> None:
     if taken:
         raise FileExistsError(f"{out} already holds a run ({', '.join(taken)}): resume it, "
                               "choose another directory, or overwrite it on purpose")  # fmt: skip
+    # Files a run writes, found where no run is: someone's own, which training would replace.
+    others = [name for name in RUN_RECORDS if (out / name).exists()]
+    if others:
+        raise FileExistsError(f"{out} holds {', '.join(others)} but no run, which training "
+                              "would replace: choose another directory, or overwrite on "
+                              "purpose")  # fmt: skip
 
 
 def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:

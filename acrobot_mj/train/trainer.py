@@ -15,7 +15,7 @@ from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import ModelBasedLearner
 from acrobot_mj.train.plan import KIND, PlanConfig, PlanLearner
 from acrobot_mj.train.progress import run_total, watching
-from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, check_fresh
+from acrobot_mj.train.records import CURVE_FILE, EVAL_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
 
 
 def learner_for(config: TrainConfig | PlanConfig, seed: int, env: gym.Env | None = None) -> Learner:
@@ -46,8 +46,11 @@ def train(config: TrainConfig | PlanConfig, seed: int, out_dir: str | Path | Non
     with RunLock(out, "train", create=not resume) if out is not None else nullcontext():
         if out is not None and not resume and not overwrite:
             check_fresh(out)
-        if out is not None:  # it evaluated what training is about to change
+        if out is not None:  # they evaluated or summarised what training is about to change
             (out / EVAL_FILE).unlink(missing_ok=True)
+            if out.name.startswith("seed_") and (out.parent / SUMMARY_FILE).exists():
+                for name in (SUMMARY_FILE, CURVE_FILE):  # of the --seeds run this seed is of
+                    (out.parent / name).unlink(missing_ok=True)
         if isinstance(config, PlanConfig):
             return learner.learn(Run(out, progress=progress))
         label = f"{config.algorithm} seed {seed}"
