@@ -44,7 +44,8 @@ def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
     except OSError as error:
         if error.filename is not None:
             raise
-        raise OSError(error.errno, f"cannot write {path}: {error.strerror}") from None
+        said = f"cannot write {path}: {error.strerror or error}"
+        raise (OSError(said) if error.errno is None else OSError(error.errno, said)) from None
     finally:
         tmp.unlink(missing_ok=True)
     return path
