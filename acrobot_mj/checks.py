@@ -56,6 +56,23 @@ def memory_available() -> int | None:
         return None
 
 
+def check_open_files(what: str, count: int) -> None:
+    """Refuse ``what``, before it opens ``count`` files at once, where this process may not
+    (its soft limit is raised to the hard one first, as far as that goes)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not POSIX
+        return
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    needed = count + 256  # the interpreter, libraries and the rest of the run
+    if needed > soft and (hard == resource.RLIM_INFINITY or soft < hard):
+        soft = hard if hard != resource.RLIM_INFINITY else max(needed, soft)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+    if needed > soft:
+        raise ValueError(f"{what} keep {count:,} files open; this process may open {soft:,} "
+                         "(ulimit -n): use fewer at once")  # fmt: skip
+
+
 def _size(nbytes: float) -> str:
     for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
         if nbytes >= scale:

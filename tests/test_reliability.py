@@ -1160,3 +1160,22 @@ def test_training_replaces_no_file_of_someone_elses_and_no_stale_summary(tmp_pat
     assert exits([*args, "--seed", "7", "--force", "--out", str(multi / "seed_1")]) == 0
     assert not (multi / "summary.json").exists() and not (multi / "learning_curve.png").exists()
     assert exits([*args, "--seeds", "2", "--out", str(multi), "--resume"]) == 2  # seed 7 found
+
+
+def test_seeds_beyond_memory_or_open_files_are_refused_at_once(tmp_path, exits, capsys) -> None:
+    # --seeds 1e9 grew to 13 GB and did not stop on Ctrl-C; 300 seeds in lockstep under
+    # `ulimit -n 200` failed with "Too many open files" (a lock and a log each).
+    args = ["train", "--preset", "report", "--episodes", "1", "--max-episode-steps", "5"]
+    assert exits([*args, "--seeds", "1000000000", "--out", str(tmp_path / "big")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--seeds 1000000000 needs" in err and "of memory" in err, err
+    import resource
+
+    limit = lambda: resource.setrlimit(resource.RLIMIT_NOFILE, (200, 200))  # noqa: E731
+    argv = [sys.executable, "-m", "acrobot_mj_main", *args, "--seeds", "300", "--lockstep",
+            "--out", str(tmp_path / "many")]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(argv, cwd=tmp_path, env=env, preexec_fn=limit, capture_output=True,
+                          text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert "300 seeds in lockstep keep 600 files open; this process may open 200" in done.stderr

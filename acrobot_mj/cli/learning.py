@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from acrobot_mj.checks import check_memory
 from acrobot_mj.cli import tools
 from acrobot_mj.cli.tools import add_command, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
@@ -180,6 +181,8 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
     out = args.run_out = Path(
         args.out or f"runs/{args.preset}__{config.algorithm}__seeds{args.seeds}"
     )
+    # Each seed's records (its history of every episode, its summary) stay in memory.
+    check_memory(f"--seeds {args.seeds}", args.seeds * (2**16 + 100 * config.episodes))
     seeds = list(range(args.seed, args.seed + args.seeds))
     summary = train_seeds(config, seeds, out, jobs=args.jobs, resume=args.resume,
                           progress=progress, overwrite=args.force, tensorboard=args.tensorboard,

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
-from acrobot_mj.checks import SafePoints
+from acrobot_mj.checks import SafePoints, check_open_files
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
@@ -74,6 +74,8 @@ def train_lockstep(config: TrainConfig, seeds: list[int], out_dir: str | Path | 
         raise ValueError(f"give one run directory per seed ({len(seeds)}), got {len(run_dirs)}")
     if resume and run_dirs is None:
         raise ValueError("resume needs the run directories (out_dir or run_dirs)")
+    if run_dirs is not None:
+        check_open_files(f"{len(seeds)} seeds in lockstep", 2 * len(seeds))  # lock, episode log
     with RunLock(out_dir) if out_dir is not None else contextlib.nullcontext():
         run = _Lockstep(config, seeds, run_dirs)
         if resume:
