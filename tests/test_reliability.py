@@ -1179,3 +1179,22 @@ def test_seeds_beyond_memory_or_open_files_are_refused_at_once(tmp_path, exits, 
                           text=True, timeout=120)  # fmt: skip
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert "300 seeds in lockstep keep 600 files open; this process may open 200" in done.stderr
+
+
+def test_empty_paths_huge_vector_envs_and_binary_sweep_files_are_one_line(tmp_path, exits, capsys):
+    # --out '' fell back to the default run directory; --tensorboard '' wrote into the current
+    # folder; AcrobotVectorEnv(10**9) said "std::bad_alloc"; a binary sweep file named no file.
+    from acrobot_mj.envs.vector import AcrobotVectorEnv
+
+    os.chdir(tmp_path)
+    for flag in ("--out", "--tensorboard"):
+        with pytest.raises(SystemExit) as stop:
+            main(["train", "--episodes", "1", flag, ""])
+        assert stop.value.code == 2 and "must name a path, got ''" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ValueError, match=r"num_envs=1000000000 needs .* of memory"):
+        AcrobotVectorEnv(10**9)
+    (tmp_path / "s.toml").write_bytes(b"\xff\xfe seeds")
+    assert exits(["sweep", str(tmp_path / "s.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "s.toml is not a TOML file (not UTF-8 text" in err and len(err.splitlines()) == 1, err

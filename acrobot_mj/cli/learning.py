@@ -84,11 +84,13 @@ def add_train(commands: tools.Commands) -> None:
     p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
                    help="with --seeds: train them together on one vector env (tabular SARSA, "
                    "the same runs); default: from 25 seeds a process")  # fmt: skip
-    p.add_argument("--out", help="run directory (default runs/PRESET__ALGORITHM__seedS)")
+    p.add_argument("--out", type=tools.path_text,
+                   help="run directory (default runs/PRESET__ALGORITHM__seedS)")  # fmt: skip
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     add_progress(p)
-    p.add_argument("--tensorboard", metavar="DIR", help="episode scalars to DIR for TensorBoard")
+    p.add_argument("--tensorboard", metavar="DIR", type=tools.path_text,
+                   help="episode scalars to DIR for TensorBoard")  # fmt: skip
     group = p.add_argument_group("settings (defaults: the preset's)")
     for name in field_names():
         group.add_argument(_flag(name), dest=name, metavar="VALUE", help=SETTING_HELP[name])
@@ -280,7 +282,8 @@ def add_sweep(commands: tools.Commands) -> None:
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="where trials run: local processes, or Ray (the ray extra)")  # fmt: skip
     p.add_argument("--address", help="Ray cluster address (e.g. auto or ray://host:10001)")
-    p.add_argument("--out", help="sweep directory (default runs/sweep__NAME)")
+    p.add_argument("--out", type=tools.path_text,
+                   help="sweep directory (default runs/sweep__NAME)")  # fmt: skip
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
     p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,

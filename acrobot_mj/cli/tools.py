@@ -77,6 +77,13 @@ def show_progress(args: argparse.Namespace) -> bool:
     return sys.stderr.isatty() if args.progress is None else args.progress
 
 
+def path_text(text: str) -> str:
+    """An argparse type: a path, not an empty string (which would mean the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a path, got ''")
+    return text
+
+
 def output_file(text: str) -> str:
     """An argparse type: a file to write, checked before any work is done (not empty, not a
     folder, a device or a pipe: renaming a record over ``/dev/null`` replaced the device)."""

@@ -14,7 +14,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from acrobot_mj.checks import check_int
+from acrobot_mj.checks import check_int, check_memory
 from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
@@ -64,6 +64,8 @@ class AcrobotVectorEnv(VectorEnv):
             raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
         self.backend = backend
         self.num_envs = check_int("num_envs", num_envs, 1)
+        # Each sub-env's MuJoCo state and rows (about 8 KB; mujoco.batch said std::bad_alloc).
+        check_memory(f"num_envs={self.num_envs}", 8192 * self.num_envs)
         mode = _autoreset_mode(autoreset_mode)
         self.render_envs = (
             None if render_envs is None else check_int("render_envs", render_envs, 1, self.num_envs)

@@ -137,7 +137,12 @@ def load_sweep(path: str | Path) -> SweepSpec:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"sweep file not found: {path}")
-    return parse_sweep(path.read_text(), str(path))
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path} is not a TOML file (not UTF-8 text: {error.reason} at byte "
+                         f"{error.start})") from None  # fmt: skip
+    return parse_sweep(text, str(path))
 
 
 def trial_dir(out: Path, trial: Trial) -> Path:
