@@ -34,6 +34,14 @@ def check_float(name: str, value: Any, minimum: float = -math.inf,
     return value
 
 
+def check_step_size(alpha: Any) -> float:
+    """A learning rate ``alpha`` in (0, 1]: zero learns nothing."""
+    value = check_float("alpha", alpha)  # a finite real number
+    if not 0.0 < value <= 1.0:
+        raise ValueError(f"alpha must be in (0, 1], got {value:g}")
+    return value
+
+
 def check_bool(name: str, value: Any) -> bool:
     """``value``, refused unless it is ``True`` or ``False``."""
     if not isinstance(value, bool):

@@ -12,7 +12,7 @@ import numpy as np
 
 from acrobot_mj.agents.base import BLOCK, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import StateGrid, grid_cell
-from acrobot_mj.checks import check_float, check_memory
+from acrobot_mj.checks import check_float, check_memory, check_step_size
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
 
 
@@ -25,8 +25,7 @@ class SarsaConfig:
     epsilon: float = 0.001
 
     def __post_init__(self) -> None:
-        if not 0.0 < check_float("alpha", self.alpha, 0.0, 1.0):
-            raise ValueError("alpha must be in (0, 1], got 0")
+        check_step_size(self.alpha)
         for name in ("gamma", "epsilon"):
             check_float(name, getattr(self, name), 0.0, 1.0)
 

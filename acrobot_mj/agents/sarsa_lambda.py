@@ -14,7 +14,7 @@ import numpy as np
 
 from acrobot_mj.agents.base import DivergenceError, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import TileCoder, tile_active
-from acrobot_mj.checks import check_float, check_memory
+from acrobot_mj.checks import check_float, check_memory, check_step_size
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
 
 TRACES = ("replacing", "accumulating")
@@ -34,8 +34,7 @@ class SarsaLambdaConfig:
     trace_cutoff: float = 1e-3
 
     def __post_init__(self) -> None:
-        if not 0.0 < check_float("alpha", self.alpha, 0.0, 1.0):
-            raise ValueError("alpha must be in (0, 1], got 0")
+        check_step_size(self.alpha)
         for name in ("gamma", "lam", "epsilon"):
             check_float(name, getattr(self, name), 0.0, 1.0)
         if self.traces not in TRACES:

@@ -348,9 +348,9 @@ def train_population(
         try:
             record, learner = train_one(single, learner_seed(seed, k), run.learner(k, tee), env,
                                         greedy=False)  # fmt: skip
-        except KeyboardInterrupt as error:
-            raise type(error)(f"interrupted in learner {k} of {config.population} ({error}); "
-                              "resume to continue") from error  # fmt: skip
+        except KeyboardInterrupt as error:  # the command says how to continue
+            why = f" ({error})" if str(error) else ""
+            raise type(error)(f"interrupted in learner {k} of {config.population}{why}") from error
         except DivergenceError as error:  # its seed is the learner's, drawn from the run's
             raise DivergenceError(f"learner {k} of {config.population} of run seed {seed}: "
                                   f"{error}", error.rewards) from None  # fmt: skip
