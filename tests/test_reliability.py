@@ -583,6 +583,9 @@ def trained(tmp_path) -> Path:
         ({"config": ["x"]}, ["evaluate", "curves"], "config must be a JSON object"),
         ({"episode_lengths": None}, ["curves"], "a run record lacks 'episode_lengths'"),
         ({"seed": "0"}, ["evaluate"], "is for seed 0 but {run}/run.json records seed '0'"),
+        ({"interrupted": "no"}, ["evaluate", "render"], "bad ['interrupted']"),
+        ({"episodes_done": 99}, ["evaluate"], "bad ['episode_lengths']"),  # 2 episodes
+        ({"episode_lengths": [float("nan"), 30]}, ["evaluate"], "bad ['episode_lengths']"),
     ],
 )
 def test_a_hand_edited_run_record_is_one_line_not_a_traceback(
@@ -1198,3 +1201,11 @@ def test_empty_paths_huge_vector_envs_and_binary_sweep_files_are_one_line(tmp_pa
     assert exits(["sweep", str(tmp_path / "s.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert "s.toml is not a TOML file (not UTF-8 text" in err and len(err.splitlines()) == 1, err
+
+
+def test_a_complex_start_state_is_refused_not_cast(recwarn) -> None:
+    # reset(options={"state": complex}) warned ComplexWarning and dropped the imaginary parts.
+    env = gym.make("acrobot_mj/Acrobot-v0")
+    with pytest.raises(ValueError, match="'state' must be 4 numbers"):
+        env.reset(options={"state": np.array([1 + 2j, 0, 0, 0])})
+    assert not [w for w in recwarn if "Complex" in type(w.message).__name__]

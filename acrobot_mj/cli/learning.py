@@ -281,7 +281,8 @@ def add_sweep(commands: tools.Commands) -> None:
     p.add_argument("sweep_file", help="the sweep's TOML file")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="where trials run: local processes, or Ray (the ray extra)")  # fmt: skip
-    p.add_argument("--address", help="Ray cluster address (e.g. auto or ray://host:10001)")
+    p.add_argument("--address", type=tools.path_text,
+                   help="Ray cluster address (e.g. auto or ray://host:10001)")  # fmt: skip
     p.add_argument("--out", type=tools.path_text,
                    help="sweep directory (default runs/sweep__NAME)")  # fmt: skip
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")

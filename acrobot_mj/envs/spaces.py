@@ -137,7 +137,8 @@ def reset_state(options: Any) -> np.ndarray | None:
     if "start_noise" in options:
         raise ValueError("reset options 'state' and 'start_noise' exclude each other; give one")
     try:
-        state = np.array(options["state"], dtype=np.float64)
+        given = np.asarray(options["state"])
+        state = given.astype(np.float64) if given.dtype.kind in "fiu" else None  # not complex
     except (TypeError, ValueError):
         state = None
     if state is None or state.shape != (4,):

@@ -359,6 +359,15 @@ def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
     if type(recorded_seed) is not int or recorded_seed != seed:
         raise CheckpointError(f"{path} is for seed {seed!r} but {run_file} records seed "
                               f"{recorded_seed!r}")  # fmt: skip
+    done, lengths = record.get("episodes_done"), record.get("episode_lengths")
+    wrong = [key for key, ok in (
+        ("interrupted", type(record.get("interrupted", False)) is bool),
+        ("episodes_done", type(done) is int and done >= 0),
+        ("episode_lengths", isinstance(lengths, list) and len(lengths) == done
+         and all(type(n) is int and n >= 0 for n in lengths)),
+    ) if not ok]  # fmt: skip
+    if wrong:
+        raise CheckpointError(f"{run_file} is not a run record as train writes it: bad {wrong}")
     mine, theirs = config.to_dict(), recorded.to_dict()
     differs = _differs(mine, theirs)
     if differs:
