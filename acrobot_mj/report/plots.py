@@ -4,6 +4,7 @@ object-oriented API: a user's pyplot state and backend are left as they are."""
 from __future__ import annotations
 
 import textwrap
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,8 +51,11 @@ def save_figure(figure: Figure, path: str | Path) -> Path:
     fmt = figure_format(path)
 
     def write(f: Any) -> None:
-        with matplotlib.rc_context({"svg.hashsalt": "acrobot-mj"}):  # fixed SVG ids
-            figure.savefig(f, format=fmt, dpi=100, metadata=_NO_DATE[fmt])
+        with matplotlib.rc_context({"svg.hashsalt": "acrobot-mj"}), warnings.catch_warnings():
+            # A character the font lacks (an emoji in a title) is drawn as a box, not warned of
+            # in two lines of matplotlib's source.
+            warnings.filterwarnings("ignore", message="Glyph .* missing from font")
+            figure.savefig(f, format=fmt, dpi=100, metadata=_NO_DATE[fmt])  # fixed SVG ids
 
     return write_atomic(path, write)
 
