@@ -115,8 +115,9 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
         with np.load(path, allow_pickle=False) as npz:
             data = {name: npz[name] for name in npz.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, MemoryError) as error:
+        why = (str(error).strip().splitlines() or [type(error).__name__])[0]  # numpy's run on
         raise CheckpointError(f"{path} is not a readable checkpoint (truncated or corrupt?): "
-                              f"{error}") from error  # fmt: skip
+                              f"{why}") from error  # fmt: skip
     missing = [name for name in _RESERVED if name not in data]
     if missing:
         raise CheckpointError(f"{path} is not an acrobot_mj checkpoint: it lacks {missing}")
