@@ -8,7 +8,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypedDict
 
 import gymnasium
 import numpy as np
@@ -47,6 +47,19 @@ class Score:
     def is_better(self, a: float, b: float) -> bool:
         """Whether score ``a`` is strictly better than ``b``."""
         return a < b if self.lower_is_better else a > b
+
+
+class TaskOptions(TypedDict, total=False):
+    """The built-in tasks' keyword options, which the envs pass on to their task (each task
+    refuses those it does not take): typed, so that a type checker catches a misspelt keyword.
+    A task of one's own with other options works at run time; a type checker then wants a
+    ``# type: ignore[call-arg]`` where they are passed."""
+
+    start_noise: float  # every task
+    step_reward: float  # HeightGoal
+    goal_reward: float  # HeightGoal
+    goal_height: float  # HeightGoal
+    tolerance: float  # Balance
 
 
 class Task(ABC):

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from typing import Any
 
@@ -15,9 +16,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int, check_memory
-from acrobot_mj.envs.acrobot import AcrobotEnv
+from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
+
+if sys.version_info >= (3, 11):
+    from typing import Unpack
+else:
+    from typing_extensions import Unpack
 
 BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
 #: Sub-env attributes with one value per sub-env (get_attr), and those set_attr sets.
@@ -58,7 +64,7 @@ class AcrobotVectorEnv(VectorEnv):
         render_mode: str | None = None,
         render_envs: int | None = None,
         backend: str = "mujoco",
-        **env_kwargs: Any,
+        **env_kwargs: Unpack[EnvOptions],
     ) -> None:
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
