@@ -166,14 +166,15 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                 f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
             )
         self.camera, self.render_mode = camera, render_mode
-        self._renderer = None  # created by the first render(), released by close()
-        self._human, self._viewer, self._shown_at = render_mode == "human", None, 0.0
+        self._renderer: Any = None  # created by the first render(), released by close()
+        self._viewer: Any = None  # render_mode="human"'s window, opened by _show()
+        self._human, self._shown_at = render_mode == "human", 0.0
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
         self.action_space = action_space(continuous)
         self.observation_space = observation_space(observation)  # raises on an unknown kind
         self._observation, self._cos_sin = observation, observation == "cos_sin"
         # step()'s fast path for integer actions (none for continuous ones)
-        self._torque_of = {} if continuous else TORQUE_OF
+        self._torque_of: dict[Any, float] = {} if continuous else TORQUE_OF
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
 
     def _bind(self) -> None:  # views into data and the task's rule, redone by unpickling

@@ -7,7 +7,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import gymnasium as gym
 import numpy as np
@@ -81,7 +81,9 @@ def run_episode(
     if on_reset is not None:
         on_reset(obs, info)
     action = actor.begin(obs)
-    step, observe = env.step, actor.observe  # training's hot loop: locals only
+    # Training's hot loop: locals only. Rewards are floats here (Gymnasium: any SupportsFloat).
+    step = cast("Callable[[Any], tuple[Any, float, bool, bool, dict[str, Any]]]", env.step)
+    observe = actor.observe
     limit = sys.maxsize if max_steps is None else max_steps
     length, total = 0, 0.0
     while True:

@@ -347,7 +347,9 @@ def register_task(task: type[Task]) -> type[Task]:
     if known is not task:
         raise ValueError(f"a task named {task.name!r} is already registered ({known.__name__})")
     base, version = task.env_id.rsplit("-", 1)
-    ids = {task.env_id: ({}, task.max_episode_steps, task.reward_threshold)}
+    ids: dict[str, tuple[dict[str, Any], int, float | None]] = {
+        task.env_id: ({}, task.max_episode_steps, task.reward_threshold)
+    }
     for suffix, kwargs in VARIANTS.items():
         ids[f"{base}{suffix}-{version}"] = (kwargs, RL_MAX_EPISODE_STEPS, task.rl_reward_threshold)
     for env_id, (kwargs, steps, threshold) in ids.items():
