@@ -210,6 +210,8 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
                                 f"{suite_path} is not there (clone the repository)")  # fmt: skip
     check_output(args.json, "bench")
     spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
+    if spec is None or spec.loader is None:  # a .py file always has both
+        raise ImportError(f"cannot load {suite_path}")
     suite = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(suite)
     peer_python = args.peer_python or os.environ.get("ACROBOT_MJ_PEER_PYTHON") or None

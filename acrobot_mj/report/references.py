@@ -76,7 +76,7 @@ def minimum_time(quick: bool = False) -> dict[str, Any]:
     if not quick:
         holds[3] = min_time_search(frame_skip=3, width=width)
     per_hold = {k: r.decisions * k for k, r in holds.items() if r.decisions is not None}
-    k_best = min(per_hold, key=per_hold.get)
+    k_best = min(per_hold, key=per_hold.__getitem__)
     fs1_actions = [a for a in holds[k_best].actions for _ in range(k_best)]
     replay = {"frame_skip_1": _replay(fs1_actions, 1), "frame_skip_4": _replay(best4.actions, 4)}
     by_integrator = {
