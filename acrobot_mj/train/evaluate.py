@@ -7,13 +7,14 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
+from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, watch
 from acrobot_mj.train.learners import Learner, Protocol
@@ -166,8 +167,9 @@ def env_settings(env: gym.Env) -> dict[str, Any] | None:
     acrobot = acrobot_of(env)
     if acrobot.task.name != "height_goal":
         return None
+    task = cast(HeightGoal, acrobot.task)
     return {"frame_skip": acrobot.frame_skip, "integrator": acrobot.integrator,
-            "goal_height": acrobot.task.goal_height}  # fmt: skip
+            "goal_height": task.goal_height}  # fmt: skip
 
 
 def compute_minima(
@@ -201,8 +203,8 @@ def references_for(env: gym.Env, protocol: Protocol, starts: np.ndarray, minima:
     stored = stored_minima(env, protocol)
     if stored is not None or minima == "stored":
         return stored
-    limit = env.spec.max_episode_steps if env.spec is not None else 1000
-    return [m["decisions"] for m in compute_minima(env, starts, limit)]
+    steps = env.spec.max_episode_steps if env.spec is not None else None
+    return [m["decisions"] for m in compute_minima(env, starts, 1000 if steps is None else steps)]
 
 
 def compare(lengths: list[int], minima: list[int | None]) -> dict[str, Any]:

@@ -4,7 +4,7 @@ the config's learners trained in :class:`~acrobot_mj.envs.identified.IdentifiedE
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -66,9 +66,10 @@ def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Trans
         for _ in range(DATA_EPISODE):
             x = acrobot.state.tolist()
             if isinstance(space, gym.spaces.Discrete):
-                action = int(rng.integers(space.n))
-            else:  # float32, as the env takes it
-                action = rng.uniform(space.low, space.high).astype(space.dtype)
+                action: int | np.ndarray = int(rng.integers(space.n))
+            else:  # a Box: float32, as the env takes it
+                box = cast(gym.spaces.Box, space)
+                action = rng.uniform(box.low, box.high).astype(box.dtype)
             _, _, terminated, truncated, _ = env.step(action)
             torque = float(acrobot.data.actuator("elbow_motor").ctrl[0])
             data.append((x, torque, acrobot.state.tolist()))
