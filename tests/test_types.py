@@ -97,7 +97,7 @@ def test_mypy_passes_the_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     monkeypatch.chdir(ROOT)  # pyproject.toml's [tool.mypy]: the package, its few exceptions
     stdout, stderr, status = api.run(["--cache-dir", str(tmp_path / "cache")])
     assert status == 0 and not stderr, stdout + stderr
-    assert stdout.startswith("Success: no issues found"), stdout
+    assert stdout.startswith("Success:"), stdout
 
 
 def test_the_typed_options_name_every_keyword_the_envs_take() -> None:
