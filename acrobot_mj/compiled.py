@@ -35,7 +35,8 @@ def numba() -> Any:
         if "NUMBA_THREADING_LAYER" not in os.environ:
             # A fork-safe pool for the threaded kernels: a process forked after GNU OpenMP's
             # threads ran aborts when it runs them itself (worker pools fork).
-            module.config.THREADING_LAYER = "forksafe"
+            config: Any = module.config  # its settings are set from the environment at import
+            config.THREADING_LAYER = "forksafe"
         for function in JITABLE:
             register_jitable(function)
         _NUMBA = module
@@ -70,7 +71,8 @@ def without_dispatch(kernel: Callable[..., Any], args: tuple) -> Callable[..., A
     overloads = getattr(kernel, "overloads", None)
     if overloads is None:  # plain Python
         return kernel
-    return overloads[tuple(kernel.typeof_pyval(arg) for arg in args)].entry_point
+    dispatcher: Any = kernel  # a numba dispatcher
+    return overloads[tuple(dispatcher.typeof_pyval(arg) for arg in args)].entry_point
 
 
 def available_threads() -> int:

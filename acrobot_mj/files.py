@@ -26,7 +26,7 @@ def versions() -> dict[str, str]:
             "numpy": numpy.__version__}  # fmt: skip
 
 
-def write_atomic(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
+def write_atomic(path: str | Path, write: Callable[[IO[bytes]], object]) -> Path:
     """Call ``write(file)`` on a temporary file beside ``path``, then rename it to ``path``
     (refused where ``path`` is not a regular file: the rename would replace a device)."""
     path = Path(path)

@@ -6,8 +6,8 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -48,6 +48,8 @@ class StateGrid:
     velocity_bins: int = 3
     angle_range: tuple[float, float] = (-math.pi / 2, math.pi / 2)
     velocity_range: tuple[float, float] = (-math.pi / 4, math.pi / 4)
+    if TYPE_CHECKING:  # set by __post_init__; a field to type checkers only (no init, asdict)
+        constants: tuple[float, ...] = field(init=False)
 
     def __post_init__(self) -> None:
         for name in ("angle_bins", "velocity_bins"):

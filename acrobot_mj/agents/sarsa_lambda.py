@@ -168,8 +168,10 @@ class SarsaLambda:
         room = min(self._w.size, 64 * features.num_active)
         self._pairs, self._values = np.zeros(room, dtype=np.int64), np.zeros(room)
         self._place = np.full(self._w.size, -1, dtype=np.int64)
-        self._undo = (np.zeros(0, dtype=np.int64), np.zeros(0))  # no log until asked for
-        self._traces = (self._pairs, self._values, self._place, *self._undo)  # the kernel's
+        undo = (np.zeros(0, dtype=np.int64), np.zeros(0))  # no log until asked for
+        self._undo: tuple[np.ndarray, ...] = undo
+        # the kernel's arrays
+        self._traces: tuple[np.ndarray, ...] = (self._pairs, self._values, self._place, *self._undo)
         self._count = self._logged = 0
         self._a, self._active = -1, np.zeros(features.num_active, dtype=np.int64)
         self._next = np.zeros(features.num_active, dtype=np.int64)  # the tiles' two buffers

@@ -352,8 +352,8 @@ def _config(path: Path, record: dict[str, Any]) -> TrainConfig:
 
 def curves_command(args: argparse.Namespace) -> None:
     figure_format(args.out)  # a bad suffix is refused before any run is read
-    groups, config = {}, None
-    for folder in args.run_dirs:
+    groups: dict[str, list[list[float]]] = {}
+    for folder in args.run_dirs:  # at least one (argparse)
         config, records = _curve_records(Path(folder))
         score = get_task(config.task).score
         try:

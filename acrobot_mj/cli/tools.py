@@ -14,7 +14,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 
 from acrobot_mj.control.policies import POLICY_NAMES, make_policy
-from acrobot_mj.envs.rollout import PolicyActor, run_episode
+from acrobot_mj.envs.rollout import PolicyActor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import describe
@@ -210,6 +210,8 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
                                 f"{suite_path} is not there (clone the repository)")  # fmt: skip
     check_output(args.json, "bench")
     spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
+    if spec is None or spec.loader is None:  # a .py file always has both
+        raise ImportError(f"cannot load {suite_path}")
     suite = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(suite)
     peer_python = args.peer_python or os.environ.get("ACROBOT_MJ_PEER_PYTHON") or None
@@ -246,7 +248,7 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
     episode = run_episode(env, PolicyActor(make_policy(args.policy, args.seed)), args.seed,
                           max_steps=args.steps, on_reset=keep,
                           on_step=lambda action, obs, *rest: keep(obs, rest[-1]))  # fmt: skip
-    dt = env.unwrapped.dt
+    dt = acrobot_of(env).dt
     print(f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
           f"integrator {args.integrator}")  # fmt: skip
     print(f"{'step':>5} {'t [s]':>7} {'q1':>8} {'q2':>8} {'dq1':>8} {'dq2':>8} {'tip [m]':>8}")

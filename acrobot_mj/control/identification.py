@@ -16,7 +16,9 @@ from acrobot_mj.physics.params import AcrobotParams
 Transition = tuple[Sequence[float], float, Sequence[float]]
 
 
-def residuals(theta: Sequence[float], data: Sequence[Transition], told: Stepping) -> np.ndarray:
+def residuals(
+    theta: Sequence[float] | np.ndarray, data: Sequence[Transition], told: Stepping
+) -> np.ndarray:
     """Predicted minus observed next states, flattened."""
     states = np.array([x for x, _, _ in data], dtype=np.float64)
     torques = np.array([tau for _, tau, _ in data], dtype=np.float64)
@@ -70,7 +72,9 @@ def identify(
     return theta, math.sqrt(cost / r.size)
 
 
-def realise(theta: Sequence[float], told: Stepping, max_torque: float = 1.0) -> AcrobotParams:
+def realise(
+    theta: Sequence[float] | np.ndarray, told: Stepping, max_torque: float = 1.0
+) -> AcrobotParams:
     """Physical parameters with the dynamics of the lumped ``theta`` in the gauge ``m1 = m2 =
     l1 = l2 = 1`` (five values cannot fix nine); ValueError if one comes out <= 0."""
     a, b, c, d, e = (float(v) for v in theta)

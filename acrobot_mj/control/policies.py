@@ -42,10 +42,10 @@ def energy_pumping_torque(
     """Spong's energy pumping, ``tau = clip(gain (E* - E) dq2, -1, 1)`` N m (+1 at ``dq2 = 0``),
     ``E*`` [J] by default the upright energy."""
     x = np.asarray(x, dtype=float)
-    target = dynamics.total_energy(UPRIGHT[:2], UPRIGHT[2:], p) if target is None else target
+    goal = dynamics.total_energy(UPRIGHT[:2], UPRIGHT[2:], p) if target is None else target
     energy = dynamics.total_energy(x[..., :2], x[..., 2:], p)
     dq2 = x[..., 3]
-    tau = np.clip(gain * (target - energy) * dq2, -p.max_torque, p.max_torque)
+    tau = np.clip(gain * (goal - energy) * dq2, -p.max_torque, p.max_torque)
     return np.where(dq2 == 0.0, p.max_torque, tau)
 
 

@@ -35,7 +35,9 @@ def min_time_search(
     beam = (HANGING if start is None else np.asarray(start, dtype=np.float64))[None].copy()
     if beam.shape != (1, 4) or not np.all(np.isfinite(beam)):
         raise ValueError(f"start must be a finite state (q1, q2, dq1, dq2), got {start!r}")
-    parents, choices, expanded = [], [], 0  # per depth: the kept states' parents and actions
+    parents: list[np.ndarray] = []  # per depth: the kept states' parents and actions
+    choices: list[np.ndarray] = []
+    expanded = 0
     for depth in range(1, max_decisions + 1):
         n = len(beam)
         expanded += 3 * n

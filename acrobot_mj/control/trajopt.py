@@ -271,7 +271,7 @@ class Optimiser:
         if near is None:
             return []
         found = [] if exact is None else [exact]
-        short = self.shorten(target, exact if found else near)
+        short = self.shorten(target, near if exact is None else exact)
         return found + ([] if short is None else [short])
 
     def trajectory(self, path: Arrays) -> Trajectory:
@@ -336,7 +336,8 @@ def optimise(horizon: int, u_max: float = 1.0, method: str = "semi_implicit_eule
     for target in targets:
         found = optimiser.approach(target, start)[1]
         if found is not None and objective == "effort":
-            found = optimiser.solve(target, found, "effort")
+            solved = optimiser.solve(target, found, "effort")  # (states, torques, cost)
+            found = None if solved is None else solved[:2]
         if found is not None:
             return optimiser.trajectory(found[:2]).check()
     raise ValueError(

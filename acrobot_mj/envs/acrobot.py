@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -28,8 +30,13 @@ from acrobot_mj.envs.spaces import (
     reset_noise,
     reset_state,
 )
-from acrobot_mj.envs.tasks import Task, get_task
+from acrobot_mj.envs.tasks import Task, TaskOptions, get_task
 from acrobot_mj.physics.xp import clip, wrap
+
+if sys.version_info >= (3, 11):
+    from typing import Unpack
+else:
+    from typing_extensions import Unpack
 
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
 
@@ -44,7 +51,9 @@ _MIN_Q, _MIN_VEL1, _MIN_VEL2 = -MAX_ANGLE, -MAX_VEL1, -MAX_VEL2
 _PI, _MIN_PI = math.pi, -math.pi
 
 
-def make_task(task: str | type[Task], links: tuple[float, float], options: dict[str, Any]) -> Task:
+def make_task(
+    task: str | type[Task], links: tuple[float, float], options: Mapping[str, Any]
+) -> Task:
     """The task ``task`` (a registered name or a Task class) on links ``(l1, l2)`` [m], with its
     keyword ``options`` (an unknown one raises)."""
     cls = task if isinstance(task, type) and issubclass(task, Task) else get_task(task)
@@ -55,6 +64,21 @@ def make_task(task: str | type[Task], links: tuple[float, float], options: dict[
             f"{sorted({'start_noise', *cls.options})}"
         )
     return cls(links, **options)
+
+
+class EnvOptions(TaskOptions, total=False):
+    """:class:`AcrobotEnv`'s keyword arguments but ``render_mode``: the task's options and the
+    env's own, which :class:`~acrobot_mj.envs.vector.AcrobotVectorEnv` passes on to it."""
+
+    frame_skip: int
+    integrator: str
+    task: str | type[Task]
+    continuous: bool
+    observation: str
+    width: int
+    height: int
+    camera: str
+    model_path: str | Path | None
 
 
 class AcrobotEnv(gym.Env[np.ndarray, Any]):
@@ -106,7 +130,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         height: int = 480,
         camera: str = "side",
         model_path: str | Path | None = None,
-        **task_options: Any,
+        **task_options: Unpack[TaskOptions],
     ) -> None:
         self._frame_skip = check_int("frame_skip", frame_skip, 1, MAX_FRAME_SKIP)
         self._substeps = range(self._frame_skip)
@@ -142,14 +166,15 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                 f"camera must be the name of one of the model's cameras {names}, got {camera!r}"
             )
         self.camera, self.render_mode = camera, render_mode
-        self._renderer = None  # created by the first render(), released by close()
-        self._human, self._viewer, self._shown_at = render_mode == "human", None, 0.0
+        self._renderer: Any = None  # created by the first render(), released by close()
+        self._viewer: Any = None  # render_mode="human"'s window, opened by _show()
+        self._human, self._shown_at = render_mode == "human", 0.0
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
         self.action_space = action_space(continuous)
         self.observation_space = observation_space(observation)  # raises on an unknown kind
         self._observation, self._cos_sin = observation, observation == "cos_sin"
         # step()'s fast path for integer actions (none for continuous ones)
-        self._torque_of = {} if continuous else TORQUE_OF
+        self._torque_of: dict[Any, float] = {} if continuous else TORQUE_OF
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
 
     def _bind(self) -> None:  # views into data and the task's rule, redone by unpickling

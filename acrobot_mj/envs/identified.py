@@ -35,15 +35,15 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
 
     def __init__(
         self,
-        theta: Sequence[float],
+        theta: Sequence[float] | np.ndarray,
         task: Task,
         stepping: Stepping = Stepping(substeps=4),  # noqa: B008 (frozen)
         max_episode_steps: int = 1000,
     ) -> None:
-        theta = np.asarray(theta, dtype=np.float64)
-        if theta.shape != (5,) or not np.all(np.isfinite(theta)):
-            raise ValueError(f"theta must be 5 finite lumped parameters, got {theta!r}")
-        self.theta, self.task, self.stepping = tuple(theta.tolist()), task, stepping
+        values = np.asarray(theta, dtype=np.float64)
+        if values.shape != (5,) or not np.all(np.isfinite(values)):
+            raise ValueError(f"theta must be 5 finite lumped parameters, got {values!r}")
+        self.theta, self.task, self.stepping = tuple(values.tolist()), task, stepping
         self.max_episode_steps = max_episode_steps
         self.observation_space, self.action_space = observation_space(), action_space(False)
         self._rule, self._info = task.rule(), task.info()

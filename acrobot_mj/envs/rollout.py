@@ -7,12 +7,15 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_stop
+
+if TYPE_CHECKING:  # not at run time: MuJoCo loads with the env
+    from acrobot_mj.envs.acrobot import AcrobotEnv
 
 #: A policy maps an observation ``(q1, q2, dq1, dq2)`` to an action of the env's space.
 Policy = Callable[[np.ndarray], Any]
@@ -44,6 +47,12 @@ class SequenceActor(PolicyActor):
     def __init__(self, actions: Sequence[Any]) -> None:
         self._actions = iter(actions)
         super().__init__(lambda obs: next(self._actions))
+
+
+def acrobot_of(env: gym.Env) -> AcrobotEnv:
+    """``env.unwrapped``: the :class:`~acrobot_mj.envs.acrobot.AcrobotEnv` under ``env``'s
+    wrappers, typed as one for type checkers (nothing is checked at run time)."""
+    return cast("AcrobotEnv", env.unwrapped)
 
 
 @dataclass
@@ -81,7 +90,9 @@ def run_episode(
     if on_reset is not None:
         on_reset(obs, info)
     action = actor.begin(obs)
-    step, observe = env.step, actor.observe  # training's hot loop: locals only
+    # Training's hot loop: locals only. Rewards are floats here (Gymnasium: any SupportsFloat).
+    step = cast("Callable[[Any], tuple[Any, float, bool, bool, dict[str, Any]]]", env.step)
+    observe = actor.observe
     limit = sys.maxsize if max_steps is None else max_steps
     length, total = 0, 0.0
     while True:

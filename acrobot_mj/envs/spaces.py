@@ -69,9 +69,9 @@ def action_torque(action: Any, continuous: bool) -> float:
     if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu":
         action = action.item()
     if isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
-        torque = TORQUE_OF.get(int(action))
-        if torque is not None:
-            return torque
+        found = TORQUE_OF.get(int(action))
+        if found is not None:
+            return found
         raise ValueError(
             f"action {action} is outside Discrete(3): use 0 (-1 N m), 1 (0 N m) or 2 (+1 N m)"
         )

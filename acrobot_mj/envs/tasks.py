@@ -8,7 +8,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypedDict
 
 import gymnasium
 import numpy as np
@@ -47,6 +47,19 @@ class Score:
     def is_better(self, a: float, b: float) -> bool:
         """Whether score ``a`` is strictly better than ``b``."""
         return a < b if self.lower_is_better else a > b
+
+
+class TaskOptions(TypedDict, total=False):
+    """The built-in tasks' keyword options, which the envs pass on to their task (each task
+    refuses those it does not take): typed, so that a type checker catches a misspelt keyword.
+    A task of one's own with other options works at run time; a type checker then wants a
+    ``# type: ignore[call-arg]`` where they are passed."""
+
+    start_noise: float  # every task
+    step_reward: float  # HeightGoal
+    goal_reward: float  # HeightGoal
+    goal_height: float  # HeightGoal
+    tolerance: float  # Balance
 
 
 class Task(ABC):
@@ -334,7 +347,9 @@ def register_task(task: type[Task]) -> type[Task]:
     if known is not task:
         raise ValueError(f"a task named {task.name!r} is already registered ({known.__name__})")
     base, version = task.env_id.rsplit("-", 1)
-    ids = {task.env_id: ({}, task.max_episode_steps, task.reward_threshold)}
+    ids: dict[str, tuple[dict[str, Any], int, float | None]] = {
+        task.env_id: ({}, task.max_episode_steps, task.reward_threshold)
+    }
     for suffix, kwargs in VARIANTS.items():
         ids[f"{base}{suffix}-{version}"] = (kwargs, RL_MAX_EPISODE_STEPS, task.rl_reward_threshold)
     for env_id, (kwargs, steps, threshold) in ids.items():

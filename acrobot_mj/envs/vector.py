@@ -5,8 +5,9 @@
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -15,11 +16,19 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int, check_memory
-from acrobot_mj.envs.acrobot import AcrobotEnv
+from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
 
-BACKENDS = {"mujoco": BatchPhysics, "analytic": AnalyticPhysics}
+if sys.version_info >= (3, 11):
+    from typing import Unpack
+else:
+    from typing_extensions import Unpack
+
+BACKENDS: dict[str, type[BatchPhysics | AnalyticPhysics]] = {
+    "mujoco": BatchPhysics,
+    "analytic": AnalyticPhysics,
+}
 #: Sub-env attributes with one value per sub-env (get_attr), and those set_attr sets.
 PER_ENV = ("state", "np_random", "np_random_seed")
 #: The sub-env attributes set_attr sets.
@@ -58,7 +67,7 @@ class AcrobotVectorEnv(VectorEnv):
         render_mode: str | None = None,
         render_envs: int | None = None,
         backend: str = "mujoco",
-        **env_kwargs: Any,
+        **env_kwargs: Unpack[EnvOptions],
     ) -> None:
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
@@ -165,7 +174,7 @@ class AcrobotVectorEnv(VectorEnv):
 
     def _seeds(self, seed: int | Sequence[int | None]) -> np.ndarray:
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
+            seeds: list[int | None] = [int(seed) + i for i in range(self.num_envs)]
         elif isinstance(seed, (list, tuple, np.ndarray)):
             seeds = [None if s is None else int(s) for s in seed]
         else:
@@ -251,13 +260,15 @@ class AcrobotVectorEnv(VectorEnv):
             out[name] = every
         return out
 
-    @property
-    def np_random(self) -> tuple[np.random.Generator, ...]:
+    # One generator and seed per sub-env, as SyncVectorEnv's get_attr gives them: not
+    # VectorEnv's one (read-only here: set_attr("np_random", ...) sets them).
+    @property  # type: ignore[misc]
+    def np_random(self) -> tuple[np.random.Generator, ...]:  # type: ignore[override]
         """Each sub-env's generator."""
         return tuple(self._rngs)
 
     @property
-    def np_random_seed(self) -> tuple[int, ...]:
+    def np_random_seed(self) -> tuple[int, ...]:  # type: ignore[override]
         """Each sub-env's seed, -1 where its generator was set directly."""
         return tuple(self._rng_seeds)
 
@@ -311,7 +322,8 @@ class AcrobotVectorEnv(VectorEnv):
             return tuple(self._frame(i) for i in range(self.num_envs))
         return self.get_attr(name)
 
-    def render(self) -> np.ndarray | tuple[np.ndarray, ...] | None:
+    # render_envs=k gives one image (VectorEnv's render gives a tuple of frames).
+    def render(self) -> np.ndarray | tuple[np.ndarray, ...] | None:  # type: ignore[override]
         """Every frame (``render_envs`` None), or the first ``render_envs`` in a grid."""
         if self.render_mode is None:
             gym.logger.warn("render() called with render_mode=None: nothing is rendered")
@@ -327,16 +339,19 @@ class AcrobotVectorEnv(VectorEnv):
 
     def _frame(self, i: int) -> np.ndarray:
         self.physics.get_data(i, self._template.data)
-        return self._template.render()
+        return cast(np.ndarray, self._template.render())  # rgb_array: never None
 
     def close_extras(self, **kwargs: Any) -> None:
         self._template.close()
 
 
 def _autoreset_mode(mode: Any) -> AutoresetMode:
-    names = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP,
-             "disabled": AutoresetMode.DISABLED}  # fmt: skip
+    names: dict[Any, object] = {
+        "next_step": AutoresetMode.NEXT_STEP,
+        "same_step": AutoresetMode.SAME_STEP,
+        "disabled": AutoresetMode.DISABLED,
+    }
     found = names.get(mode, mode) if isinstance(mode, (str, AutoresetMode)) else None
-    if found not in names.values():
+    if not isinstance(found, AutoresetMode) or found not in names.values():
         raise ValueError(f"autoreset_mode must be one of {list(names)}, got {mode!r}")
     return found

@@ -84,10 +84,12 @@ class Stepping:
     max_vel: tuple[float, float] = REPORT.max_vel
     method: str = "semi_implicit_euler"
 
-    def constants(self, theta: Sequence[float]) -> np.ndarray:
+    def constants(self, theta: Sequence[float] | np.ndarray) -> np.ndarray:
         return np.array([*theta, self.dt, *self.max_vel], dtype=np.float64)
 
-    def advance(self, theta: Sequence[float], states: ArrayLike, torques: ArrayLike) -> NDArray:
+    def advance(
+        self, theta: Sequence[float] | np.ndarray, states: ArrayLike, torques: ArrayLike
+    ) -> NDArray:
         """One decision of every state ``(N, 4)`` under ``torques`` ``(N,)``: new states."""
         new, tau = np.array(states, dtype=np.float64), np.asarray(torques, dtype=np.float64)
         code = method_code(self.method)

@@ -15,7 +15,7 @@ import numpy as np
 
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
-from acrobot_mj.envs.rollout import run_episode
+from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode
@@ -40,7 +40,7 @@ class BalanceActor:
 
     def __init__(self, env: gym.Env, controller: SwingUpController, discrete: bool,
                  noise: Any = None) -> None:  # fmt: skip
-        self.env, self.controller = env.unwrapped, controller
+        self.env, self.controller = acrobot_of(env), controller
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
         self.states: list[list[float]] = []
@@ -77,7 +77,7 @@ def closed_loop(trajectory: Trajectory, discrete: bool = False, hold: float = 60
     ``torques`` and ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead
     (videos)."""
     env = env or balance_env(trajectory, discrete, hold)
-    model = env.unwrapped.model
+    model = acrobot_of(env).model
     for name in ("link1", "link2"):
         model.body_mass[model.body(name).id] *= perturbation.mass_scale
         model.body_inertia[model.body(name).id] *= perturbation.inertia_scale
@@ -88,12 +88,12 @@ def closed_loop(trajectory: Trajectory, discrete: bool = False, hold: float = 60
 
     def start(obs: np.ndarray, info: dict[str, Any]) -> None:
         if offset.any():
-            state = env.unwrapped.state + offset
-            env.unwrapped.set_state(state[:2], state[2:])
+            state = acrobot_of(env).state + offset
+            acrobot_of(env).set_state(state[:2], state[2:])
 
     record = record or functools.partial(run_episode, seed=perturbation.seed)
     record(env, actor, on_reset=start)
-    result = env.unwrapped.task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
+    result = acrobot_of(env).task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
     return {**result, "torques": actor.torques, "states": actor.states}
 
 

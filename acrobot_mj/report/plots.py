@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import textwrap
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -29,10 +29,10 @@ class Series:
     """One line (and optional band ``low..high`` around it) of a plot."""
 
     label: str
-    x: Sequence[float]
-    y: Sequence[float]
-    low: Sequence[float] | None = None
-    high: Sequence[float] | None = None
+    x: Sequence[float] | np.ndarray
+    y: Sequence[float] | np.ndarray
+    low: Sequence[float] | np.ndarray | None = None
+    high: Sequence[float] | np.ndarray | None = None
 
 
 def figure_format(path: str | Path) -> str:
@@ -100,7 +100,7 @@ def line_plot(path: str | Path, series: Sequence[Series], *args: Any, **kwargs: 
     return save_figure(line_figure(series, *args, **kwargs), path)
 
 
-def curves_figure(groups: dict[str, Sequence[Sequence[float]]], title: str,
+def curves_figure(groups: Mapping[str, Sequence[Sequence[float]]], title: str,
                   reference: Sequence[tuple[float, str]] = (),
                   ylabel: str = "decisions per episode", log_y: bool = True) -> Figure:  # fmt: skip
     """Each group's runs per episode (label ``""``: unnamed): one as a line, more as a median."""
@@ -129,7 +129,7 @@ def learning_curve(path: str | Path, runs: Sequence[Sequence[float]], title: str
     return compare_curves(path, {"": runs}, title, reference, ylabel, log_y)
 
 
-def compare_curves(path: str | Path, groups: dict[str, Sequence[Sequence[float]]], title: str,
+def compare_curves(path: str | Path, groups: Mapping[str, Sequence[Sequence[float]]], title: str,
                    reference: Sequence[tuple[float, str]] = (),
                    ylabel: str = "decisions per episode", log_y: bool = True) -> Path:  # fmt: skip
     """Save :func:`curves_figure` of ``groups`` to ``path`` (.png, .svg or .pdf)."""

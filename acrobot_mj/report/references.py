@@ -13,7 +13,7 @@ from acrobot_mj.control.lqr import LQR, balances, q1_basin, unstable_mode_bound
 from acrobot_mj.control.policies import energy_pumping_torque, pumping_energies
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.control.trajopt import shortest_to_height
-from acrobot_mj.envs.rollout import PolicyActor, SequenceActor, run_episode
+from acrobot_mj.envs.rollout import PolicyActor, SequenceActor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics import dynamics
 from acrobot_mj.physics.params import REPORT as P
@@ -27,11 +27,11 @@ def controllers(quick: bool = False) -> dict[str, Any]:
     energies: list[float] = []
 
     def record_energy(*_: Any) -> None:
-        state = env.unwrapped.state
+        state = acrobot_of(env).state
         energies.append(float(dynamics.total_energy(state[:2], state[2:])))
 
     def pump(obs: np.ndarray) -> np.ndarray:  # the law needs the state, not the observation
-        return np.array([float(energy_pumping_torque(env.unwrapped.state))], dtype=np.float32)
+        return np.array([float(energy_pumping_torque(acrobot_of(env).state))], dtype=np.float32)
 
     episode = run_episode(env, PolicyActor(pump), 0, None, max_steps=1000,
                           on_reset=record_energy, on_step=record_energy)  # fmt: skip
@@ -76,7 +76,7 @@ def minimum_time(quick: bool = False) -> dict[str, Any]:
     if not quick:
         holds[3] = min_time_search(frame_skip=3, width=width)
     per_hold = {k: r.decisions * k for k, r in holds.items() if r.decisions is not None}
-    k_best = min(per_hold, key=per_hold.get)
+    k_best = min(per_hold, key=per_hold.__getitem__)
     fs1_actions = [a for a in holds[k_best].actions for _ in range(k_best)]
     replay = {"frame_skip_1": _replay(fs1_actions, 1), "frame_skip_4": _replay(best4.actions, 4)}
     by_integrator = {

@@ -48,10 +48,10 @@ def phase_figures(actions_fs4: list[int], out: Path) -> list[str]:
     title = "Zero-torque flow: arrows (dq1, ddq1) at q2 = dq2 = 0; lines released from rest, q2 = 0"
     labels = ("q1 [rad] (unwrapped)", "dq1 [rad/s]")
     line_plot(out / "phase_portrait.png", series, f"{title} (10 s)", *labels, arrows=field)
-    xs = [dynamics.HANGING.copy()]
+    path = [dynamics.HANGING.copy()]
     for u in np.repeat(np.array([-1.0, 0.0, 1.0])[actions_fs4], 4):
-        xs.append(integrators.step_states(xs[-1], u))
-    xs = np.array(xs)
+        path.append(integrators.step_states(path[-1], u))
+    xs = np.array(path)
     series = [Series("shoulder (q1, dq1)", xs[:, 0], xs[:, 2]),
               Series("elbow (q2, dq2)", xs[:, 1], xs[:, 3])]  # fmt: skip
     title = f"Minimum-time swing-up ({len(actions_fs4)} decisions of 0.2 s) in phase space"

@@ -124,7 +124,9 @@ def caption(frame: np.ndarray, text: str, colour: tuple[int, int, int] = (20, 20
 
 
 @functools.lru_cache(maxsize=256)
-def _fitting_font(text: str, size: int, width: int) -> tuple[int, ImageFont.FreeTypeFont]:
+def _fitting_font(
+    text: str, size: int, width: int
+) -> tuple[int, ImageFont.FreeTypeFont | ImageFont.ImageFont]:
     while size > 8 and ImageFont.load_default(size).getlength(text) > width:
         size -= 1
     return size, ImageFont.load_default(size)

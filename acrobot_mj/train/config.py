@@ -162,7 +162,7 @@ class TrainConfig:
         cap = self.learner_decisions
         return cap > 0 and record.get("steps") == cap * self.population
 
-    def make_agent(self, seed: Any, space: gym.spaces.Box, n_actions: int = 3) -> Any:
+    def make_agent(self, seed: Any, space: gym.Space, n_actions: int = 3) -> Any:
         """The learner of this config over observations in ``space``, its stream from ``seed``."""
         spec = agent_spec(self.algorithm)
         return spec.build(self.encoding.build(space), self.agent, seed, n_actions)

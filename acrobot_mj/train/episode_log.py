@@ -26,7 +26,7 @@ def _write(path: Path, rows: list[dict[str, Any]]) -> None:
 def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
     """The first ``count`` complete lines of a log as dicts (a line cut short by a kill is not
     one). Raises ``ValueError`` for a line that is not a JSON object, ``OSError`` if unreadable."""
-    rows = []
+    rows: list[dict[str, Any]] = []
     if path.exists() and not path.is_file():  # a pipe would wait for a writer forever
         raise ValueError(f"{path} is not a regular file")
     with open(path, "rb") as lines:
@@ -77,6 +77,8 @@ class EpisodeLog:
         row["wall_seconds"] = round(self._offset + time.perf_counter() - self._clock, 6)
         if self.learner is not None:
             row["learner"] = self.learner
+        if self._file is None:
+            raise RuntimeError(f"{self.path}: start() the episode log before appending to it")
         self._file.write(log_line(row))
         self._file.flush()
         if self.tee is not None:
@@ -98,7 +100,8 @@ def concatenate(target: Path, sources: list[Path], counts: list[int]) -> tuple[i
     """Write ``target`` (atomically) as the first ``counts[k]`` lines of each ``sources[k]``:
     one run's log of its learners' (numbered through, ``learner`` set to ``k``, the times
     running on). Returns the last source's first episode number and start time there."""
-    rows, offset, episode = [], 0.0, 0
+    rows: list[dict[str, Any]] = []
+    offset, episode = 0.0, 0
     for k, (source, count) in enumerate(zip(sources, counts, strict=True)):
         start = (episode, offset)
         own = read_rows(source, count) if count else []

@@ -7,13 +7,14 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.control.search import min_time_search
-from acrobot_mj.envs.rollout import run_episode
+from acrobot_mj.envs.rollout import acrobot_of, run_episode
+from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, watch
 from acrobot_mj.train.learners import Learner, Protocol
@@ -80,7 +81,7 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
         rest = play(env, learner, 0, {"start_noise": 0.0}, seed=learner.seed)
         starts = protocol.starts(np.array(rest["start_state"]))
         episodes = [play(env, learner, k + 1, {"state": s}) for k, s in enumerate(starts)]
-        task = env.unwrapped.task
+        task = acrobot_of(env).task
         history = History()
         for e in episodes:
             history.add(e["length"], e["return"], e["success"])
@@ -108,7 +109,7 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
 
 def play(env: gym.Env, learner: Learner, episode: int, options: dict, seed: int | None = None):
     """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``."""
-    acrobot, actions, torques, states = env.unwrapped, [], [], []
+    acrobot, actions, torques, states = acrobot_of(env), [], [], []
 
     def on_step(action: Any, *_: Any) -> None:
         actions.append(float(action[0]) if isinstance(action, np.ndarray) else int(action))
@@ -143,7 +144,7 @@ def render_run(
         states: list[np.ndarray] = []
         record = record_episode(env, learner.actor(env, 0), out, settings,
                                 reset_options={"start_noise": 0.0}, states=states)  # fmt: skip
-        record.update(env.unwrapped.task.assess(np.array(states), env.unwrapped.dt,
+        record.update(acrobot_of(env).task.assess(np.array(states), acrobot_of(env).dt,
                                                 learner.swing_up))  # fmt: skip
     finally:
         env.close()
@@ -163,11 +164,12 @@ def watch_run(run_dir: str | Path, settings: RenderSettings = _RENDER) -> dict[s
 
 def env_settings(env: gym.Env) -> dict[str, Any] | None:
     """What the minimum-time search depends on in ``env`` (None: not a height-goal task)."""
-    acrobot = env.unwrapped
+    acrobot = acrobot_of(env)
     if acrobot.task.name != "height_goal":
         return None
+    task = cast(HeightGoal, acrobot.task)
     return {"frame_skip": acrobot.frame_skip, "integrator": acrobot.integrator,
-            "goal_height": acrobot.task.goal_height}  # fmt: skip
+            "goal_height": task.goal_height}  # fmt: skip
 
 
 def compute_minima(
@@ -178,7 +180,7 @@ def compute_minima(
     settings = env_settings(env)
     if settings is None:
         raise ValueError(f"per-start minima exist for the height goal only, not "
-                         f"{env.unwrapped.task.name!r}")  # fmt: skip
+                         f"{acrobot_of(env).task.name!r}")  # fmt: skip
     results = [min_time_search(frame_skip=settings["frame_skip"], width=width,
                                method=METHODS[settings["integrator"]], max_decisions=max_decisions,
                                goal_height=settings["goal_height"], start=start)
@@ -201,8 +203,8 @@ def references_for(env: gym.Env, protocol: Protocol, starts: np.ndarray, minima:
     stored = stored_minima(env, protocol)
     if stored is not None or minima == "stored":
         return stored
-    limit = env.spec.max_episode_steps if env.spec is not None else 1000
-    return [m["decisions"] for m in compute_minima(env, starts, limit)]
+    steps = env.spec.max_episode_steps if env.spec is not None else None
+    return [m["decisions"] for m in compute_minima(env, starts, 1000 if steps is None else steps)]
 
 
 def compare(lengths: list[int], minima: list[int | None]) -> dict[str, Any]:

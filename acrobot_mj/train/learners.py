@@ -187,7 +187,8 @@ class AgentLearner(Learner):
         super().__init__(config, seed)
         if env is not None:
             check_spaces(env)
-        self.given_env, self.agent = env, None
+        self.given_env = env
+        self.agent: Agent | None = None  # learn() or load() sets it
 
     def learn(self, run: Run) -> dict[str, Any]:
         learners = f" x{self.config.population}" if self.config.population > 1 else ""
@@ -204,6 +205,8 @@ class AgentLearner(Learner):
         return make_env(self.config, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
+        if self.agent is None:
+            raise ValueError("this learner has no agent yet: learn() or load() one first")
         return Greedy(self.agent, tie_stream(self.seed, episode))
 
     @classmethod
@@ -215,8 +218,8 @@ class AgentLearner(Learner):
         meta, arrays, config = read_checkpoint(path)
         check_record_agrees(Path(run_dir), config, meta["seed"])
         learner = cls(config, meta["seed"])
-        learner.agent = config.make_agent(meta["seed"], learner.env().observation_space)
-        load_into(learner.agent.load_state_dict, arrays, path)
+        agent = learner.agent = config.make_agent(meta["seed"], learner.env().observation_space)
+        load_into(agent.load_state_dict, arrays, path)
         return learner
 
 
@@ -241,7 +244,7 @@ def train_one(
     path = None if run.out is None else run.out / CHECKPOINT_FILE
     checkpoints = Checkpoints(path, config, seed, tee=run.tee)
     if run.resume:
-        if path is None:
+        if path is None or run.out is None:  # both or neither
             raise ValueError("resume needs the run directory (out_dir)")
         history, arrays = read_for_resume(path, config, seed)
         load_into(agent.load_state_dict, arrays, path)
@@ -337,7 +340,9 @@ def train_population(
             if old.is_dir():
                 shutil.rmtree(old)
     score = get_task(config.task).score
-    records, scores, best, kept = [], [], 0, None
+    records: list[dict[str, Any]] = []
+    scores: list[float] = []
+    best, kept = 0, None
     for k in range(config.population):
         tee = None
         if out is not None:  # the run's episodes.jsonl: the learners' before k and, resuming, k's
@@ -361,6 +366,7 @@ def train_population(
         scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
         if k == 0 or score.is_better(scores[k], scores[best]):  # ties: the first
             best, kept = k, learner  # only the best so far stays in memory
+    assert kept is not None  # population > 1: learner 0 at least was kept
     history = History()
     for r in records:
         history.extend(r)

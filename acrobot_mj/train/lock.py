@@ -17,7 +17,7 @@ from typing import Any
 try:
     import fcntl
 except ImportError:  # pragma: no cover  (Windows: exclusive creation instead)
-    fcntl = None
+    fcntl = None  # type: ignore[assignment]  # a module or None: checked before each use
 
 LOCK_FILE = ".lock"
 OWNERS_VARIABLE = "ACROBOT_MJ_LOCK_OWNERS"

@@ -97,7 +97,10 @@ class _Lockstep:
         self.vec = AcrobotVectorEnv(num_envs=k, autoreset_mode="disabled", task=config.task,
                                     **config.env_kwargs())  # fmt: skip
         features = config.encoding.build(self.vec.single_observation_space)
-        self.learners = agent_spec(config.algorithm).group(features, config.agent, self.seeds)
+        group = agent_spec(config.algorithm).group
+        if group is None:
+            raise ValueError(f"{config.algorithm} cannot run in lockstep")
+        self.learners = group(features, config.agent, self.seeds)
         self.histories = [History() for _ in range(k)]
         self.episode = np.zeros(k, dtype=np.int64)
         self.checkpoints = [
@@ -108,6 +111,8 @@ class _Lockstep:
 
     def restore(self) -> None:
         """Each learner from its checkpoint; one that never reached one starts afresh."""
+        if self.dirs is None:
+            raise ValueError("resume needs the run directories (out_dir or run_dirs)")
         for i, seed in enumerate(self.seeds):
             path = self.dirs[i] / CHECKPOINT_FILE
             if not path.exists():
@@ -198,7 +203,7 @@ class _Lockstep:
         for i, seed in enumerate(self.seeds):
             agent: Agent = config.make_agent(seed, self.vec.single_observation_space)
             agent.load_state_dict(self.learners.state_dict(i))
-            rest = greedy_from_rest(env, agent, seed) if greedy else None
+            rest = greedy_from_rest(env, agent, seed) if env is not None else None  # greedy
             record = run_record(config, seed, self.histories[i], elapsed / self.k,
                                 lockstep=self.k, greedy=rest)  # fmt: skip
             if self.dirs is not None:

@@ -4,7 +4,7 @@ the config's learners trained in :class:`~acrobot_mj.envs.identified.IdentifiedE
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -13,7 +13,7 @@ from acrobot_mj.agents import Agent
 from acrobot_mj.agents.base import Greedy, RandomStream
 from acrobot_mj.control.identification import Transition, identify
 from acrobot_mj.envs.identified import IdentifiedEnv
-from acrobot_mj.envs.rollout import run_episode
+from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.physics.integrators import Stepping
@@ -55,7 +55,7 @@ class ModelJudge:
 def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Transition]:
     """``decisions`` transitions of uniformly random actions in ``env`` (unwrapped states, and
     the torque [N m] MuJoCo applied)."""
-    acrobot, space = env.unwrapped, env.action_space
+    acrobot, space = acrobot_of(env), env.action_space
     tree = np.random.SeedSequence([seed, DATA_BRANCH])
     rng = np.random.default_rng(tree)
     data: list[Transition] = []
@@ -66,9 +66,10 @@ def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Trans
         for _ in range(DATA_EPISODE):
             x = acrobot.state.tolist()
             if isinstance(space, gym.spaces.Discrete):
-                action = int(rng.integers(space.n))
-            else:  # float32, as the env takes it
-                action = rng.uniform(space.low, space.high).astype(space.dtype)
+                action: int | np.ndarray = int(rng.integers(space.n))
+            else:  # a Box: float32, as the env takes it
+                box = cast(gym.spaces.Box, space)
+                action = rng.uniform(box.low, box.high).astype(box.dtype)
             _, _, terminated, truncated, _ = env.step(action)
             torque = float(acrobot.data.actuator("elbow_motor").ctrl[0])
             data.append((x, torque, acrobot.state.tolist()))
@@ -92,7 +93,7 @@ def check_fit(rms: float) -> None:
 
 def stepping(env: gym.Env) -> Stepping:
     """What the learner is told about ``env``'s step (no inertial parameter)."""
-    acrobot = env.unwrapped
+    acrobot = acrobot_of(env)
     return Stepping(acrobot.model.opt.timestep, acrobot.frame_skip, (MAX_VEL1, MAX_VEL2))
 
 
@@ -118,7 +119,7 @@ class ModelBasedLearner(AgentLearner):
         real = make_env(config)
         decisions, theta, rms, told = identified_model(real, config.identify_decisions, seed,
                                                        config.start_noise)  # fmt: skip
-        model = IdentifiedEnv(theta, real.unwrapped.task, told, config.max_episode_steps)
+        model = IdentifiedEnv(theta, acrobot_of(real).task, told, config.max_episode_steps)
         # The model as it is: each learner's training env adds the config's shaping (once).
         record, agent = train_learners(config, seed, run, model, ModelJudge(model, config, seed))
         greedy = greedy_from_rest(real, agent, seed)

@@ -125,11 +125,16 @@ class PlanLearner(Learner):
             write_json(run.out / RUN_FILE, record)
         return record
 
+    def _planned(self) -> Trajectory:
+        if self.trajectory is None:
+            raise ValueError("this learner has no trajectory yet: learn() or load() one first")
+        return self.trajectory
+
     def env(self, **kwargs: Any) -> gym.Env:
-        return balance_env(self.trajectory, self.config.discrete, self.config.hold, **kwargs)
+        return balance_env(self._planned(), self.config.discrete, self.config.hold, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
-        return BalanceActor(env, SwingUpController(self.trajectory), self.config.discrete)
+        return BalanceActor(env, SwingUpController(self._planned()), self.config.discrete)
 
     @classmethod
     def load(cls, run_dir: Path) -> PlanLearner:

@@ -78,7 +78,7 @@ def save_checkpoint(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[
     clash = sorted(set(arrays) & set(_RESERVED))
     if clash:
         raise ValueError(f"array names {clash} are reserved for the checkpoint format")
-    payload = {name: np.asarray(value) for name, value in arrays.items()}
+    payload: dict[str, Any] = {name: np.asarray(value) for name, value in arrays.items()}
     if any(value.dtype == object for value in payload.values()):
         raise ValueError("checkpoints hold plain numeric or string arrays only (no objects)")
     payload |= {"format": np.array(FORMAT), "version": np.array(VERSION),
@@ -406,7 +406,7 @@ class Checkpoints:
 
     def save(self) -> None:
         """Sync the log, then write the checkpoint (atomically) that counts its lines."""
-        if self.log is None or self._state is None:
+        if self.path is None or self.log is None or self._state is None:  # log: None w/o path
             return
         arrays, episodes, steps = self._state
         if callable(arrays):

@@ -177,6 +177,7 @@ def train_seeds(config: TrainConfig, seeds: list[int], out_dir: str | Path, *, j
         if together and jobs == 1:
             records = train_lockstep(config, seeds, out, progress=progress, resume=resume,
                                      tensorboard=tensorboard)  # fmt: skip
+            finished: list[tuple[dict[str, Any], dict[str, Any] | None]]
             finished = [(record, None) for record in records]
         elif jobs == 1:
             count, unit = run_total(config)
@@ -186,7 +187,7 @@ def train_seeds(config: TrainConfig, seeds: list[int], out_dir: str | Path, *, j
         else:
             finished = _in_workers(runs, seeds, jobs, together, progress)
         records = [record for record, _ in finished]
-        evaluations = [evaluation for _, evaluation in finished]
+        evaluations: list[dict[str, Any] | None] = [evaluation for _, evaluation in finished]
         if protocol is not None and None in evaluations:  # lockstep here: evaluated now
             evaluations = [evaluate_run(seed_dir(out, s), protocol) for s in seeds]
         return _summarize_into(out, config, seeds, records, evaluations)
@@ -195,6 +196,8 @@ def train_seeds(config: TrainConfig, seeds: list[int], out_dir: str | Path, *, j
 def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, progress: bool):
     """Every seed's run in ``jobs`` processes (one lockstep group each, or a seed at a time)."""
     board = runs.tensorboard
+    function: Callable[..., Any]
+    calls: list[tuple[Any, ...]]
     if together:
         function, calls = runs.group, [(seeds[j::jobs], board) for j in range(jobs)]
     else:

@@ -384,7 +384,8 @@ def run_sweep(
 def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Steps, lockstep) -> None:
     """One lockstep run per grid point whose seeds go together (those with checkpoints apart
     from the others), then every other trial in a process of its own."""
-    left, groups = Counter(t.point_name for t in todo), {}
+    left = Counter(t.point_name for t in todo)
+    groups: dict[tuple[str, bool], list[Trial]] = {}
     for trial in todo:
         if lockstep_pays(trial.config, left[trial.point_name]) if lockstep is None else lockstep:
             saved = (trial_dir(out, trial) / CHECKPOINT_FILE).exists()
