@@ -1,4 +1,6 @@
-"""Argument checks: each error names the argument, what it must be and what it got."""
+"""Checks before work: arguments (each error names the argument, what it must be and what it
+got), memory and open files; and where a stop (Ctrl-C, SIGTERM) may land: between episodes
+(:class:`SafePoints`), or raised again where a C callback dropped it (:func:`check_stop`)."""
 
 from __future__ import annotations
 
