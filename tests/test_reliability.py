@@ -7,6 +7,7 @@ KeyboardInterrupt, so each child gets SIGINT back at its default before it start
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import io
 import json
@@ -407,6 +408,9 @@ def test_a_sweep_with_idle_workers_stops_at_once_without_tracebacks(tmp_path, si
     assert "Traceback" not in err and "sweep interrupted" in err, err
     time.sleep(1)
     assert processes_with(str(tmp_path / "hj")) == []  # no worker left behind
+    # The running trial saved what it had, as interrupted: its workers stopped, not died.
+    record = json.loads((tmp_path / "hj" / "trials" / "base__seed=0" / "run.json").read_text())
+    assert record["interrupted"] is True and 0 < record["episodes_done"] < 2000
 
 
 @pytest.mark.slow
@@ -803,6 +807,32 @@ def test_a_full_disk_loses_no_record_and_says_so_in_one_line(small_disk, exits, 
     code = exits(["render", "--policy", "pump", "--out", str(small_disk / "v.mp4")])
     assert code == 2 and "cannot write the video" in capsys.readouterr().err
     assert not list(small_disk.glob("*.mp4")) and not list(small_disk.glob(".*.tmp.mp4"))
+
+
+def test_a_full_disk_during_evaluate_or_curves_is_one_line_and_leaves_nothing(
+    tmp_path, exits, capsys
+) -> None:
+    # A small run on a disk filled up after it was trained: the evaluation record and the
+    # figure cannot be written; each says so in one line, naming the file, and leaves nothing.
+    disk = tmp_path / "disk"
+    _mount_tmpfs(disk, "size=400k")
+    try:
+        run = disk / "run"
+        train(PRESETS["report"].replace(episodes=2, max_episode_steps=30), 0, run)
+        filler = disk / "filler"
+        with open(filler, "wb", buffering=0) as f, contextlib.suppress(OSError):
+            while True:  # until the disk is full
+                f.write(b"x" * 4096)
+        before = sorted(p.name for p in run.iterdir())
+        curves = ["curves", str(run), "--out", str(run / "c.png")]
+        for argv, name in [(["evaluate", str(run), "--episodes", "2"], "eval.json"),
+                           (curves, "c.png")]:  # fmt: skip
+            assert exits(argv) == 2
+            err = capsys.readouterr().err.strip()
+            assert f"cannot write {run / name}" in err and len(err.splitlines()) == 1, err
+            assert sorted(p.name for p in run.iterdir()) == before  # no record, no temporary
+    finally:
+        subprocess.run(["umount", str(disk)], check=False)
 
 
 def test_a_read_only_folder_gives_one_line(tmp_path, exits, capsys) -> None:

@@ -141,7 +141,11 @@ class RunLock:
         record = {"pid": os.getpid(), "host": socket.gethostname(), "command": self.command,
                   "started": time.time()}  # fmt: skip
         os.ftruncate(fd, 0)
-        os.pwrite(fd, json.dumps(record).encode(), 0)
+        try:
+            os.pwrite(fd, json.dumps(record).encode(), 0)
+        except OSError as error:  # a full disk: the lock holds without its owner's name
+            if error.errno not in (errno.ENOSPC, errno.EDQUOT):
+                raise
         return fd
 
     def __exit__(self, *exc: object) -> None:
