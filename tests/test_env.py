@@ -328,3 +328,17 @@ def test_the_cos_sin_wrapper_observes_as_the_rl_ids() -> None:
         np.testing.assert_array_equal(wrapped.step(2)[0], native.step(2)[0])
     with pytest.raises(ValueError, match="expected"):
         CosSinObservation(native)  # already 6 numbers
+
+
+def test_a_copy_from_before_the_window_and_cos_sin_steps_as_before() -> None:
+    # A pickled env of 0.3.0 holds none of the attributes 0.4.0 added for the viewer window and
+    # the cos/sin observations: it unpickles, and steps with state observations and no window.
+    env = AcrobotEnv()
+    env.reset(seed=0)
+    state = env.__getstate__()
+    for key in ("_human", "_viewer", "_shown_at", "_cos_sin", "_observation"):
+        del state[key]
+    old = object.__new__(AcrobotEnv)
+    old.__setstate__(state)
+    np.testing.assert_array_equal(old.step(2)[0], env.step(2)[0])
+    assert old.observation == "state"

@@ -196,7 +196,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         return {**state, "_renderer": None, "_viewer": None}  # GL contexts cannot be copied
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        state = {"_human": False, "_viewer": None, "_shown_at": 0.0, **state}  # older copies
+        # What copies from before 0.4.0 lack: no window, state observations.
+        older = {"_human": False, "_viewer": None, "_shown_at": 0.0, "_cos_sin": False}
+        state = {**older, "_observation": "state", **state}
         self.__dict__.update(state)
         self._bind()
 
