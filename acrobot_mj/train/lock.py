@@ -140,11 +140,12 @@ class RunLock:
             _remove_temporaries(self.directory)
         record = {"pid": os.getpid(), "host": socket.gethostname(), "command": self.command,
                   "started": time.time()}  # fmt: skip
-        os.ftruncate(fd, 0)
         try:
+            os.ftruncate(fd, 0)
             os.pwrite(fd, json.dumps(record).encode(), 0)
         except OSError as error:  # a full disk: the lock holds without its owner's name
             if error.errno not in (errno.ENOSPC, errno.EDQUOT):
+                os.close(fd)  # not held: nothing of it stays open
                 raise
         return fd
 
