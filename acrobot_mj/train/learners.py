@@ -253,15 +253,17 @@ def train_one(
             # killed, or diverges), it is this config's, interrupted where it resumed.
             record = run_record(config, seed, history, 0.0, interrupted=True, env=env_name)
             write_run(run.out, record, f"seed {seed}", curve=False)
-    checkpoints.start(history)
-    state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
-    checkpoints.snapshot(state, history)
-    with watching(run.monitor or False, run_total(config), f"{config.algorithm} seed {seed}") as m:
-        m.restored(history)
-        started = time.perf_counter()
-        stop = None
-        try:
-            with SafePoints() as stops:  # a stop lands between episodes
+    with SafePoints() as stops:  # from the first checkpoint on, stops land between episodes
+        checkpoints.start(history)
+        state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
+        checkpoints.snapshot(state, history)
+        with watching(
+            run.monitor or False, run_total(config), f"{config.algorithm} seed {seed}"
+        ) as m:
+            m.restored(history)
+            started = time.perf_counter()
+            stop = None
+            try:
                 for episode in range(len(history), config.episodes):
                     stops.check()
                     cap = config.learner_decisions
@@ -288,19 +290,19 @@ def train_one(
                         checkpoints.save()
                     if run.on_episode is not None:
                         run.on_episode(episode, history)
-        except KeyboardInterrupt as interrupt:
-            stop = interrupt
-    elapsed = time.perf_counter() - started
-    checkpoints.save()
-    checkpoints.close()
-    rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
-    record = run_record(config, seed, history, elapsed, interrupted=bool(stop), env=env_name,
-                        greedy=rest)  # fmt: skip
-    if run.out is not None:
-        write_run(run.out, record, f"seed {seed}", curve=greedy)
-    if stop:
-        raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
-    return record, agent
+            except KeyboardInterrupt as interrupt:
+                stop = interrupt
+        elapsed = time.perf_counter() - started
+        checkpoints.save()
+        checkpoints.close()
+        rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
+        record = run_record(config, seed, history, elapsed, interrupted=bool(stop), env=env_name,
+                            greedy=rest)  # fmt: skip
+        if run.out is not None:
+            write_run(run.out, record, f"seed {seed}", curve=greedy)
+        if stop:
+            raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
+        return record, agent
 
 
 def diverged(config: TrainConfig, seed: int, episode: int, kept: int, error: DivergenceError,
