@@ -26,13 +26,19 @@ def versions() -> dict[str, str]:
             "numpy": numpy.__version__}  # fmt: skip
 
 
+def check_regular(path: str | Path) -> None:
+    """IsADirectoryError (an OSError) where ``path`` exists and is not a regular file: renaming
+    a record over it would replace a device, and reading a pipe waits for a writer forever."""
+    if Path(path).exists() and not Path(path).is_file():
+        raise IsADirectoryError(f"{path} exists and is not a regular file (a folder, a device or "
+                                "a pipe): name a file")  # fmt: skip
+
+
 def write_atomic(path: str | Path, write: Callable[[IO[bytes]], object]) -> Path:
     """Call ``write(file)`` on a temporary file beside ``path``, then rename it to ``path``
     (refused where ``path`` is not a regular file: the rename would replace a device)."""
     path = Path(path)
-    if path.exists() and not path.is_file():
-        raise IsADirectoryError(f"{path} exists and is not a regular file (a folder, a device or "
-                                "a pipe): name a file")  # fmt: skip
+    check_regular(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
@@ -55,12 +61,13 @@ def read_json(path: str | Path) -> Any:
     """The JSON document at ``path``; ValueError where it is not one (nested too deeply
     included: Python's parser would raise RecursionError), or not a regular file (reading a
     pipe would wait for a writer forever)."""
-    if Path(path).exists() and not Path(path).is_file():
-        raise ValueError(f"{path} is not a regular file")
     try:
+        check_regular(path)
         return json.loads(Path(path).read_text())
     except RecursionError:
         raise ValueError(f"{path} is nested too deeply to be a record") from None
+    except IsADirectoryError as error:
+        raise ValueError(str(error)) from None
 
 
 def write_text(path: str | Path, text: str) -> Path:

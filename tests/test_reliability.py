@@ -1157,7 +1157,7 @@ def test_a_pipe_in_place_of_a_record_is_one_line_not_a_hang(trained, record, arg
     os.mkfifo(trained / record)
     done = _cli([part.format(run=trained) for part in argv], trained.parent)  # 120 s if it hangs
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
-    assert f"{record} is not a regular file" in done.stderr
+    assert f"{record} exists and is not a regular file" in done.stderr
 
 
 def test_a_video_cut_short_by_a_full_disk_is_not_left_as_the_video(tmp_path, exits, capsys):

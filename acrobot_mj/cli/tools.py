@@ -16,7 +16,7 @@ import gymnasium as gym
 from acrobot_mj.control.policies import POLICY_NAMES, make_policy
 from acrobot_mj.envs.rollout import PolicyActor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
-from acrobot_mj.files import versions, write_json
+from acrobot_mj.files import check_regular, versions, write_json
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import RenderSettings, render_policy, watch_policy
 from acrobot_mj.train.evaluate import render_run, watch_run
@@ -89,9 +89,10 @@ def output_file(text: str) -> str:
     folder, a device or a pipe: renaming a record over ``/dev/null`` replaced the device)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("must name a file, got ''")
-    if Path(text).exists() and not Path(text).is_file():
-        raise argparse.ArgumentTypeError(f"{text} exists and is not a regular file (a folder, "
-                                         "a device or a pipe): name a file")  # fmt: skip
+    try:
+        check_regular(text)
+    except IsADirectoryError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
     return text
 
 

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import IO, Any
 
-from acrobot_mj.files import write_atomic
+from acrobot_mj.files import check_regular, write_atomic
 
 
 def log_line(row: dict[str, Any]) -> bytes:
@@ -27,8 +27,7 @@ def read_rows(path: Path, count: int) -> list[dict[str, Any]]:
     """The first ``count`` complete lines of a log as dicts (a line cut short by a kill is not
     one). Raises ``ValueError`` for a line that is not a JSON object, ``OSError`` if unreadable."""
     rows: list[dict[str, Any]] = []
-    if path.exists() and not path.is_file():  # a pipe would wait for a writer forever
-        raise ValueError(f"{path} is not a regular file")
+    check_regular(path)  # a pipe would wait for a writer forever
     with open(path, "rb") as lines:
         for line in itertools.islice(lines, count):
             if not line.endswith(b"\n"):
