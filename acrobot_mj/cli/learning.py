@@ -15,7 +15,7 @@ from acrobot_mj.files import read_json
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import DEFAULT
+from acrobot_mj.train.learners import DEFAULT, STARTS
 from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, recent_score
@@ -233,13 +233,27 @@ def add_evaluate(commands: tools.Commands) -> None:
     p.add_argument("--start-noise", type=float, metavar="S",
                    help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a "
                    "balance-preset run 0.01)")  # fmt: skip
-    p.add_argument("--seed", type=seed, help="seed of the held-out starts (default 0)")
+    p.add_argument("--seed", type=seed, help="seed of the held-out starts, pushes and "
+                   "perturbations (default 0)")  # fmt: skip
+    p.add_argument("--starts", choices=STARTS, help="noise: rest plus U(-S, S) (the default); "
+                   "uniform: both angles uniform on the circle, at rest")  # fmt: skip
+    p.add_argument("--seconds", type=float, metavar="T",
+                   help="simulated seconds per episode (default: the run's env's limit)")  # fmt: skip
+    p.add_argument("--push-every", type=float, metavar="P",
+                   help="push every P seconds (default: no pushes)")  # fmt: skip
+    p.add_argument("--push-size", type=float, metavar="V",
+                   help="each push adds U(-V, V) rad/s to each joint velocity")  # fmt: skip
+    p.add_argument("--perturb", type=float, metavar="F", help="scale each link's mass and "
+                   "inertia by U(1-F, 1+F) per episode; the controller keeps its model "
+                   "(default 0)")  # fmt: skip
     p.add_argument("--minima", action="store_true", help="compute per-start minimum-time "
                    "references (beam search, ~4 s a start) where none are stored")  # fmt: skip
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
-    given = {"episodes": args.episodes, "start_noise": args.start_noise, "seed": args.seed}
+    given = {"episodes": args.episodes, "start_noise": args.start_noise, "seed": args.seed,
+             "starts_from": args.starts, "seconds": args.seconds, "push_every": args.push_every,
+             "push_size": args.push_size, "perturb": args.perturb}  # fmt: skip
     protocol = {k: v for k, v in given.items() if v is not None}
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
     path = Path(args.run_dir) / EVAL_FILE
@@ -248,15 +262,29 @@ def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
     return record
 
 
+def balance_words(record: dict[str, Any]) -> str:
+    """One line on a balance-task evaluation: catches, falls, recoveries from pushes."""
+    summary, rest, protocol = record["summary"], record["rest"], record["protocol"]
+    noise = protocol["start_noise"]
+    starts = "uniform" if protocol.get("starts_from") == "uniform" else f"U(-{noise:g}, {noise:g})"
+    caught, pushes = summary["first_balance_seconds"], summary["pushes"]
+    words = (f"{summary['episodes']} held-out starts ({starts}): "
+             f"{summary['episodes'] - summary['never_balanced']} caught their balance (median "
+             f"{caught['median'] if caught['median'] is not None else '-'} s), "
+             f"{summary['balanced']} ended balanced, {summary['falls']} falls")  # fmt: skip
+    if pushes["total"]:
+        words += (f"; {pushes['recovered']} of {pushes['total']} pushes recovered from; "
+                  f"{pushes['without_fall']} of the {pushes['while_balanced']} pushed while "
+                  "balanced held without a fall")  # fmt: skip
+    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
+    return f"{words}; from rest: {held}"
+
+
 def evaluation_words(record: dict[str, Any]) -> str:
     """One line on an evaluation record: held-out scores, against the minima, and from rest."""
     summary, rest = record["summary"], record["rest"]
     if "balanced" in summary:  # the balance task's measures
-        hold, noise = summary["hold_seconds"], record["protocol"]["start_noise"]
-        held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
-        return (f"{summary['episodes']} held-out starts (U(-{noise:g}, {noise:g})): "
-                f"{summary['balanced']} ended balanced, hold median {hold['median']:g} s (min "
-                f"{hold['min']:g} s); from rest: {held}")  # fmt: skip
+        return balance_words(record)
     task = get_task(record["config"]["task"])
     quantity, unit = task.score.quantity, task.score.unit
     values = summary[quantity]

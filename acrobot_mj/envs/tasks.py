@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, TypedDict
 
@@ -15,6 +15,7 @@ import numpy as np
 
 from acrobot_mj.checks import check_float
 from acrobot_mj.compiled import compiled
+from acrobot_mj.envs.disturbances import recoveries
 from acrobot_mj.physics.xp import maximum, wrap
 
 #: ``rule(q1, q2, dq1, dq2) -> (reward, terminated, success, values)`` on the state [rad, rad/s]
@@ -107,8 +108,10 @@ class Task(ABC):
     def caption(self, info: dict[str, Any]) -> str:
         """A few words on a frame's state for video captions, e.g. ``tip +0.53 m``."""
 
-    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
-        """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart."""
+    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None,
+               pushes: Sequence[int] = ()) -> dict:  # fmt: skip
+        """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart
+        (``pushes``: the decisions before which a push landed)."""
         return {}
 
     @staticmethod
@@ -287,9 +290,12 @@ class Balance(Task):
 
         return rule
 
-    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None) -> dict:
+    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None,
+               pushes: Sequence[int] = ()) -> dict:  # fmt: skip
         """How long ``states`` stayed balanced after ``swing_up`` steps (default: where the last
-        balanced stretch begins): times [s], errors [rad], and whether it held to the end."""
+        balanced stretch begins): times [s], errors [rad], and whether it held to the end; and
+        when it first caught its balance, its falls and its recoveries from ``pushes``
+        (:func:`~acrobot_mj.envs.disturbances.recoveries`)."""
         _, _, info = self.outcomes(*np.ascontiguousarray(states, dtype=np.float64).T)
         error, balanced = info["upright_error"], info["is_balanced"]
         if swing_up is None:
@@ -305,6 +311,7 @@ class Balance(Task):
             "balanced": out.size == 0,
             "max_error_during_hold": float(inside.max()) if inside.size else None,
             "final_error": float(error[-1]),
+            **recoveries(balanced, dt, list(pushes)),
         }
 
     @staticmethod
@@ -312,12 +319,26 @@ class Balance(Task):
         """Episodes that ended balanced, the ``spread`` of hold times [s], and the largest error
         while balanced [rad]."""
         balanced = [a for a in assessments if a["balanced"]]
+        caught = [a["first_balance_seconds"] for a in assessments]
+        after = [push for a in assessments for push in a["after_pushes"]]
+        recovered = [push["recovered_seconds"] for push in after]
         return {
             "balanced": len(balanced),
             "hold_seconds": spread([a["hold_seconds"] for a in assessments]),
             "largest_error_while_balanced": max(
                 (a["max_error_during_hold"] or 0.0 for a in balanced), default=None
             ),
+            "first_balance_seconds": spread([t for t in caught if t is not None]),
+            "never_balanced": caught.count(None),
+            "balanced_at_end": sum(a["balanced_at_end"] for a in assessments),
+            "falls": sum(a["falls"] for a in assessments),
+            "pushes": {
+                "total": len(after),
+                "while_balanced": sum(push["fell"] is not None for push in after),
+                "without_fall": sum(push["fell"] is False for push in after),
+                "recovered": sum(t is not None for t in recovered),
+                "recovered_seconds": spread([t for t in recovered if t is not None]),
+            },
         }
 
     def caption(self, info: dict[str, Any]) -> str:

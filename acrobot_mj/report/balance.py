@@ -64,9 +64,11 @@ class BalanceActor:
 
 
 def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: Any) -> gym.Env:
-    """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more."""
+    """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more
+    (unless ``kwargs`` give ``max_episode_steps``)."""
     steps = trajectory.steps + math.ceil(hold / trajectory.dt - 1e-9)
-    return gym.make(Balance.env_id, continuous=not discrete, max_episode_steps=steps,
+    kwargs.setdefault("max_episode_steps", steps)
+    return gym.make(Balance.env_id, continuous=not discrete,
                     integrator=INTEGRATOR_OF[trajectory.method], **kwargs)  # fmt: skip
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
 from typing import Any, cast
 
@@ -13,11 +14,12 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.control.search import min_time_search
+from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_parameters
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, watch
-from acrobot_mj.train.learners import Learner, Protocol
+from acrobot_mj.train.learners import PERTURB, PUSHES, Learner, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
@@ -27,8 +29,10 @@ STORED = Path(__file__).with_name("heldout_minima.json")
 #: The analytic model's integrator for each of the env's.
 METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 _RENDER = RenderSettings()
-#: What eval.json lists per held-out episode besides the results, and the episode's key.
-PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state"}
+#: What eval.json lists per held-out episode besides the results (pushes and parameters where
+#: the protocol pushes or perturbs).
+PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state",
+               "pushes": "pushes", "parameters": "parameters"}  # fmt: skip
 
 
 def run_lock(run_dir: str | Path, command: str) -> RunLock:
@@ -76,17 +80,30 @@ def evaluate_run(run_dir: str | Path, protocol: Protocol | dict | None = None,
 
 def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored") -> dict:
     """The held-out evaluation of ``learner`` (see the module docstring)."""
-    env = learner.env()
+    env = episode_env(learner, protocol)
+    disturbances, nominal = protocol.disturbances(), model_parameters(env)
     try:
         rest = play(env, learner, 0, {"start_noise": 0.0}, seed=learner.seed)
         starts = protocol.starts(np.array(rest["start_state"]))
-        episodes = [play(env, learner, k + 1, {"state": s}) for k, s in enumerate(starts)]
+        episodes = []
+        for k, start in enumerate(starts):
+            parameters = disturbances.perturbed(nominal, protocol.stream(PERTURB, k))
+            set_model_parameters(env, parameters)
+            kicks = disturbances.push_steps(env.physics_steps, env.frame_skip, env.physics_dt)
+            env.begin(kicks, disturbances.push_size, protocol.stream(PUSHES, k))
+            episode = play(env, learner, k + 1, {"state": start})
+            if disturbances.perturb:
+                episode["parameters"] = parameters
+            episodes.append(episode)
+        set_model_parameters(env, nominal)
         task = acrobot_of(env).task
         history = History()
         for e in episodes:
             history.add(e["length"], e["return"], e["success"])
+        per_episode = {k: v for k, v in PER_EPISODE.items() if v in episodes[0]}
         record = {
             "protocol": protocol.to_dict(),
+            "physics": {"frame_skip": env.frame_skip, "integrator": acrobot_of(env).integrator},
             "summary": {
                 task.score.quantity: spread(task.score.values(history.to_dict())),
                 "successes": sum(history.episode_successes), "episodes": len(history),
@@ -95,11 +112,12 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
             "rest": {**{k: v for k, v in rest.items() if k != "assessment"},
                      **rest["assessment"]},
             "start_states": starts.tolist(),
-            **{name: [e[key] for e in episodes] for name, key in PER_EPISODE.items()},
+            **{name: [e[key] for e in episodes] for name, key in per_episode.items()},
             **history.to_dict(),
             **{key: [e["assessment"][key] for e in episodes] for key in rest["assessment"]},
         }  # fmt: skip
-        references = references_for(env, protocol, starts, minima)
+        references = None if protocol.starts_from != "noise" else (
+            references_for(env, protocol, starts, minima))  # fmt: skip
     finally:
         env.close()
     if references is not None:
@@ -107,21 +125,35 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
     return record
 
 
-def play(env: gym.Env, learner: Learner, episode: int, options: dict, seed: int | None = None):
-    """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``."""
+def episode_env(learner: Learner, protocol: Protocol) -> Pushed:
+    """``learner``'s env for ``protocol``'s episodes: ``seconds`` long where it says, pushed
+    where it pushes."""
+    env = learner.env()
+    if protocol.seconds is not None:
+        decisions = math.ceil(protocol.seconds / acrobot_of(env).dt - 1e-9)
+        env.close()
+        env = learner.env(max_episode_steps=decisions)
+    return Pushed(env)
+
+
+def play(env: Pushed, learner: Learner, episode: int, options: dict, seed: int | None = None):
+    """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``: its
+    actions, its torque at every physics step, the pushes it took and its assessment."""
     acrobot, actions, torques, states = acrobot_of(env), [], [], []
 
     def on_step(action: Any, *_: Any) -> None:
         actions.append(float(action[0]) if isinstance(action, np.ndarray) else int(action))
-        torques.append(float(acrobot.data.ctrl[0]))
+        torques.extend([float(acrobot.data.ctrl[0])] * acrobot.frame_skip)
         states.append(acrobot.state)
 
     result = run_episode(env, learner.actor(env, episode), seed, options, on_step=on_step,
                          on_reset=lambda *_: states.append(acrobot.state))  # fmt: skip
-    assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up)
+    kicks = [int(k) // acrobot.frame_skip for k, *_ in env.pushes]
+    assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up, kicks)
     return {"start_state": states[0].tolist(), "length": result.length,
             "return": result.episode_return, "success": result.success, "actions": actions,
             "torques": torques, "final_state": states[-1].tolist(),
+            **({"pushes": env.pushes} if env.pushes else {}),
             "assessment": assessment}  # fmt: skip
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
 from acrobot_mj.checks import SafePoints, check_float, check_int
+from acrobot_mj.envs.disturbances import Disturbances
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
@@ -79,30 +80,64 @@ HELDOUT_BRANCH = 0xE7A1
 
 @dataclass(frozen=True)
 class Protocol:
-    """Held-out evaluation: ``episodes`` starts of rest plus ``U(-start_noise, start_noise)``
-    [rad, rad/s] on each state variable, from a stream no training seed gives."""
+    """Held-out evaluation: ``episodes`` starts from a stream no training seed gives, either
+    rest plus ``U(-start_noise, start_noise)`` [rad, rad/s] on each state variable
+    (``starts="noise"``) or both angles uniform on the circle at rest (``"uniform"``);
+    ``seconds`` of simulated time per episode (None: the env's own limit), and the
+    :class:`~acrobot_mj.envs.disturbances.Disturbances` ``push_every`` [s], ``push_size``
+    [rad/s] and ``perturb`` (a fraction), each drawn from ``seed`` as well."""
 
     episodes: int = 100
     start_noise: float = 0.05
     seed: int = 0
+    starts_from: str = "noise"
+    seconds: float | None = None
+    push_every: float | None = None
+    push_size: float = 0.0
+    perturb: float = 0.0
 
     def __post_init__(self) -> None:
         check_int("episodes", self.episodes, 1)
         check_float("start_noise", self.start_noise, 0.0, 1.0)
         check_int("seed", self.seed, 0)
+        if self.starts_from not in STARTS:
+            raise ValueError(f"starts must be one of {STARTS}, got {self.starts_from!r}")
+        if self.seconds is not None and check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
+            raise ValueError(f"seconds must be > 0, got {self.seconds:g}")
+        self.disturbances()  # checks the rest
+
+    def disturbances(self) -> Disturbances:
+        return Disturbances(self.push_every, self.push_size, self.perturb)
+
+    def stream(self, *purpose: int) -> np.random.Generator:
+        """The generator of one ``purpose`` of the evaluation's draws (no purpose: the starts)."""
+        key = (HELDOUT_BRANCH, *purpose)
+        return np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=key))
 
     def starts(self, rest: np.ndarray) -> np.ndarray:
         """The held-out start states, shape ``(episodes, 4)``."""
         rest = np.asarray(rest, dtype=np.float64)
         if rest.shape != (4,):
             raise ValueError(f"rest must be a state (q1, q2, dq1, dq2), got shape {rest.shape}")
-        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(HELDOUT_BRANCH,)))
+        if self.starts_from == "uniform":
+            angles = self.stream(UNIFORM).uniform(-np.pi, np.pi, size=(self.episodes, 2))
+            return np.concatenate([angles, np.zeros((self.episodes, 2))], axis=1)
+        rng = self.stream()
         return rest + rng.uniform(-self.start_noise, self.start_noise, size=(self.episodes, 4))
 
-    def to_dict(self) -> dict[str, float | int]:
-        return asdict(self)
+    def to_dict(self) -> dict[str, Any]:
+        """Its settings; those added in 0.5.0 only where they differ from their defaults, so an
+        older record's protocol reads the same."""
+        data, default = asdict(self), asdict(DEFAULT)
+        return {k: v for k, v in data.items() if k in BASIC or v != default[k]}
 
 
+#: What every protocol record holds; the later settings appear where they are not the default.
+BASIC = ("episodes", "start_noise", "seed")
+#: Where held-out episodes start.
+STARTS = ("noise", "uniform")
+#: The purposes of an evaluation's draws besides the noise starts (spawn keys).
+UNIFORM, PUSHES, PERTURB = 1, 2, 3
 #: The protocol of the README's learning results: 100 starts of U(-0.05, 0.05), seed 0.
 DEFAULT = Protocol()
 
@@ -128,7 +163,7 @@ class Learner(ABC):
 
     @abstractmethod
     def env(self, **kwargs: Any) -> gym.Env:
-        """The env its episodes run on (``kwargs``: render settings)."""
+        """The env its episodes run on (``kwargs``: render settings, ``max_episode_steps``)."""
 
     @abstractmethod
     def actor(self, env: gym.Env, episode: int) -> Actor:

@@ -1,0 +1,189 @@
+"""What an evaluation does to the acrobot that its controller does not know: pushes (random
+velocity kicks every few seconds) and a perturbed model (masses and inertias scaled); how a run
+recovers from them; and the replay of an episode's torques and pushes in MuJoCo.
+
+A push is added to the joint velocities just before physics step ``k`` (counted from 0), at the
+first decision boundary at or after each multiple of ``push_every`` seconds: the controller
+chose that decision's action before the push, as a kick that lands between sensing and acting.
+The record holds each push as drawn; one that would pass a velocity limit is clipped there, as
+every physics step is.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
+
+#: The links whose mass and inertia ``perturb`` scales, and the record's names for them.
+LINKS = ("link1", "link2")
+PARAMETERS = ("m1", "m2", "I1", "I2")
+#: Within the tolerance this long [s] on end (or to the end of the episode) counts as balanced:
+#: a swing through upright leaves 0.05 rad within a second (the unstable modes grow e-fold in
+#: 0.35 s and 0.53 s).
+SETTLE = 2.0
+
+
+@dataclass(frozen=True)
+class Disturbances:
+    """Pushes of ``U(-push_size, push_size)`` [rad/s] on each joint velocity every
+    ``push_every`` [s] (None: no pushes), and each link's mass and inertia scaled by
+    ``U(1 - perturb, 1 + perturb)``, drawn per episode."""
+
+    push_every: float | None = None
+    push_size: float = 0.0
+    perturb: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.push_every is not None:
+            if check_float("push_every", self.push_every, 0.0, 86_400.0) <= 0.0:
+                raise ValueError(f"push_every must be > 0 s, got {self.push_every:g}")
+        check_float("push_size", self.push_size, 0.0, MAX_VEL1)
+        check_float("perturb", self.perturb, 0.0, 0.9)
+        if (self.push_every is None) != (self.push_size == 0.0):
+            raise ValueError("pushes need both push_every > 0 s and push_size > 0 rad/s")
+
+    def push_steps(self, physics_steps: int, frame_skip: int, dt: float) -> list[int]:
+        """The physics steps [0, ``physics_steps``) before which a push lands."""
+        if self.push_every is None:
+            return []
+        decision, steps, n = dt * frame_skip, [], 1
+        while (k := math.ceil(n * self.push_every / decision - 1e-9) * frame_skip) < physics_steps:
+            steps.append(k)
+            n += 1
+        return steps
+
+    def perturbed(self, nominal: dict[str, float], rng: np.random.Generator) -> dict[str, float]:
+        """``nominal`` masses [kg] and inertias [kg m^2] (``PARAMETERS``), each scaled."""
+        if self.perturb == 0.0:
+            return dict(nominal)
+        scale = rng.uniform(1.0 - self.perturb, 1.0 + self.perturb, size=len(PARAMETERS))
+        return {name: nominal[name] * s for name, s in zip(PARAMETERS, scale, strict=True)}
+
+
+def model_parameters(env: gym.Env) -> dict[str, float]:
+    """The masses [kg] and inertias about the hinge axis [kg m^2] of ``env``'s MuJoCo model."""
+    model = env.unwrapped.model  # type: ignore[attr-defined]
+    values = {}
+    for k, link in enumerate(LINKS, start=1):
+        body = model.body(link).id
+        values[f"m{k}"] = float(model.body_mass[body])
+        values[f"I{k}"] = float(model.body_inertia[body, 1])
+    return values
+
+
+def set_model_parameters(env: gym.Env, values: dict[str, float]) -> None:
+    """Give ``env``'s links the masses and inertias ``values`` (``PARAMETERS``); the three
+    principal inertias scale together with the one about the hinge axis."""
+    model, now = env.unwrapped.model, model_parameters(env)  # type: ignore[attr-defined]
+    for k, link in enumerate(LINKS, start=1):
+        body = model.body(link).id
+        model.body_mass[body] = values[f"m{k}"]
+        model.body_inertia[body] *= values[f"I{k}"] / now[f"I{k}"]
+        model.body_inertia[body, 1] = values[f"I{k}"]
+
+
+class Pushed(gym.Wrapper):
+    """Adds the pushes of :meth:`Disturbances.push_steps` to the velocities of the env below
+    (the env's own velocity limits still apply) and records them in ``pushes`` as
+    ``[k, d_dq1, d_dq2]``. :meth:`begin` gives each episode its steps and generator."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        acrobot, limit = env.unwrapped, env.spec.max_episode_steps if env.spec else None
+        if limit is None:
+            raise ValueError("pushes need an env with a time limit (gymnasium.make gives one)")
+        self.frame_skip = int(acrobot.frame_skip)  # type: ignore[attr-defined]
+        #: Physics steps [s] and how many an episode has at most.
+        self.physics_dt = float(acrobot.model.opt.timestep)  # type: ignore[attr-defined]
+        self.physics_steps = limit * self.frame_skip
+        self.pushes: list[list[float]] = []
+        self._steps: list[int] = []
+        self._rng: np.random.Generator | None = None
+        self._size, self._physics_step = 0.0, 0
+
+    def begin(self, steps: list[int], size: float, rng: np.random.Generator) -> None:
+        self._steps, self._size, self._rng = list(steps), size, rng
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        self.pushes, self._physics_step = [], 0
+        return self.env.reset(**kwargs)
+
+    def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
+        if self._steps and self._steps[0] == self._physics_step:
+            self._steps.pop(0)
+            assert self._rng is not None
+            self.pushes.append([self._physics_step, *push(self.env, self._rng, self._size)])
+        self._physics_step += self.frame_skip
+        return self.env.step(action)
+
+
+def push(env: gym.Env, rng: np.random.Generator, size: float) -> list[float]:
+    """Add ``U(-size, size)`` [rad/s] to each joint velocity; what was drawn."""
+    kick = rng.uniform(-size, size, size=2)
+    add_velocity(env, kick)
+    return kick.tolist()
+
+
+def add_velocity(env: gym.Env, kick: Any) -> None:
+    """Add ``kick`` [rad/s] to ``env``'s joint velocities, clipped to the velocity limits as
+    every physics step is."""
+    qvel = env.unwrapped.data.qvel  # type: ignore[attr-defined]
+    qvel[:] = np.clip(qvel + np.asarray(kick, dtype=np.float64), [-MAX_VEL1, -MAX_VEL2],
+                      [MAX_VEL1, MAX_VEL2])  # fmt: skip
+
+
+def recoveries(balanced: np.ndarray, dt: float, pushes: list[int],
+               settle: float = SETTLE) -> dict[str, Any]:  # fmt: skip
+    """How an episode of decisions ``balanced[j]`` (``dt`` [s] apart; ``pushes``: the decisions
+    before which a push landed) caught and kept its balance: a catch is ``settle`` [s] within the
+    tolerance (or to the end). ``first_balance_seconds`` (None: never), ``falls`` (catches lost
+    before the end), ``balanced_at_end``, and per push ``recovered_seconds`` (0: it never left
+    the tolerance; None: not balanced again before the next push or the end), ``fell`` (None:
+    it was not balanced when pushed) and ``balanced_seconds`` (time within the tolerance until
+    the next push or the end)."""
+    balanced = np.asarray(balanced, dtype=bool)
+    n, need = len(balanced), max(1, round(settle / dt))
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], balanced.astype(np.int8), [0]])))
+    stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    catches = [(a, b) for a, b in stretches if b - a >= need or b == n]
+    after = []
+    for j, k in enumerate(pushes):
+        end = pushes[j + 1] if j + 1 < len(pushes) else n
+        held = [b for a, b in catches if a <= k < b]
+        fell = None if not held else held[0] < end
+        later = [a for a, _ in catches if k < a < end]
+        recovered = 0.0 if fell is False else (later[0] - k) * dt if later else None
+        after.append({"recovered_seconds": recovered, "fell": fell,
+                      "balanced_seconds": float(balanced[k:end].sum() * dt)})  # fmt: skip
+    return {
+        "first_balance_seconds": catches[0][0] * dt if catches else None,
+        "falls": sum(1 for _, b in catches if b < n),
+        "balanced_at_end": bool(catches and catches[-1][1] == n),
+        "after_pushes": after,
+    }
+
+
+def replay(env: gym.Env, start: list[float], torques: list[float], pushes: list[list[float]],
+           parameters: dict[str, float] | None = None) -> np.ndarray:  # fmt: skip
+    """The state after ``torques`` (one per physics step) and ``pushes`` from ``start`` on
+    ``env`` (continuous torques, one physics step a decision, no time limit shorter than the
+    torques), with its model's ``parameters`` set first."""
+    acrobot = env.unwrapped
+    if acrobot.frame_skip != 1 or not acrobot.continuous:  # type: ignore[attr-defined]
+        raise ValueError("replay needs an env of continuous torques and frame_skip=1")
+    if parameters is not None:
+        set_model_parameters(env, parameters)
+    env.reset(options={"state": np.asarray(start, dtype=np.float64)})
+    kicks = {int(k): (d1, d2) for k, d1, d2 in pushes}
+    for k, torque in enumerate(torques):
+        if k in kicks:
+            add_velocity(env, kicks[k])
+        env.step(np.array([torque], dtype=np.float32))
+    return acrobot.state  # type: ignore[attr-defined]
