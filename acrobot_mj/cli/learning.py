@@ -238,7 +238,7 @@ def add_evaluate(commands: tools.Commands) -> None:
     p.add_argument("--starts", choices=STARTS, help="noise: rest plus U(-S, S) (the default); "
                    "uniform: both angles uniform on the circle, at rest")  # fmt: skip
     p.add_argument("--seconds", type=float, metavar="T",
-                   help="simulated seconds per episode (default: the run's env's limit)")  # fmt: skip
+                   help="simulated seconds per episode (default: the run's own)")  # fmt: skip
     p.add_argument("--push-every", type=float, metavar="P",
                    help="push every P seconds (default: no pushes)")  # fmt: skip
     p.add_argument("--push-size", type=float, metavar="V",

@@ -282,12 +282,16 @@ def add_balance(commands: Commands) -> None:
                     "optimised with CasADi otherwise) with TVLQR, then balance with the "
                     "saturated LQR; write balance.json (every step's torque and state) and a "
                     "video.")  # fmt: skip
+    p.add_argument("--feedback", action="store_true", help="build the state-feedback controller "
+                   "(no clock: swings up from any start, again after a push) into a run "
+                   "directory for evaluate and render")  # fmt: skip
     p.add_argument("--discrete", action="store_true", help="torques {-1, 0, +1} (sigma-delta)")
     p.add_argument("--reserve", type=float, default=0.8, metavar="U",
                    help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest "
                    "is the feedback's (default 0.8; 1: minimum time, no reserve)")  # fmt: skip
     p.add_argument("--hold", type=float, default=60.0, help="seconds to balance after it")
-    p.add_argument("--out", default="runs/balance", help="folder for balance.json and the video")
+    p.add_argument("--out", help="folder for balance.json and the video (default runs/balance; "
+                   "with --feedback the run directory, default runs/feedback)")  # fmt: skip
     p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
     p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
                    help="render an MP4 of the closed loop")  # fmt: skip
@@ -296,10 +300,36 @@ def add_balance(commands: Commands) -> None:
     add_progress(p)
 
 
+def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
+    """``balance --feedback``: the state-feedback run, and a video of it from rest."""
+    from acrobot_mj.train.feedback import FeedbackConfig
+    from acrobot_mj.train.trainer import train
+
+    if args.optimise or args.hold != 60.0:
+        raise ValueError("--feedback follows a shipped swing-up for as long as an episode "
+                         "lasts: give no --optimise or --hold")  # fmt: skip
+    out = Path(args.out or "runs/feedback")
+    config = FeedbackConfig(discrete=args.discrete, reserve=args.reserve)
+    record = train(config, seed=0, out_dir=out)
+    rest = record["greedy_from_rest"]
+    kind = "{-1, 0, +1}" if args.discrete else "continuous"
+    held = (f"balanced after {rest['first_balance_seconds']:g} s" if rest["balanced_at_end"]
+            else "NOT balanced at the end")  # fmt: skip
+    words = (f"state feedback built in {record['build_seconds']:.2f} s ({kind} torques, funnel "
+             f"of the {record['swing_up']} swing-up); from rest: {held} -> {out}")  # fmt: skip
+    if args.video:
+        settings = RenderSettings(args.width, args.height, strip=out / "swing_up.png")
+        words += f", {render_run(out, out / 'swing_up.mp4', settings)['video']}"
+    print(words)
+    return record
+
+
 def balance_command(args: argparse.Namespace) -> dict[str, Any]:
     from acrobot_mj.report.balance import run_balance  # MuJoCo and maybe CasADi: on demand
 
-    out = Path(args.out)
+    if args.feedback:
+        return feedback_command(args)
+    out = Path(args.out or "runs/balance")
     record = run_balance(out, discrete=args.discrete, reserve=args.reserve, hold=args.hold,
                          optimise=args.optimise, video=args.video, size=(args.width, args.height),
                          progress=show_progress(args))  # fmt: skip

@@ -135,22 +135,32 @@ def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
     return int(np.linalg.matrix_rank(np.hstack(blocks)))
 
 
+def tvlqr(trajectory: Trajectory, lqr: LQR, q: tuple[float, ...],
+          r: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """TVLQR along ``trajectory`` ending in ``lqr``'s cost: the costs-to-go ``S_k`` (N + 1, 4, 4)
+    of the error and the gains ``K_k`` (N, 4), ``u_k = u*_k - K_k (x - x*_k)``."""
+    weights, torque_cost, steps = np.diag(q), np.array([[r]]), trajectory.steps
+    costs, gains = np.zeros((steps + 1, 4, 4)), np.zeros((steps, 4))
+    costs[steps] = lqr.cost
+    for k in reversed(range(steps)):
+        x, u = trajectory.states[k], trajectory.torques[k]
+        a, b = step_jacobians(x, u, trajectory.method, trajectory.params)
+        riccati = costs[k + 1]
+        gain = np.linalg.solve(torque_cost + b.T @ riccati @ b, b.T @ riccati @ a)
+        costs[k] = weights + a.T @ riccati @ (a - b @ gain)
+        gains[k] = gain[0]
+    return costs, gains
+
+
 class SwingUpController:
     """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory``, then the LQR at
     upright, both on the trajectory's model; ``q`` and ``r`` weight state error and torque."""
 
     def __init__(self, trajectory: Trajectory, q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
                  r: float = 1.0) -> None:  # fmt: skip
-        self.trajectory, p = trajectory, trajectory.params
-        self.lqr = LQR(q, r, p)
-        weights, cost, riccati = np.diag(q), np.array([[r]]), self.lqr.cost
-        self.gains = np.zeros((trajectory.steps, 4))
-        for k in reversed(range(trajectory.steps)):
-            x, u = trajectory.states[k], trajectory.torques[k]
-            a, b = step_jacobians(x, u, trajectory.method, p)
-            gain = np.linalg.solve(cost + b.T @ riccati @ b, b.T @ riccati @ a)
-            riccati = weights + a.T @ riccati @ (a - b @ gain)
-            self.gains[k] = gain[0]
+        self.trajectory = trajectory
+        self.lqr = LQR(q, r, trajectory.params)
+        self.gains = tvlqr(trajectory, self.lqr, q, r)[1]
 
     def __call__(self, k: int, x: np.ndarray) -> float:
         """The torque [N m] at physics step ``k`` (0 at the start) in state ``x``."""

@@ -13,6 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
@@ -36,18 +37,23 @@ class Perturbation:
 
 
 class BalanceActor:
-    """The controller as an episode-loop actor; records each step's state and applied torque."""
+    """The controller as an episode-loop actor (a clocked one, ``u = pi(k, x)``, is told the
+    physics step); records each step's state and applied torque."""
 
-    def __init__(self, env: gym.Env, controller: SwingUpController, discrete: bool,
-                 noise: Any = None) -> None:  # fmt: skip
-        self.env, self.controller = acrobot_of(env), controller
+    def __init__(self, env: gym.Env, controller: SwingUpController | FunnelController,
+                 discrete: bool, noise: Any = None) -> None:  # fmt: skip
+        self.env = acrobot_of(env)
+        if isinstance(controller, FunnelController):
+            self.controller: Any = controller.fresh()
+        else:
+            self.controller = lambda x: controller(len(self.torques), x)
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
         self.states: list[list[float]] = []
         self.torques: list[float] = []
 
     def _act(self) -> Any:
-        u = self.controller(len(self.torques), self.env.state)
+        u = self.controller(self.env.state)
         if self.noise is not None:
             rng, sigma = self.noise
             self.env.data.qfrc_applied[1] = sigma * rng.standard_normal()

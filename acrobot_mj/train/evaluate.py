@@ -29,6 +29,9 @@ STORED = Path(__file__).with_name("heldout_minima.json")
 #: The analytic model's integrator for each of the env's.
 METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 _RENDER = RenderSettings()
+#: What acts in a run's video, by its kind.
+POLICY_WORDS = {None: "greedy", "identify_and_plan": "identified model + TVLQR",
+                "state_feedback": "state feedback: TVLQR funnel, LQR, energy removal"}  # fmt: skip
 #: What eval.json lists per held-out episode besides the results (pushes and parameters where
 #: the protocol pushes or perturbs).
 PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state",
@@ -92,15 +95,15 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
             kicks = disturbances.push_steps(env.physics_steps, env.frame_skip, env.physics_dt)
             env.begin(kicks, disturbances.push_size, protocol.stream(PUSHES, k))
             episode = play(env, learner, k + 1, {"state": start})
-            if disturbances.perturb:
-                episode["parameters"] = parameters
+            episode["parameters"] = parameters
             episodes.append(episode)
         set_model_parameters(env, nominal)
         task = acrobot_of(env).task
         history = History()
         for e in episodes:
             history.add(e["length"], e["return"], e["success"])
-        per_episode = {k: v for k, v in PER_EPISODE.items() if v in episodes[0]}
+        absent = {"pushes": disturbances.push_every is None, "parameters": not disturbances.perturb}
+        per_episode = {k: v for k, v in PER_EPISODE.items() if not absent.get(k)}
         record = {
             "protocol": protocol.to_dict(),
             "physics": {"frame_skip": env.frame_skip, "integrator": acrobot_of(env).integrator},
@@ -109,7 +112,7 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
                 "successes": sum(history.episode_successes), "episodes": len(history),
                 **task.summarise([e["assessment"] for e in episodes], spread),
             },
-            "rest": {**{k: v for k, v in rest.items() if k != "assessment"},
+            "rest": {**{k: v for k, v in rest.items() if k not in ("assessment", "pushes")},
                      **rest["assessment"]},
             "start_states": starts.tolist(),
             **{name: [e[key] for e in episodes] for name, key in per_episode.items()},
@@ -153,7 +156,7 @@ def play(env: Pushed, learner: Learner, episode: int, options: dict, seed: int |
     return {"start_state": states[0].tolist(), "length": result.length,
             "return": result.episode_return, "success": result.success, "actions": actions,
             "torques": torques, "final_state": states[-1].tolist(),
-            **({"pushes": env.pushes} if env.pushes else {}),
+            "pushes": env.pushes,
             "assessment": assessment}  # fmt: skip
 
 
@@ -180,7 +183,7 @@ def render_run(
                                                 learner.swing_up))  # fmt: skip
     finally:
         env.close()
-    policy = "greedy" if learner.kind is None else "identified model + TVLQR"
+    policy = POLICY_WORDS.get(learner.kind, learner.kind)
     record.update(run=str(run_dir), run_seed=learner.seed, policy=policy)
     write_json(Path(out).with_suffix(".json"), record)
     return record

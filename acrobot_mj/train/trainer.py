@@ -10,27 +10,36 @@ import gymnasium as gym
 
 from acrobot_mj.files import read_json
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.feedback import FeedbackConfig, FeedbackLearner
 from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import ModelBasedLearner
-from acrobot_mj.train.plan import KIND, PlanConfig, PlanLearner
+from acrobot_mj.train.plan import PlanConfig, PlanLearner
 from acrobot_mj.train.progress import run_total, watching
 from acrobot_mj.train.records import CURVE_FILE, EVAL_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
 
+#: The learners that are not trained by episodes, by their config's type and ``run.json`` kind.
+BUILT: dict[type, type[Learner]] = {PlanConfig: PlanLearner, FeedbackConfig: FeedbackLearner}
+KINDS: dict[str | None, type[Learner]] = {cls.kind: cls for cls in BUILT.values()}
+Config = TrainConfig | PlanConfig | FeedbackConfig
 
-def learner_for(config: TrainConfig | PlanConfig, seed: int, env: gym.Env | None = None) -> Learner:
-    """The learner of ``config``: the balance preset's planner, or the config's agent."""
-    if isinstance(config, PlanConfig):
+
+def learner_for(config: Config, seed: int, env: gym.Env | None = None) -> Learner:
+    """The learner of ``config``: the balance preset's planner, the state-feedback controller,
+    or the config's agent."""
+    if type(config) in BUILT:
         if env is not None:
-            raise ValueError("the balance preset identifies the package's own env; give no env")
-        return PlanLearner(config, seed)
+            raise ValueError("the balance preset and the state-feedback controller run on the "
+                             "package's own env; give no env")  # fmt: skip
+        return BUILT[type(config)](config, seed)
     if not isinstance(config, TrainConfig):
-        raise TypeError(f"config must be a TrainConfig or a PlanConfig, got {config!r}")
+        raise TypeError(f"config must be a TrainConfig, PlanConfig or FeedbackConfig, got "
+                        f"{config!r}")  # fmt: skip
     kind = ModelBasedLearner if config.identify_decisions > 0 else AgentLearner
     return kind(config, seed, env)
 
 
-def train(config: TrainConfig | PlanConfig, seed: int, out_dir: str | Path | None = None, *,
+def train(config: Config, seed: int, out_dir: str | Path | None = None, *,
           env: gym.Env | None = None, resume: bool = False, progress: bool = False,
           on_episode: OnEpisode | None = None, overwrite: bool = False,
           tensorboard: str | Path | None = None) -> dict[str, Any]:  # fmt: skip
@@ -40,8 +49,9 @@ def train(config: TrainConfig | PlanConfig, seed: int, out_dir: str | Path | Non
     observations (default: the config's). ``progress``: a bar on stderr; ``tensorboard``: each
     episode's scalars there; ``on_episode(index, history)`` after every training episode."""
     learner = learner_for(config, seed, env)
-    if isinstance(config, PlanConfig) and resume:
-        raise ValueError("the balance preset has nothing to resume: a run takes minutes")
+    if type(config) in BUILT and resume:
+        raise ValueError("the balance preset and the state-feedback controller have nothing to "
+                         "resume")  # fmt: skip
     out = None if out_dir is None else Path(out_dir)
     with RunLock(out, "train", create=not resume) if out is not None else nullcontext():
         if out is not None and not resume and not overwrite:
@@ -51,7 +61,7 @@ def train(config: TrainConfig | PlanConfig, seed: int, out_dir: str | Path | Non
             if out.name.startswith("seed_") and (out.parent / SUMMARY_FILE).exists():
                 for name in (SUMMARY_FILE, CURVE_FILE):  # of the --seeds run this seed is of
                     (out.parent / name).unlink(missing_ok=True)
-        if isinstance(config, PlanConfig):
+        if not isinstance(config, TrainConfig):
             return learner.learn(Run(out, progress=progress))
         label = f"{config.algorithm} seed {seed}"
         with watching(progress, run_total(config), label, tensorboard) as monitor:
@@ -65,4 +75,4 @@ def load_learner(run_dir: str | Path) -> Learner:
         kind = read_json(run_dir / RUN_FILE).get("kind")
     except (OSError, ValueError, AttributeError):
         kind = None  # an agent's run: its checkpoint says what is wrong
-    return PlanLearner.load(run_dir) if kind == KIND else AgentLearner.load(run_dir)
+    return KINDS.get(kind, AgentLearner).load(run_dir)

@@ -1,0 +1,99 @@
+"""A state-feedback controller ``u = pi(x)`` that swings up and balances from anywhere: the
+TVLQR funnel along one swing-up, entered by state, the saturated LQR at upright, and energy
+removal everywhere else, which brings the acrobot down towards hanging at rest, where the funnel
+begins. It needs no clock: its only memory is which point of the funnel it is following."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.control.lqr import LQR, tvlqr
+from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.physics.dynamics import state_error
+
+
+@dataclass(frozen=True)
+class FunnelSettings:
+    """Levels of the LQR costs ``e' S e`` (dimensionless: the costs of
+    :class:`~acrobot_mj.control.lqr.LQR`'s weights) that switch between the modes: at upright
+    below ``upright``; a followed funnel point is kept below ``track`` and entered below
+    ``entry``; elsewhere ``tau = -clip(damping dq2, -1, 1)`` [N m, N m s/rad] takes energy out.
+    The defaults were chosen on the analytic model from 100 uniform starts of seed 1, none of
+    them the evaluation's."""
+
+    upright: float = 0.5
+    track: float = 200.0
+    entry: float = 20.0
+    damping: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if check_float(name, value, 0.0) <= 0.0:
+                raise ValueError(f"{name} must be > 0, got {value:g}")
+        if self.entry > self.track:
+            raise ValueError(f"entry ({self.entry:g}) must be at most track ({self.track:g})")
+
+
+class FunnelController:
+    """``u = pi(x)`` [N m] on ``trajectory``'s model: LQR inside its level set at upright, else
+    TVLQR at the funnel point it follows (entered at the point of least cost), else energy
+    removal. Call :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
+
+    def __init__(
+        self,
+        trajectory: Trajectory,
+        settings: FunnelSettings = FunnelSettings(),
+        q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
+        r: float = 1.0,
+    ) -> None:
+        self.trajectory, self.settings = trajectory, settings
+        self.lqr = LQR(q, r, trajectory.params)
+        self.limit = trajectory.params.max_torque
+        self.costs, self.gains = tvlqr(trajectory, self.lqr, q, r)
+        self.index: int | None = None  # the funnel point followed now
+
+    def reset(self) -> None:
+        self.index = None
+
+    def fresh(self) -> FunnelController:
+        """A copy that shares the gains and follows nothing yet."""
+        other = copy.copy(self)
+        other.reset()
+        return other
+
+    def mode(self, x: np.ndarray) -> str:
+        """``"upright"``, ``"funnel"`` or ``"damping"`` for state ``x``, updating the memory."""
+        error = state_error(x)
+        if error @ self.lqr.cost @ error < self.settings.upright:
+            self.index = None
+            return "upright"
+        points, costs = self.trajectory.states[:-1], self.costs[:-1]
+        if self.index is not None:
+            e = state_error(x, points[self.index])
+            if e @ costs[self.index] @ e > self.settings.track:
+                self.index = None
+        if self.index is None:
+            e = state_error(x[None], points)
+            levels = np.einsum("ki,kij,kj->k", e, costs, e)
+            best = int(np.argmin(levels))
+            if levels[best] < self.settings.entry:
+                self.index = best
+        return "damping" if self.index is None else "funnel"
+
+    def __call__(self, x: np.ndarray) -> float:
+        """The torque [N m] in state ``x``; it moves the memory one funnel point on."""
+        x = np.asarray(x, dtype=float)
+        mode = self.mode(x)
+        if mode == "upright":
+            return float(self.lqr(x))
+        if mode == "damping":
+            return float(np.clip(-self.settings.damping * x[3], -self.limit, self.limit))
+        k = self.index
+        assert k is not None
+        u = self.trajectory.torques[k] - self.gains[k] @ state_error(x, self.trajectory.states[k])
+        self.index = k + 1 if k + 1 < self.trajectory.steps else None
+        return float(np.clip(u, -self.limit, self.limit))

@@ -1,0 +1,121 @@
+"""``acrobot-mj balance --feedback``: the state-feedback controller of
+:mod:`acrobot_mj.control.feedback` as a run that ``evaluate`` and ``render`` take like any other.
+It is built on the report's model (it is told the equations), along the shipped swing-up of its
+``reserve``, in well under a second; its own evaluation starts both angles uniform on the circle.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.control.feedback import FunnelController, FunnelSettings
+from acrobot_mj.control.trajopt import Trajectory, shipped
+from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
+from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.files import read_json, versions, write_json
+from acrobot_mj.report.balance import BalanceActor, balance_env
+from acrobot_mj.train.learners import Learner, Protocol, Run
+from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE
+
+#: ``run.json``'s ``kind`` of a state-feedback run.
+KIND = "state_feedback"
+#: The shipped swing-ups by torque bound [N m].
+SWING_UPS = {0.8: "reserve", 1.0: "min_time"}
+
+
+@dataclass(frozen=True)
+class FeedbackConfig:
+    """{-1, 0, +1} torques (sigma-delta) or continuous, the shipped swing-up whose funnel it
+    follows (by its torque bound ``reserve`` [N m]), the :class:`FunnelSettings` and the
+    seconds of each episode."""
+
+    discrete: bool = False
+    reserve: float = 0.8
+    funnel: FunnelSettings = field(default_factory=FunnelSettings)
+    seconds: float = 120.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.discrete, bool):
+            raise TypeError(f"discrete must be True or False, got {self.discrete!r}")
+        if self.reserve not in SWING_UPS:
+            raise ValueError(f"reserve must be one of the shipped swing-ups' {sorted(SWING_UPS)} "
+                             f"N m, got {self.reserve!r}")  # fmt: skip
+        if isinstance(self.funnel, dict):
+            object.__setattr__(self, "funnel", FunnelSettings(**self.funnel))
+        if check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
+            raise ValueError(f"seconds must be > 0, got {self.seconds:g}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> FeedbackConfig:
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown state-feedback settings {unknown}; known: {sorted(names)}")
+        return cls(**data)
+
+
+class FeedbackLearner(Learner):
+    """Builds the controller (``learn``); acts through it from any start, with no clock."""
+
+    kind = KIND
+    protocol = Protocol(episodes=100, start_noise=0.01, seed=0, starts_from="uniform",
+                        seconds=120.0)  # fmt: skip
+
+    def __init__(self, config: FeedbackConfig, seed: int, trajectory: Trajectory | None = None):
+        super().__init__(config, seed)
+        self.trajectory = trajectory or shipped(SWING_UPS[config.reserve])
+        self.controller = FunnelController(self.trajectory, config.funnel)
+
+    def learn(self, run: Run) -> dict[str, Any]:
+        start = time.perf_counter()
+        self.controller = FunnelController(self.trajectory, self.config.funnel)
+        built = time.perf_counter() - start
+        with self.env() as env:
+            actor = BalanceActor(env, self.controller, self.config.discrete)
+            run_episode(env, actor, self.seed, {"start_noise": 0.0})
+            rest = acrobot_of(env).task.assess(np.array(actor.states), self.trajectory.dt)
+        record = {
+            "kind": KIND, "config": self.config.to_dict(), "seed": self.seed,
+            "task": Balance.name, "swing_up": SWING_UPS[self.config.reserve],
+            "greedy_from_rest": rest, "build_seconds": built, "versions": versions(),
+        }  # fmt: skip
+        if run.out is not None:
+            self.trajectory.save(run.out / TRAJECTORY_FILE)
+            write_json(run.out / RUN_FILE, record)
+        return record
+
+    def env(self, **kwargs: Any) -> gym.Env:
+        steps = math.ceil(self.config.seconds / self.trajectory.dt - 1e-9)
+        kwargs.setdefault("max_episode_steps", steps)
+        return balance_env(self.trajectory, self.config.discrete, 0.0, **kwargs)
+
+    def actor(self, env: gym.Env, episode: int) -> Actor:
+        return BalanceActor(env, self.controller, self.config.discrete)
+
+    @classmethod
+    def load(cls, run_dir: Path) -> FeedbackLearner:
+        path = Path(run_dir) / RUN_FILE
+        try:
+            record = read_json(path)
+        except (OSError, ValueError) as error:
+            raise ValueError(f"{path} is not a readable run record: {error}") from None
+        if not isinstance(record, dict) or record.get("kind") != KIND:
+            raise ValueError(f"{path} is not a state-feedback run (kind {KIND!r})")
+        config = FeedbackConfig.from_dict(record["config"])
+        trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
+        if trajectory.u_max != config.reserve:
+            raise ValueError(f"{Path(run_dir) / TRAJECTORY_FILE} is not the swing-up of "
+                             f"reserve {config.reserve} N m")  # fmt: skip
+        return cls(config, int(record["seed"]), trajectory)

@@ -1,0 +1,111 @@
+"""The state-feedback controller: ``u = pi(x)`` with no clock, its modes, its run directory, and
+swing-up and balance from anywhere with continuous and {-1, 0, +1} torques (the CI-sized
+version of the docs' 100-start evaluation)."""
+
+from __future__ import annotations
+
+import inspect
+import json
+
+import numpy as np
+import pytest
+
+from acrobot_mj.cli import main
+from acrobot_mj.control.feedback import FunnelController, FunnelSettings
+from acrobot_mj.control.lqr import LQR
+from acrobot_mj.control.trajopt import shipped
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.feedback import FeedbackConfig, FeedbackLearner
+from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.trainer import load_learner, train
+
+RESERVE = shipped("reserve")
+
+
+@pytest.fixture(scope="module")
+def controller() -> FunnelController:
+    return FunnelController(RESERVE)
+
+
+def test_it_takes_the_state_and_no_time_index(controller) -> None:
+    assert list(inspect.signature(controller.__call__).parameters) == ["x"]
+    # Its memory is the funnel point it follows: a copy that has run 100 steps and a fresh one
+    # give the same torque once both have lost the funnel (a state far from it: link 1
+    # horizontal, spinning).
+    busy, x = controller.fresh(), HANGING.copy()
+    for _ in range(100):
+        x = integrators.step_states(x, busy(x))
+    far = np.array([0.0, 2.0, 5.0, -8.0])
+    # Energy removal: -clip(1 N m s/rad * -8 rad/s, -1, 1) N m.
+    assert busy(far) == controller.fresh()(far) == 1.0
+    assert busy.index is None
+
+
+def test_its_three_modes(controller) -> None:
+    c = controller.fresh()
+    near = UPRIGHT + np.array([0.0005, -0.0005, 0.0, 0.001])  # cost 0.04 < 0.5
+    assert c.mode(near) == "upright" and c(near) == pytest.approx(float(LQR()(near)), abs=0)
+    # Hanging at rest is the funnel's first point (zero cost): its nominal torque, then on.
+    assert c.mode(HANGING) == "funnel" and c.index == 0
+    assert c(HANGING) == pytest.approx(RESERVE.torques[0], abs=1e-12) and c.index == 1
+    swinging = np.array([-np.pi / 2 + 1.0, -2.0, 3.0, 0.4])
+    fresh = controller.fresh()
+    assert fresh.mode(swinging) == "damping" and fresh(swinging) == -0.4  # -damping * dq2
+
+
+@pytest.mark.parametrize(
+    ("settings", "words"),
+    [
+        ({"upright": 0.0}, "upright must be > 0"),
+        ({"damping": -1.0}, r"damping must be in \[0, inf\], got -1"),
+        ({"entry": 300.0}, "entry .* must be at most track"),
+        ({"track": float("inf")}, "track must be finite"),
+    ],
+)
+def test_bad_settings_are_refused(settings, words) -> None:
+    with pytest.raises(ValueError, match=words):
+        FunnelSettings(**settings)
+
+
+@pytest.mark.parametrize("discrete", [False, True])
+def test_it_swings_up_and_balances_from_uniform_starts(discrete, tmp_path) -> None:
+    train(FeedbackConfig(discrete=discrete), seed=0, out_dir=tmp_path)
+    record = evaluate(tmp_path, Protocol(episodes=4, seed=3, starts_from="uniform", seconds=90))
+    # Measured over 100 uniform starts (seed 0): every one caught within 60 s and held to the
+    # end of 120 s, both kinds of torque; 90 s here leaves a margin on each of these four.
+    assert record["balanced_at_end"] == [True] * 4 and record["falls"] == [0] * 4
+    if discrete:
+        assert set(np.concatenate(record["torques"])) <= {-1.0, 0.0, 1.0}
+    assert isinstance(load_learner(tmp_path), FeedbackLearner)
+
+
+def test_the_cli_builds_a_run_that_evaluate_takes(tmp_path, capsys) -> None:
+    out = tmp_path / "feedback"
+    assert main(["balance", "--feedback", "--no-video", "--out", str(out)]) == 0
+    words = capsys.readouterr().out
+    assert "state feedback built in" in words and "from rest: balanced after 23.55 s" in words
+    record = json.loads((out / "run.json").read_text())
+    assert record["kind"] == "state_feedback" and record["greedy_from_rest"]["balanced_at_end"]
+    argv = ["evaluate", str(out), "--episodes", "2", "--starts", "uniform", "--seconds", "80",
+            "--push-every", "70", "--push-size", "0.05"]  # fmt: skip
+    assert main(argv) == 0
+    line = capsys.readouterr().out
+    assert "2 held-out starts (uniform): 2 caught their balance" in line
+    assert "of 2 pushes recovered from" in line
+
+
+def test_options_it_cannot_honour_are_refused(tmp_path, capsys) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(["balance", "--feedback", "--optimise", "--out", str(tmp_path)])
+    assert stop.value.code == 2
+    assert "give no --optimise or --hold" in capsys.readouterr().err
+    assert not (tmp_path / "run.json").exists()
+
+
+def test_a_run_with_another_swing_up_is_refused(tmp_path) -> None:
+    train(FeedbackConfig(), seed=0, out_dir=tmp_path)
+    shipped("min_time").save(tmp_path / "trajectory.json")
+    with pytest.raises(ValueError, match=r"is not the swing-up of reserve 0\.8 N m"):
+        load_learner(tmp_path)
