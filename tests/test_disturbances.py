@@ -106,26 +106,32 @@ def test_pushes_land_on_decision_boundaries() -> None:
 
 
 def test_catches_falls_and_recoveries_by_hand() -> None:
-    dt = 0.5  # a catch is SETTLE = 2 s: 4 decisions within the tolerance
-    # decisions:    0  1  2  3  4  5  6  7  8  9 10 11 12 13 14 15
-    balanced = [0, 1, 0, 1, 1, 1, 1, 1, 0, 0, 1, 1, 1, 1, 1, 1]
-    result = recoveries(np.array(balanced, bool), dt, pushes=[1, 6, 9])
-    # The single balanced decision 1 is no catch; the first is decisions 3-7 (1.5 s), lost at
-    # 8 (one fall), the second 10-15 to the end.
+    dt, tol = 0.5, 0.05  # a catch is SETTLE = 2 s: 4 decisions within the tolerance
+    up, wobble, down = 0.01, 0.1, 1.0  # upright errors [rad]: balanced, out but near, fallen
+    # decisions: 0     1   2     3-7     8       9     10-15
+    error = [down, up, down, *[up] * 5, wobble, down, *[up] * 6]
+    result = recoveries(np.array(error), tol, dt, pushes=[1, 6, 9])
+    # The single balanced decision 1 is no catch; the first is decisions 3-7 (1.5 s), left at
+    # 8 and fallen at 9 (past FALL = 0.5 rad): one fall; the second catch is 10-15, to the end.
     assert result["first_balance_seconds"] == 1.5
     assert result["falls"] == 1 and result["balanced_at_end"] is True
     pushed_at_1, pushed_at_6, pushed_at_9 = result["after_pushes"]
     # Not balanced when pushed at 1: no fall to speak of; caught at 3, 1 s later; balanced
     # at 1, 3, 4 and 5 before the next push.
     assert pushed_at_1 == {"recovered_seconds": 1.0, "fell": None, "balanced_seconds": 2.0}
-    # Pushed at 6 inside the catch, which ends at 8 before the next push (9): a fall, and no
-    # catch begins before 9.
+    # Pushed at 6 inside the catch, which is lost at 8 and fallen at 9, before the next catch.
     assert pushed_at_6 == {"recovered_seconds": None, "fell": True, "balanced_seconds": 1.0}
     assert pushed_at_9 == {"recovered_seconds": 0.5, "fell": None, "balanced_seconds": 3.0}
-    held = recoveries(np.ones(10, bool), dt, pushes=[4])
+    # A wobble: out of the tolerance at 10-12 but never past FALL, caught again at 13; within
+    # it at 5-9 and 13-22 after the push (15 decisions).
+    wobbled = recoveries(np.array([up] * 10 + [wobble] * 3 + [up] * 10), tol, dt, pushes=[5])
+    assert wobbled["falls"] == 0
+    assert wobbled["after_pushes"] == [{"recovered_seconds": 4.0, "fell": False,
+                                        "balanced_seconds": 7.5}]  # fmt: skip
+    held = recoveries(np.full(10, up), tol, dt, pushes=[4])
     assert held["after_pushes"][0] == {"recovered_seconds": 0.0, "fell": False,
                                        "balanced_seconds": 3.0}  # fmt: skip
-    never = recoveries(np.zeros(10, bool), dt, pushes=[])
+    never = recoveries(np.full(10, down), tol, dt, pushes=[])
     assert never == {"first_balance_seconds": None, "falls": 0, "balanced_at_end": False,
                      "after_pushes": []}  # fmt: skip
 

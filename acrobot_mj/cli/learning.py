@@ -251,8 +251,13 @@ def add_evaluate(commands: tools.Commands) -> None:
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
+    starts = args.starts
+    if args.start_noise is not None:  # noise starts, whatever the run's own protocol starts
+        if starts == "uniform":
+            raise ValueError("--start-noise is for --starts noise, not uniform")
+        starts = "noise"
     given = {"episodes": args.episodes, "start_noise": args.start_noise, "seed": args.seed,
-             "starts_from": args.starts, "seconds": args.seconds, "push_every": args.push_every,
+             "starts_from": starts, "seconds": args.seconds, "push_every": args.push_every,
              "push_size": args.push_size, "perturb": args.perturb}  # fmt: skip
     protocol = {k: v for k, v in given.items() if v is not None}
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")

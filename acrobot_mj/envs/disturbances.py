@@ -28,6 +28,10 @@ PARAMETERS = ("m1", "m2", "I1", "I2")
 #: a swing through upright leaves 0.05 rad within a second (the unstable modes grow e-fold in
 #: 0.35 s and 0.53 s).
 SETTLE = 2.0
+#: Past this error [rad] after a catch, the acrobot has fallen: no |tau| <= 1 N m brings back
+#: even a q1 offset at rest past 0.084 rad (the unstable modes' linearised bound). A smaller
+#: excursion that comes back is a wobble, not a fall.
+FALL = 0.5
 
 
 @dataclass(frozen=True)
@@ -139,32 +143,38 @@ def add_velocity(env: gym.Env, kick: Any) -> None:
                       [MAX_VEL1, MAX_VEL2])  # fmt: skip
 
 
-def recoveries(balanced: np.ndarray, dt: float, pushes: list[int],
-               settle: float = SETTLE) -> dict[str, Any]:  # fmt: skip
-    """How an episode of decisions ``balanced[j]`` (``dt`` [s] apart; ``pushes``: the decisions
-    before which a push landed) caught and kept its balance: a catch is ``settle`` [s] within the
-    tolerance (or to the end). ``first_balance_seconds`` (None: never), ``falls`` (catches lost
-    before the end), ``balanced_at_end``, and per push ``recovered_seconds`` (0: it never left
-    the tolerance; None: not balanced again before the next push or the end), ``fell`` (None:
-    it was not balanced when pushed) and ``balanced_seconds`` (time within the tolerance until
-    the next push or the end)."""
-    balanced = np.asarray(balanced, dtype=bool)
+def recoveries(error: np.ndarray, tolerance: float, dt: float, pushes: list[int],
+               settle: float = SETTLE, fall: float = FALL) -> dict[str, Any]:  # fmt: skip
+    """How an episode of upright errors ``error[j]`` [rad] (decisions ``dt`` [s] apart;
+    ``pushes``: the decisions before which a push landed) caught and kept its balance. A catch
+    is ``settle`` [s] within ``tolerance`` (or to the end); a fall is an error past ``fall``
+    after a catch, before the next. ``first_balance_seconds`` (None: never), ``falls``,
+    ``balanced_at_end``, and per push ``recovered_seconds`` (0: it never left the tolerance;
+    None: no catch before the next push or the end), ``fell`` (None: it was not balanced when
+    pushed) and ``balanced_seconds`` (within the tolerance until the next push or the end)."""
+    error = np.asarray(error, dtype=float)
+    balanced = error < tolerance
     n, need = len(balanced), max(1, round(settle / dt))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], balanced.astype(np.int8), [0]])))
     stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     catches = [(a, b) for a, b in stretches if b - a >= need or b == n]
+
+    def falls_between(start: int) -> bool:  # past ``fall`` before the next catch from start
+        nxt = [a for a, _ in catches if a > start]
+        return bool(np.any(error[start : nxt[0] if nxt else n] > fall))
+
     after = []
     for j, k in enumerate(pushes):
         end = pushes[j + 1] if j + 1 < len(pushes) else n
         held = [b for a, b in catches if a <= k < b]
-        fell = None if not held else held[0] < end
+        fell = None if not held else falls_between(k)
         later = [a for a, _ in catches if k < a < end]
-        recovered = 0.0 if fell is False else (later[0] - k) * dt if later else None
+        recovered = 0.0 if held and held[0] >= end else (later[0] - k) * dt if later else None
         after.append({"recovered_seconds": recovered, "fell": fell,
                       "balanced_seconds": float(balanced[k:end].sum() * dt)})  # fmt: skip
     return {
         "first_balance_seconds": catches[0][0] * dt if catches else None,
-        "falls": sum(1 for _, b in catches if b < n),
+        "falls": sum(falls_between(b) for _, b in catches if b < n),
         "balanced_at_end": bool(catches and catches[-1][1] == n),
         "after_pushes": after,
     }

@@ -311,7 +311,7 @@ class Balance(Task):
             "balanced": out.size == 0,
             "max_error_during_hold": float(inside.max()) if inside.size else None,
             "final_error": float(error[-1]),
-            **recoveries(balanced, dt, list(pushes)),
+            **recoveries(error, self.tolerance, dt, list(pushes)),
         }
 
     @staticmethod
