@@ -185,3 +185,26 @@ def test_the_bound_is_where_the_best_effort_stops_helping(factor, escapes) -> No
             break  # driven through zero (recovered), or doubled (escaped)
     assert bool(abs(z) > 2 * abs(z0)) == escapes
     assert bool(np.sign(z) != np.sign(z0)) == (not escapes)
+
+
+def test_no_controller_recovers_a_kick_outside_the_null_controllable_region() -> None:
+    # Independent of the support-function test: the saturated LQR, simulated on the same
+    # linear discrete model, recovers some kicks of U(-0.05, 0.05) rad/s at upright; every one
+    # it recovers must lie inside the region (a controller that beat the bound would show it
+    # wrong), and the region holds more than the LQR recovers.
+    a, b = lqr.discrete_model()
+    controller = lqr.LQR()
+    kicks = np.zeros((400, 4))
+    kicks[:, 2:] = np.random.default_rng(3).uniform(-0.05, 0.05, (400, 2))
+    x = kicks.copy()
+    for _ in range(400):  # 20 s: the slowest unstable mode grows e-fold in 0.53 s
+        u = np.clip(-x @ controller.gain.T, -1.0, 1.0)
+        x = x @ a.T + u @ b.T
+    recovered = np.abs(x).max(axis=1) < 1e-6
+    inside = lqr.null_controllable(kicks)
+    assert recovered.any() and not (recovered & ~inside).any()
+    # Measured on these 400: 50 % recovered by the LQR, 69 % inside (of 20,000 kicks: 66 %).
+    assert 0.35 < recovered.mean() < inside.mean() < 0.8
+    # Kicks of U(-0.02, 0.02) rad/s are all inside; the region shrinks with the kick, by scale.
+    assert lqr.null_controllable(kicks * 0.4).all()
+    assert lqr.null_controllable(kicks * 2).mean() < inside.mean()

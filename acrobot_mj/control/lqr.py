@@ -127,6 +127,28 @@ def unstable_mode_bound(p: AcrobotParams = REPORT) -> dict[str, float]:
     return bounds
 
 
+def null_controllable(offsets: np.ndarray, p: AcrobotParams = REPORT,
+                      directions: int = 720) -> np.ndarray:  # fmt: skip
+    """For each state offset from upright ``(n, 4)`` [rad, rad/s]: can any torque sequence with
+    ``|tau| <= max_torque``, held for each step of the env's discrete map, bring the unstable
+    modes of the linearisation back to zero? Their null-controllable region is the set of
+    ``-sum_k L^-(k+1) b u_k``, ``|u_k| <= 1``; an offset is inside where its unstable part is
+    within the region's support in each of ``directions`` directions (a bound no controller
+    beats, up to the linearisation)."""
+    a, b = discrete_model(p=p)
+    values, right = np.linalg.eig(a)
+    unstable = np.flatnonzero(np.abs(values) > 1.0 + 1e-12)
+    rows = np.linalg.inv(right)[unstable].real  # left eigenvectors of the unstable modes
+    growth, beta = values[unstable].real, (rows @ b)[:, 0] * p.max_torque
+    steps = int(np.ceil(np.log(1e18) / np.log(growth.min())))  # until the terms vanish
+    terms = growth[None, :] ** -np.arange(1.0, steps + 1)[:, None] * beta  # (steps, modes)
+    angle = np.linspace(0.0, np.pi, directions, endpoint=False)
+    c = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    support = np.abs(terms @ c.T).sum(axis=0)  # the same for c and -c: the region is symmetric
+    z = np.asarray(offsets, dtype=float) @ rows.T
+    return np.all(np.abs(z @ c.T) <= support, axis=-1)
+
+
 def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
     """Rank of ``[B, AB, A^2 B, A^3 B]``."""
     blocks = [b]
