@@ -285,6 +285,9 @@ def add_balance(commands: Commands) -> None:
     p.add_argument("--feedback", action="store_true", help="build the state-feedback controller "
                    "(no clock: swings up from any start, again after a push) into a run "
                    "directory for evaluate and render")  # fmt: skip
+    p.add_argument("--adaptive", action="store_true", help="with --feedback: identify the "
+                   "model from the first 3 s of each episode and replan the swing-up on it "
+                   "(CasADi)")  # fmt: skip
     p.add_argument("--discrete", action="store_true", help="torques {-1, 0, +1} (sigma-delta)")
     p.add_argument("--reserve", type=float, default=0.8, metavar="U",
                    help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest "
@@ -309,13 +312,14 @@ def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError("--feedback follows a shipped swing-up for as long as an episode "
                          "lasts: give no --optimise or --hold")  # fmt: skip
     out = Path(args.out or "runs/feedback")
-    config = FeedbackConfig(discrete=args.discrete, reserve=args.reserve)
+    config = FeedbackConfig(discrete=args.discrete, reserve=args.reserve, adaptive=args.adaptive)
     record = train(config, seed=0, out_dir=out)
     rest = record["greedy_from_rest"]
-    kind = "{-1, 0, +1}" if args.discrete else "continuous"
+    kind = ("{-1, 0, +1}" if args.discrete else "continuous") + " torques"
+    kind += ", adaptive" if args.adaptive else ""
     held = (f"balanced after {rest['first_balance_seconds']:g} s" if rest["balanced_at_end"]
             else "NOT balanced at the end")  # fmt: skip
-    words = (f"state feedback built in {record['build_seconds']:.2f} s ({kind} torques, funnel "
+    words = (f"state feedback built in {record['build_seconds']:.2f} s ({kind}, funnel "
              f"of the {record['swing_up']} swing-up); from rest: {held} -> {out}")  # fmt: skip
     if args.video:
         settings = RenderSettings(args.width, args.height, strip=out / "swing_up.png")
@@ -329,6 +333,8 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.feedback:
         return feedback_command(args)
+    if args.adaptive:
+        raise ValueError("--adaptive is an option of --feedback")
     out = Path(args.out or "runs/balance")
     record = run_balance(out, discrete=args.discrete, reserve=args.reserve, hold=args.hold,
                          optimise=args.optimise, video=args.video, size=(args.width, args.height),

@@ -14,6 +14,7 @@ from acrobot_mj.checks import check_float
 from acrobot_mj.control.lqr import LQR, tvlqr
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics.dynamics import state_error
+from acrobot_mj.physics.integrators import Stepping
 
 
 @dataclass(frozen=True)
@@ -99,3 +100,77 @@ class FunnelController:
         u = self.trajectory.torques[k] - self.gains[k] @ state_error(x, self.trajectory.states[k])
         self.index = k + 1 if k + 1 < self.trajectory.steps else None
         return float(np.clip(u, -self.limit, self.limit))
+
+
+#: Steps added to the nominal swing-up's length for each warm start of a replan, in order.
+REPLAN_STEPS = (0, 8, -8, 16)
+
+
+class AdaptiveFunnel:
+    """:class:`FunnelController` that identifies the lumped parameters from its own first
+    ``samples`` transitions (:mod:`~acrobot_mj.control.identification`: it is told the
+    structure and the step, as the balance preset is) and, where they differ from its model,
+    replans the swing-up on the identified model, warm-started from its own (CasADi: the
+    ``control`` extra), then follows that funnel. It adapts once an episode; a replan that
+    fails leaves the funnel it had. Told each applied torque through :meth:`record`."""
+
+    def __init__(self, funnel: FunnelController, samples: int = 60) -> None:
+        self.nominal, self.samples = funnel, samples
+        self.reset()
+
+    def reset(self) -> None:
+        self.funnel = self.nominal.fresh()
+        self.data: list[tuple[list[float], float, list[float]]] = []
+        self.last: np.ndarray | None = None
+        self.torque: float | None = None
+        #: None until it has adapted; then what it did ("kept", "replanned", or why not).
+        self.adapted: str | None = None
+
+    def fresh(self) -> AdaptiveFunnel:
+        return AdaptiveFunnel(self.nominal, self.samples)
+
+    def record(self, torque: float) -> None:
+        """The torque [N m] the env applied in the step after the last call."""
+        self.torque = torque
+
+    def __call__(self, x: np.ndarray) -> float:
+        x = np.asarray(x, dtype=float)
+        if self.adapted is None and self.last is not None and self.torque is not None:
+            limits = np.asarray(self.nominal.trajectory.params.max_vel)
+            if np.all(np.abs(x[2:]) < limits - 1e-9):  # a clipped step is not the dynamics
+                self.data.append((self.last.tolist(), self.torque, x.tolist()))
+            if len(self.data) >= self.samples:
+                self.adapted = self._adapt()
+        self.last, self.torque = x, None
+        return self.funnel(x)
+
+    def _adapt(self) -> str:
+        from acrobot_mj.control.identification import identify, realise
+
+        nominal = self.nominal.trajectory
+        told = Stepping(dt=nominal.dt, max_vel=nominal.params.max_vel, method=nominal.method)
+        try:
+            theta, rms = identify(self.data, told)
+            model = realise(theta, told, nominal.params.max_torque)
+        except ValueError as error:
+            return f"kept: {error}"
+        if rms > 1e-6:
+            return f"kept: the structure fits the data only to {rms:.2g} RMS"
+        if np.allclose(model.lumped, nominal.params.lumped, rtol=1e-9, atol=0.0):
+            return "kept"
+        from acrobot_mj.control.trajopt import Optimiser, resample  # CasADi: control extra
+
+        optimiser = Optimiser(nominal.u_max, nominal.method, model)
+        for extra in REPLAN_STEPS:  # the nominal swing-up stretched: the first that solves
+            warm = resample(nominal.states, nominal.torques, nominal.steps + extra)
+            found = optimiser.approach(nominal.states[-1], warm)[1]
+            if found is not None:
+                break
+        else:
+            return "kept: no swing-up found on the identified model"
+        self.funnel = FunnelController(optimiser.trajectory(found), self.nominal.settings)
+        return "replanned"
+
+
+#: The state feedbacks: ``u = pi(x)``, with ``fresh()`` for each episode.
+Feedback = FunnelController | AdaptiveFunnel

@@ -13,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.feedback import FunnelController
+from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
@@ -40,13 +40,13 @@ class BalanceActor:
     """The controller as an episode-loop actor (a clocked one, ``u = pi(k, x)``, is told the
     physics step); records each step's state and applied torque."""
 
-    def __init__(self, env: gym.Env, controller: SwingUpController | FunnelController,
+    def __init__(self, env: gym.Env, controller: SwingUpController | Feedback,
                  discrete: bool, noise: Any = None) -> None:  # fmt: skip
         self.env = acrobot_of(env)
-        if isinstance(controller, FunnelController):
-            self.controller: Any = controller.fresh()
-        else:
-            self.controller = lambda x: controller(len(self.torques), x)
+        if isinstance(controller, SwingUpController):
+            self.controller: Any = lambda x: controller(len(self.torques), x)
+        else:  # a state feedback, with a memory of its own for this episode
+            self.controller = controller.fresh()
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
         self.states: list[list[float]] = []
@@ -66,6 +66,8 @@ class BalanceActor:
     def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
         self.states.append(self.env.state.tolist())
         self.torques.append(float(self.env.data.ctrl[0]))
+        if isinstance(self.controller, AdaptiveFunnel):
+            self.controller.record(self.torques[-1])
         return None if terminated or truncated else self._act()
 
 

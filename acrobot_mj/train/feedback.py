@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.control.feedback import FunnelController, FunnelSettings
+from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
@@ -35,17 +35,20 @@ SWING_UPS = {0.8: "reserve", 1.0: "min_time"}
 @dataclass(frozen=True)
 class FeedbackConfig:
     """{-1, 0, +1} torques (sigma-delta) or continuous, the shipped swing-up whose funnel it
-    follows (by its torque bound ``reserve`` [N m]), the :class:`FunnelSettings` and the
-    seconds of each episode."""
+    follows (by its torque bound ``reserve`` [N m]), the :class:`FunnelSettings`, the seconds
+    of each episode, and whether it identifies the model and replans in each episode
+    (:class:`~acrobot_mj.control.feedback.AdaptiveFunnel`)."""
 
     discrete: bool = False
     reserve: float = 0.8
     funnel: FunnelSettings = field(default_factory=FunnelSettings)
     seconds: float = 120.0
+    adaptive: bool = False
 
     def __post_init__(self) -> None:
-        if not isinstance(self.discrete, bool):
-            raise TypeError(f"discrete must be True or False, got {self.discrete!r}")
+        for name in ("discrete", "adaptive"):
+            if not isinstance(getattr(self, name), bool):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         if self.reserve not in SWING_UPS:
             raise ValueError(f"reserve must be one of the shipped swing-ups' {sorted(SWING_UPS)} "
                              f"N m, got {self.reserve!r}")  # fmt: skip
@@ -83,7 +86,7 @@ class FeedbackLearner(Learner):
         self.controller = FunnelController(self.trajectory, self.config.funnel)
         built = time.perf_counter() - start
         with self.env() as env:
-            actor = BalanceActor(env, self.controller, self.config.discrete)
+            actor = BalanceActor(env, self.feedback(), self.config.discrete)
             run_episode(env, actor, self.seed, {"start_noise": 0.0})
             rest = acrobot_of(env).task.assess(np.array(actor.states), self.trajectory.dt)
         record = {
@@ -102,7 +105,11 @@ class FeedbackLearner(Learner):
         return balance_env(self.trajectory, self.config.discrete, 0.0, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
-        return BalanceActor(env, self.controller, self.config.discrete)
+        return BalanceActor(env, self.feedback(), self.config.discrete)
+
+    def feedback(self) -> Feedback:
+        """The controller an episode starts with."""
+        return AdaptiveFunnel(self.controller) if self.config.adaptive else self.controller
 
     @classmethod
     def load(cls, run_dir: Path) -> FeedbackLearner:
