@@ -179,7 +179,7 @@ def test_pushes_and_perturbations_come_from_the_evaluation_seed_only(book_run, t
 
 
 def test_the_feedback_controller_from_uniform_starts_and_pushes(feedback_run) -> None:
-    # The CI-sized version of issue 28's targets: 3 uniform starts, 150 s with a push of
+    # A CI-sized version of the docs' evaluation: 3 uniform starts, 150 s with a push of
     # U(-0.5, 0.5) rad/s every 75 s. The controller catches its balance from rest in 23.55 s
     # along the shipped swing-up; from anywhere within about 60 s (100 of 100 uniform starts of
     # the docs' evaluation).
