@@ -199,8 +199,10 @@ class Optimiser:
         xs, us = opti.variable(4, horizon + 1), opti.variable(1, horizon)
         h = opti.variable() if free_time else p.dt
         opti.subject_to(xs[:, 0] == HANGING)
-        for k in range(horizon):
-            opti.subject_to(xs[:, k + 1] == symbolic_step(xs[:, k], us[0, k], h, self.method, p))
+        # One step function, mapped over the horizon: the graph is built once, not N times.
+        x, u, dt = casadi.SX.sym("x", 4), casadi.SX.sym("u"), casadi.SX.sym("h")
+        step = casadi.Function("step", [x, u, dt], [symbolic_step(x, u, dt, self.method, p)])
+        opti.subject_to(xs[:, 1:] == step.map(horizon)(xs[:, :-1], us, h))
         opti.subject_to(opti.bounded(-self.u_max, us, self.u_max))
         opti.subject_to(opti.bounded(-p.max_vel1, xs[2, :], p.max_vel1))
         opti.subject_to(opti.bounded(-p.max_vel2, xs[3, :], p.max_vel2))
