@@ -58,6 +58,7 @@ class FunnelController:
         self.index: int | None = None  # the funnel point followed now
 
     def reset(self) -> None:
+        """Follow no funnel point: the memory of a new episode."""
         self.index = None
 
     def fresh(self) -> FunnelController:
@@ -119,6 +120,7 @@ class AdaptiveFunnel:
         self.reset()
 
     def reset(self) -> None:
+        """The nominal funnel, no data, not adapted: a new episode."""
         self.funnel = self.nominal.fresh()
         self.data: list[tuple[list[float], float, list[float]]] = []
         self.last: np.ndarray | None = None
@@ -127,6 +129,7 @@ class AdaptiveFunnel:
         self.adapted: str | None = None
 
     def fresh(self) -> AdaptiveFunnel:
+        """A copy for a new episode."""
         return AdaptiveFunnel(self.nominal, self.samples)
 
     def record(self, torque: float) -> None:

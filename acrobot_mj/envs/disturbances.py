@@ -28,7 +28,7 @@ PARAMETERS = ("m1", "m2", "I1", "I2")
 #: a swing through upright leaves 0.05 rad within a second (the unstable modes grow e-fold in
 #: 0.35 s and 0.53 s).
 SETTLE = 2.0
-#: Past this error [rad] after a catch, the acrobot has fallen: no |tau| <= 1 N m brings back
+#: Past this error [rad] after a catch, the acrobot has fallen: no ``|tau| <= 1`` N m brings back
 #: even a q1 offset at rest past 0.084 rad (the unstable modes' linearised bound). A smaller
 #: excursion that comes back is a wobble, not a fall.
 FALL = 0.5
@@ -113,6 +113,7 @@ class Pushed(gym.Wrapper):
         self._size, self._physics_step = 0.0, 0
 
     def begin(self, steps: list[int], size: float, rng: np.random.Generator) -> None:
+        """The next episode's push steps, push size [rad/s] and generator."""
         self._steps, self._size, self._rng = list(steps), size, rng
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:

@@ -35,7 +35,8 @@ SWING_UPS = {0.8: "reserve", 1.0: "min_time"}
 @dataclass(frozen=True)
 class FeedbackConfig:
     """{-1, 0, +1} torques (sigma-delta) or continuous, the shipped swing-up whose funnel it
-    follows (by its torque bound ``reserve`` [N m]), the :class:`FunnelSettings`, the seconds
+    follows (by its torque bound ``reserve`` [N m]), the
+    :class:`~acrobot_mj.control.feedback.FunnelSettings`, the seconds
     of each episode, and whether it identifies the model and replans in each episode
     (:class:`~acrobot_mj.control.feedback.AdaptiveFunnel`)."""
 
