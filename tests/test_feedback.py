@@ -114,7 +114,7 @@ def test_a_run_with_another_swing_up_is_refused(tmp_path) -> None:
 def test_the_adaptive_controller_replans_on_the_model_it_identifies(tmp_path) -> None:
     # Masses and inertias off by up to 5 %: the nominal funnel balanced 14 of 100 uniform
     # starts, the adaptive one (3 s of its own transitions identify the five lumped parameters;
-    # a replan warm-started from the nominal swing-up) FEEDBACK_ADAPTIVE of 100.
+    # a replan warm-started from the nominal swing-up) 98 of 100.
     protocol = Protocol(episodes=1, seed=3, starts_from="uniform", seconds=90, perturb=0.05)
     for adaptive, balanced in ((False, False), (True, True)):  # this start and model: measured
         out = tmp_path / str(adaptive)
