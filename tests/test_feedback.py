@@ -46,10 +46,11 @@ def test_it_takes_the_state_and_no_time_index(controller) -> None:
 def test_its_three_modes(controller) -> None:
     c = controller.fresh()
     near = UPRIGHT + np.array([0.01, -0.01, 0.0, 0.01])  # cost 24 < 100
-    assert c.mode(near) == "upright" and c(near) == pytest.approx(float(LQR()(near)), abs=0)
+    assert c.mode(near) == "upright" and c(near) == float(LQR()(near))  # the same LQR, exactly
     # Hanging at rest is the funnel's first point (zero cost): its nominal torque, then on.
     assert c.mode(HANGING) == "funnel" and c.index == 0
-    assert c(HANGING) == pytest.approx(RESERVE.torques[0], abs=1e-12) and c.index == 1
+    # The shipped start is hanging to 7e-28 rad: the feedback term vanishes in double precision.
+    assert c(HANGING) == RESERVE.torques[0] and c.index == 1
     swinging = np.array([-np.pi / 2 + 1.0, -2.0, 3.0, 0.4])
     fresh = controller.fresh()
     assert fresh.mode(swinging) == "damping" and fresh(swinging) == -0.4  # -damping * dq2

@@ -67,6 +67,9 @@ class FunnelController:
         other.reset()
         return other
 
+    def record(self, torque: float) -> None:
+        """The torque [N m] the env applied after the last call: unused (it does not adapt)."""
+
     def mode(self, x: np.ndarray) -> str:
         """``"upright"``, ``"funnel"`` or ``"damping"`` for state ``x``, updating the memory: a
         funnel point followed is kept while its cost stays below ``track`` (the funnel ends at

@@ -13,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback
+from acrobot_mj.control.feedback import Feedback
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
@@ -43,10 +43,13 @@ class BalanceActor:
     def __init__(self, env: gym.Env, controller: SwingUpController | Feedback,
                  discrete: bool, noise: Any = None) -> None:  # fmt: skip
         self.env = acrobot_of(env)
+        # A state feedback has a memory of its own for this episode, and hears each torque.
+        self.feedback: Feedback | None = None
         if isinstance(controller, SwingUpController):
-            self.controller: Any = lambda x: controller(len(self.torques), x)
-        else:  # a state feedback, with a memory of its own for this episode
-            self.controller = controller.fresh()
+            clocked = controller
+            self.controller: Any = lambda x: clocked(len(self.torques), x)
+        else:
+            self.controller = self.feedback = controller.fresh()
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
         self.states: list[list[float]] = []
@@ -66,8 +69,8 @@ class BalanceActor:
     def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
         self.states.append(self.env.state.tolist())
         self.torques.append(float(self.env.data.ctrl[0]))
-        if isinstance(self.controller, AdaptiveFunnel):
-            self.controller.record(self.torques[-1])
+        if self.feedback is not None:
+            self.feedback.record(self.torques[-1])
         return None if terminated or truncated else self._act()
 
 

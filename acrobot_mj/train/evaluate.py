@@ -29,9 +29,6 @@ STORED = Path(__file__).with_name("heldout_minima.json")
 #: The analytic model's integrator for each of the env's.
 METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 _RENDER = RenderSettings()
-#: What acts in a run's video, by its kind.
-POLICY_WORDS = {None: "greedy", "identify_and_plan": "identified model + TVLQR",
-                "state_feedback": "state feedback: TVLQR funnel, LQR, energy removal"}  # fmt: skip
 #: What eval.json lists per held-out episode besides the results (pushes and parameters where
 #: the protocol pushes or perturbs).
 PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state",
@@ -183,8 +180,7 @@ def render_run(
                                                 learner.swing_up))  # fmt: skip
     finally:
         env.close()
-    policy = POLICY_WORDS.get(learner.kind, learner.kind)
-    record.update(run=str(run_dir), run_seed=learner.seed, policy=policy)
+    record.update(run=str(run_dir), run_seed=learner.seed, policy=learner.describes)
     write_json(Path(out).with_suffix(".json"), record)
     return record
 

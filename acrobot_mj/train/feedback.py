@@ -21,10 +21,10 @@ from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelControll
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import read_json, versions, write_json
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.balance import BalanceActor, balance_env
 from acrobot_mj.train.learners import Learner, Protocol, Run
-from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE
+from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
 
 #: ``run.json``'s ``kind`` of a state-feedback run.
 KIND = "state_feedback"
@@ -74,18 +74,18 @@ class FeedbackLearner(Learner):
     """Builds the controller (``learn``); acts through it from any start, with no clock."""
 
     kind = KIND
+    describes = "state feedback: TVLQR funnel, LQR, energy removal"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0, starts_from="uniform",
                         seconds=120.0)  # fmt: skip
 
     def __init__(self, config: FeedbackConfig, seed: int, trajectory: Trajectory | None = None):
         super().__init__(config, seed)
         self.trajectory = trajectory or shipped(SWING_UPS[config.reserve])
+        start = time.perf_counter()
         self.controller = FunnelController(self.trajectory, config.funnel)
+        self.build_seconds = time.perf_counter() - start
 
     def learn(self, run: Run) -> dict[str, Any]:
-        start = time.perf_counter()
-        self.controller = FunnelController(self.trajectory, self.config.funnel)
-        built = time.perf_counter() - start
         with self.env() as env:
             actor = BalanceActor(env, self.feedback(), self.config.discrete)
             run_episode(env, actor, self.seed, {"start_noise": 0.0})
@@ -93,7 +93,7 @@ class FeedbackLearner(Learner):
         record = {
             "kind": KIND, "config": self.config.to_dict(), "seed": self.seed,
             "task": Balance.name, "swing_up": SWING_UPS[self.config.reserve],
-            "greedy_from_rest": rest, "build_seconds": built, "versions": versions(),
+            "greedy_from_rest": rest, "build_seconds": self.build_seconds, "versions": versions(),
         }  # fmt: skip
         if run.out is not None:
             self.trajectory.save(run.out / TRAJECTORY_FILE)
@@ -114,13 +114,7 @@ class FeedbackLearner(Learner):
 
     @classmethod
     def load(cls, run_dir: Path) -> FeedbackLearner:
-        path = Path(run_dir) / RUN_FILE
-        try:
-            record = read_json(path)
-        except (OSError, ValueError) as error:
-            raise ValueError(f"{path} is not a readable run record: {error}") from None
-        if not isinstance(record, dict) or record.get("kind") != KIND:
-            raise ValueError(f"{path} is not a state-feedback run (kind {KIND!r})")
+        record = read_kind(run_dir, KIND, "state-feedback")
         config = FeedbackConfig.from_dict(record["config"])
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if trajectory.u_max != config.reserve:

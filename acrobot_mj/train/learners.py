@@ -148,6 +148,8 @@ class Learner(ABC):
 
     #: ``run.json``'s ``kind`` (absent for agents).
     kind: ClassVar[str | None] = None
+    #: What acts in its episodes, in a video's record.
+    describes: ClassVar[str] = "greedy"
     protocol: ClassVar[Protocol] = DEFAULT
     #: Physics steps its plan swings up in (None: none planned), for the task's assessment.
     swing_up: int | None = None

@@ -20,12 +20,12 @@ from acrobot_mj.control.lqr import SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import read_json, versions, write_json
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.report.balance import BalanceActor, balance_env, closed_loop
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.model_based import identified_model
-from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE
+from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
 
 #: ``run.json``'s ``kind`` of a balance-preset run.
 KIND = "identify_and_plan"
@@ -88,6 +88,7 @@ class PlanLearner(Learner):
     """The balance preset's learner: ``learn`` identifies and plans; it acts through TVLQR."""
 
     kind = KIND
+    describes = "identified model + TVLQR"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0)
 
     def __init__(self, config: PlanConfig, seed: int, trajectory: Trajectory | None = None):
@@ -138,13 +139,7 @@ class PlanLearner(Learner):
 
     @classmethod
     def load(cls, run_dir: Path) -> PlanLearner:
-        path = Path(run_dir) / RUN_FILE
-        try:
-            record = read_json(path)
-        except (OSError, ValueError) as error:
-            raise ValueError(f"{path} is not a readable run record: {error}") from None
-        if not isinstance(record, dict) or record.get("kind") != KIND:
-            raise ValueError(f"{path} is not a balance-preset run (kind {KIND!r})")
+        record = read_kind(run_dir, KIND, "balance-preset")
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if dataclasses.asdict(trajectory.params) != record["model"]["params"]:
             raise ValueError(f"{Path(run_dir) / TRAJECTORY_FILE} was planned on another model "

@@ -347,6 +347,19 @@ def load_into(load: Callable[[StateNow], None], arrays: StateNow, path: Path) ->
         raise CheckpointError(f"{path} does not fit its agent: {error!r}") from error
 
 
+def read_kind(run_dir: Path, kind: str, what: str) -> dict[str, Any]:
+    """``run_dir``'s ``run.json``, refused unless it records a run of ``kind`` (``what``: its
+    name in the error)."""
+    path = Path(run_dir) / RUN_FILE
+    try:
+        record = read_json(path)
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path} is not a readable run record: {error}") from None
+    if not isinstance(record, dict) or record.get("kind") != kind:
+        raise ValueError(f"{path} is not a {what} run (kind {kind!r})")
+    return record
+
+
 def check_record_agrees(run_dir: Path, config: TrainConfig, seed: int) -> None:
     """Refuse a checkpoint that is not the run ``run.json`` records (if there is one)."""
     run_file, path = run_dir / RUN_FILE, run_dir / CHECKPOINT_FILE
