@@ -16,6 +16,7 @@ from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import DEFAULT, STARTS
+from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, recent_score
@@ -101,9 +102,12 @@ def add_train(commands: tools.Commands) -> None:
         plan.add_argument(flag, dest=f"plan_{dest}", metavar="VALUE", help=text)
     plan.add_argument("--discrete", dest="plan_discrete", action="store_true",
                       help="{-1, 0, +1} N m torques (sigma-delta), not continuous")  # fmt: skip
+    box = p.add_argument_group("black_box preset (told nothing of the equations)")
+    box.add_argument("--decisions", dest="box_decisions", type=positive_int, metavar="N",
+                     help="decisions of random exploration (default 20000)")  # fmt: skip
 
 
-def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig:
+def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxConfig:
     """The preset with the settings given on the command line."""
     for name in RETIRED:
         if getattr(args, name) is not None:
@@ -112,6 +116,15 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig:
     plan = [flag for flag, dest, _ in PLAN_OPTIONS if getattr(args, f"plan_{dest}") is not None]
     plan += ["--discrete"] if args.plan_discrete else []
     preset = PRESETS[args.preset]
+    if isinstance(preset, BlackBoxConfig):
+        refused = [_flag(name) for name in given] + plan
+        if refused:
+            raise ValueError(f"{', '.join(refused)}: not a setting of the black_box preset (it "
+                             "takes --decisions)")  # fmt: skip
+        decisions = args.box_decisions
+        return preset if decisions is None else preset.replace(decisions=decisions)
+    if args.box_decisions is not None:
+        raise ValueError("--decisions: only the black_box preset takes it")
     if isinstance(preset, TrainConfig):
         if plan:
             raise ValueError(f"{', '.join(plan)}: only the balance preset takes these")
@@ -142,14 +155,15 @@ def _number(text: str, kind: type, flag: str) -> Any:
 
 def train_command(args: argparse.Namespace) -> dict[str, Any]:
     config, progress = config_of(args), show_progress(args)
-    if isinstance(config, PlanConfig):
+    if isinstance(config, (PlanConfig, BlackBoxConfig)):
         if args.seeds is not None or args.resume or args.jobs != 1:
-            raise ValueError("the balance preset trains one seed per command (no --seeds, "
+            raise ValueError(f"the {args.preset} preset trains one seed per command (no --seeds, "
                              "--jobs or --resume: a run takes minutes and has nothing to "
                              "resume)")  # fmt: skip
-        out = Path(args.out or f"runs/balance__seed{args.seed}")
+        out = Path(args.out or f"runs/{args.preset}__seed{args.seed}")
         record = train(config, args.seed, out, progress=progress, overwrite=args.force)
-        print(f"trained -> {out}: " + plan_words(record))
+        words = plan_words if isinstance(config, PlanConfig) else black_box_words
+        print(f"trained -> {out}: " + words(record))
         return record
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
@@ -218,6 +232,18 @@ def plan_words(record: dict[str, Any]) -> str:
         f"{model['rms']:.2g}); plan {plan['seconds']:g} s to upright; from rest: {held} after "
         f"{rest['swing_up_seconds']:g} s, largest error {rest['max_error_during_hold'] or 0:.2g} "
         f"rad; {record['wall_seconds']:.0f} s"
+    )
+
+
+def black_box_words(record: dict[str, Any]) -> str:
+    """One line on a black-box run: its data, its model, the plan, the result from rest."""
+    data, model, rest = record["data"], record["model"], record["greedy_from_rest"]
+    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
+    return (
+        f"{model['terms']}-term model from {data['decisions']} random decisions (held-out RMS "
+        f"error {max(model['held_out_errors']['rms']):.2g}); plan "
+        f"{record['swing_up']['seconds']:g} s to upright; from rest: {held} after "
+        f"{rest['swing_up_seconds']:g} s; {record['wall_seconds']:.0f} s"
     )
 
 

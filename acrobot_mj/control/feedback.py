@@ -11,9 +11,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.control.lqr import LQR, tvlqr
+from acrobot_mj.control.lqr import LQR, Jacobians, tvlqr
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.physics.dynamics import state_error
+from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.integrators import Stepping
 
 
@@ -42,7 +42,7 @@ class FunnelSettings:
 class FunnelController:
     """``u = pi(x)`` [N m] on ``trajectory``'s model: LQR inside its level set at upright, else
     TVLQR at the funnel point it follows (entered at the point of least cost), else energy
-    removal. Call :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
+    removal; ``linear``: the Jacobians of a learnt model the trajectory was planned on. Call :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
 
     def __init__(
         self,
@@ -50,11 +50,14 @@ class FunnelController:
         settings: FunnelSettings = FunnelSettings(),
         q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
         r: float = 1.0,
+        linear: Jacobians | None = None,
     ) -> None:
         self.trajectory, self.settings = trajectory, settings
-        self.lqr = LQR(q, r, trajectory.params)
+        # The LQR at the swing-up's end (upright at rest), on the model the gains come from.
+        end = UPRIGHT.copy() if linear is None else trajectory.states[-1].copy()
+        self.lqr = LQR(q, r, trajectory.params, end, linear)
         self.limit = trajectory.params.max_torque
-        self.costs, self.gains = tvlqr(trajectory, self.lqr, q, r)
+        self.costs, self.gains = tvlqr(trajectory, self.lqr, q, r, linear)
         self.index: int | None = None  # the funnel point followed now
 
     def reset(self) -> None:
@@ -80,7 +83,7 @@ class FunnelController:
             if e @ costs[self.index] @ e <= self.settings.track:
                 return "funnel"
             self.index = None
-        error = state_error(x)
+        error = state_error(x, self.lqr.target)
         if error @ self.lqr.cost @ error < self.settings.upright:
             return "upright"
         e = state_error(x[None], points)

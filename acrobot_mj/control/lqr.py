@@ -68,24 +68,35 @@ def dlqr(
     raise RuntimeError("the Riccati iteration did not converge")
 
 
+#: The Jacobians ``A`` (4, 4) and ``B`` (4, 1) of a model's step at a state and torque: a learnt
+#: model's (:class:`~acrobot_mj.control.library.LibraryModel`) instead of the equations'.
+Jacobians = Callable[[np.ndarray, float], tuple[np.ndarray, np.ndarray]]
+
+
 @dataclass
 class LQR:
-    """Saturated LQR at upright on the env's discrete model: ``clip(-K (x - x*), -1, 1)`` N m."""
+    """Saturated LQR at ``target`` (upright at rest) on the env's discrete model, or on the model
+    whose Jacobians ``linear`` gives: ``clip(-K (x - x*), -1, 1)`` N m."""
 
     q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0)
     r: float = 1.0
     p: AcrobotParams = REPORT
+    target: np.ndarray = field(default_factory=lambda: UPRIGHT.copy())
+    linear: Jacobians | None = None
     gain: np.ndarray = field(init=False)
     #: The Riccati solution: the cost-to-go ``x' S x`` of the error.
     cost: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
-        a, b = discrete_model(p=self.p)
+        if self.linear is None:
+            a, b = discrete_model(p=self.p)
+        else:
+            a, b = self.linear(self.target, 0.0)
         self.gain, self.cost = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         limit = self.p.max_torque
-        return np.clip(-(state_error(x) @ self.gain.T)[..., 0], -limit, limit)
+        return np.clip(-(state_error(x, self.target) @ self.gain.T)[..., 0], -limit, limit)
 
 
 def balances(
@@ -157,16 +168,20 @@ def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
     return int(np.linalg.matrix_rank(np.hstack(blocks)))
 
 
-def tvlqr(trajectory: Trajectory, lqr: LQR, q: tuple[float, ...],
-          r: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def tvlqr(trajectory: Trajectory, lqr: LQR, q: tuple[float, ...], r: float,
+          linear: Jacobians | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """TVLQR along ``trajectory`` ending in ``lqr``'s cost: the costs-to-go ``S_k`` (N + 1, 4, 4)
-    of the error and the gains ``K_k`` (N, 4), ``u_k = u*_k - K_k (x - x*_k)``."""
+    of the error and the gains ``K_k`` (N, 4), ``u_k = u*_k - K_k (x - x*_k)``; ``linear``: the
+    Jacobians of a learnt model (default: the trajectory's equations)."""
     weights, torque_cost, steps = np.diag(q), np.array([[r]]), trajectory.steps
     costs, gains = np.zeros((steps + 1, 4, 4)), np.zeros((steps, 4))
     costs[steps] = lqr.cost
     for k in reversed(range(steps)):
         x, u = trajectory.states[k], trajectory.torques[k]
-        a, b = step_jacobians(x, u, trajectory.method, trajectory.params)
+        if linear is None:
+            a, b = step_jacobians(x, u, trajectory.method, trajectory.params)
+        else:
+            a, b = linear(x, u)
         riccati = costs[k + 1]
         gain = np.linalg.solve(torque_cost + b.T @ riccati @ b, b.T @ riccati @ a)
         costs[k] = weights + a.T @ riccati @ (a - b @ gain)

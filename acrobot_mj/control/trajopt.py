@@ -180,11 +180,15 @@ def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = REPORT
 
 @dataclass(frozen=True)
 class Optimiser:
-    """The NLPs of one model ``p``: torques ``|u| <= u_max`` [N m], the step ``method``."""
+    """The NLPs of one model ``p``: torques ``|u| <= u_max`` [N m], the step ``method``; or of a
+    learnt ``model`` (its CasADi ``function``; ``p`` then gives only the limits and ``dt``),
+    from ``start`` (default: hanging at rest)."""
 
     u_max: float = 1.0
     method: str = "semi_implicit_euler"
     p: AcrobotParams = REPORT
+    model: Any = None
+    start: tuple[float, ...] = tuple(float(v) for v in HANGING)
 
     def __post_init__(self) -> None:
         u_max, top = self.u_max, self.p.max_torque
@@ -198,10 +202,15 @@ class Optimiser:
         p, opti = self.p, casadi.Opti()
         xs, us = opti.variable(4, horizon + 1), opti.variable(1, horizon)
         h = opti.variable() if free_time else p.dt
-        opti.subject_to(xs[:, 0] == HANGING)
+        opti.subject_to(xs[:, 0] == np.array(self.start))
         # One step function, mapped over the horizon: the graph is built once, not N times.
-        x, u, dt = casadi.SX.sym("x", 4), casadi.SX.sym("u"), casadi.SX.sym("h")
-        step = casadi.Function("step", [x, u, dt], [symbolic_step(x, u, dt, self.method, p)])
+        if self.model is not None:
+            if free_time:
+                raise ValueError("a learnt model has one step: it cannot free the time")
+            step = self.model.function
+        else:
+            x, u, dt = casadi.SX.sym("x", 4), casadi.SX.sym("u"), casadi.SX.sym("h")
+            step = casadi.Function("step", [x, u, dt], [symbolic_step(x, u, dt, self.method, p)])
         opti.subject_to(xs[:, 1:] == step.map(horizon)(xs[:, :-1], us, h))
         opti.subject_to(opti.bounded(-self.u_max, us, self.u_max))
         opti.subject_to(opti.bounded(-p.max_vel1, xs[2, :], p.max_vel1))

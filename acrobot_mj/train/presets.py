@@ -1,8 +1,9 @@
 """The named presets: the report, Sutton and Barto's book, the best model-free and model-based
-learners, and the balance preset (identify, plan, TVLQR)."""
+learners, the balance preset (identify, plan, TVLQR) and the black-box learner."""
 
 from __future__ import annotations
 
+from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.plan import PlanConfig
 
@@ -24,12 +25,14 @@ _MODEL_FREE = _BOOK.replace(angle_tiles=12, velocity_tiles=14, start_noise=0.05,
 # what was measured (the model-based path once applied the recipe's 20 twice).
 _TUNED = _MODEL_FREE.replace(identify_decisions=1000, population=10, max_decisions=480_000,
                              energy_shaping=40.0, checkpoint_every=250)  # fmt: skip
-PRESETS: dict[str, TrainConfig | PlanConfig] = {
+PRESETS: dict[str, TrainConfig | PlanConfig | BlackBoxConfig] = {
     "report": _REPORT,
     "book": _BOOK,
     "tuned": _TUNED,
     "model_free": _MODEL_FREE,
     "balance": PlanConfig(),
+    # Told nothing of the equations: random exploration, a generic learnt model, a planned funnel.
+    "black_box": BlackBoxConfig(),
 }
 
 #: The ``tuned`` preset of 0.2.0 (10 learners of 50 episodes, start noise 0.1 falling to 0 by

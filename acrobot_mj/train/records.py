@@ -28,9 +28,10 @@ from acrobot_mj.train.lock import LOCK_FILE, RunLock
 RUN_FILE, EVAL_FILE, CHECKPOINT_FILE = "run.json", "eval.json", "checkpoint.npz"
 CURVE_FILE, SUMMARY_FILE, EPISODE_LOG = "learning_curve.png", "summary.json", "episodes.jsonl"
 TRAJECTORY_FILE = "trajectory.json"  # a balance-preset run's plan
+MODEL_FILE = "model.json"  # a black-box run's learnt model and plan
 #: What a run directory holds of its own: no other command's output replaces it.
 RUN_RECORDS = (RUN_FILE, EVAL_FILE, CHECKPOINT_FILE, CURVE_FILE, SUMMARY_FILE, EPISODE_LOG,
-               TRAJECTORY_FILE)  # fmt: skip
+               TRAJECTORY_FILE, MODEL_FILE)  # fmt: skip
 
 
 @contextlib.contextmanager

@@ -9,6 +9,7 @@ from typing import Any
 import gymnasium as gym
 
 from acrobot_mj.files import read_json
+from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.feedback import FeedbackConfig, FeedbackLearner
 from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
@@ -19,21 +20,25 @@ from acrobot_mj.train.progress import run_total, watching
 from acrobot_mj.train.records import CURVE_FILE, EVAL_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
 
 #: The learners that are not trained by episodes, by their config's type and ``run.json`` kind.
-BUILT: dict[type, type[Learner]] = {PlanConfig: PlanLearner, FeedbackConfig: FeedbackLearner}
+BUILT: dict[type, type[Learner]] = {PlanConfig: PlanLearner, FeedbackConfig: FeedbackLearner,
+                                    BlackBoxConfig: BlackBoxLearner}  # fmt: skip
 KINDS: dict[str | None, type[Learner]] = {cls.kind: cls for cls in BUILT.values()}
-Config = TrainConfig | PlanConfig | FeedbackConfig
+Config = TrainConfig | PlanConfig | FeedbackConfig | BlackBoxConfig
 
 
 def learner_for(config: Config, seed: int, env: gym.Env | None = None) -> Learner:
     """The learner of ``config``: the balance preset's planner, the state-feedback controller,
-    or the config's agent."""
+    the black-box learner (which takes any env with a Box action), or the config's agent."""
+    if isinstance(config, BlackBoxConfig):
+        return BlackBoxLearner(config, seed, env)
     if type(config) in BUILT:
         if env is not None:
             raise ValueError("the balance preset and the state-feedback controller run on the "
                              "package's own env; give no env")  # fmt: skip
         return BUILT[type(config)](config, seed)
     if not isinstance(config, TrainConfig):
-        raise TypeError(f"config must be a TrainConfig, PlanConfig or FeedbackConfig, got "
+        raise TypeError(f"config must be a TrainConfig, PlanConfig, FeedbackConfig or "
+                        f"BlackBoxConfig, got "
                         f"{config!r}")  # fmt: skip
     kind = ModelBasedLearner if config.identify_decisions > 0 else AgentLearner
     return kind(config, seed, env)

@@ -1,0 +1,240 @@
+"""The ``black_box`` preset: a learner told nothing of the acrobot's equations. It explores the
+env with random actions, fits a generic model of one decision
+(:class:`~acrobot_mj.control.library.LibraryModel`) and of the reward, takes as its goal the
+learnt model's state at rest of highest learnt reward, plans a swing-up to it on the learnt model
+(CasADi/IPOPT from a near-zero warm start) and follows it with the state feedback
+:class:`~acrobot_mj.control.feedback.FunnelController`, every gain from the learnt model."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.control.feedback import FunnelController
+from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
+from acrobot_mj.control.trajopt import Optimiser, Trajectory
+from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
+from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.files import read_json, versions, write_json
+from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.report.balance import BalanceActor
+from acrobot_mj.train.learners import Learner, Protocol, Run
+from acrobot_mj.train.records import MODEL_FILE, RUN_FILE, read_kind
+
+#: ``run.json``'s ``kind`` of a black-box run.
+KIND = "black_box"
+FORMAT = "acrobot_mj.black_box_model"
+#: What the learner is told, in the run record and the docs.
+TOLD = (
+    "the env's spaces: a Box action (a number in [-1, 1]) and four observations, the first two "
+    "angles wrapped at +-pi",
+    "the reward of each decision",
+    "it may reset the env to a state it names (angles uniform on the circle, at rest)",
+)
+#: Seed-tree branch of the exploration's draws.
+DATA_BRANCH = 0xB1AC
+
+
+@dataclass(frozen=True)
+class BlackBoxConfig:
+    """Decisions of random exploration in episodes of ``episode_decisions`` (the last tenth
+    held out to measure the model), the library's ``harmonics`` and ``threshold``, the share of
+    the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
+    [decisions] and the seconds of each evaluation episode."""
+
+    decisions: int = 20_000
+    episode_decisions: int = 100
+    harmonics: int = HARMONICS
+    threshold: float = THRESHOLD
+    reserve: float = 0.8
+    horizons: tuple[int, int, int] = (440, 800, 40)
+    seconds: float = 100.0
+
+    def __post_init__(self) -> None:
+        check_int("decisions", self.decisions, 100)
+        check_int("episode_decisions", self.episode_decisions, 1)
+        check_int("harmonics", self.harmonics, 1, 8)
+        check_float("threshold", self.threshold, 0.0, 1.0)
+        if not check_float("reserve", self.reserve, 0.0, 1.0) > 0:
+            raise ValueError("reserve must be > 0 (the plan's share of the action bound)")
+        h = tuple(self.horizons)
+        if len(h) != 3 or not all(isinstance(v, int) and v > 0 for v in h) or h[1] <= h[0]:
+            raise ValueError(f"horizons must be (start, stop, step) decisions > 0, got {h!r}")
+        object.__setattr__(self, "horizons", h)
+        if check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
+            raise ValueError(f"seconds must be > 0, got {self.seconds:g}")
+
+    def replace(self, **changes: Any) -> BlackBoxConfig:
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**dataclasses.asdict(self), "horizons": list(self.horizons)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> BlackBoxConfig:
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown black-box settings {unknown}; known: {sorted(names)}")
+        return cls(**{**data, "horizons": tuple(data.get("horizons", cls.horizons))})
+
+
+def black_box_env(**kwargs: Any) -> gym.Env:
+    """The balance task with a Box action: the only env the learner sees."""
+    return gym.make(Balance.env_id, continuous=True, **kwargs)
+
+
+def explore(env: gym.Env, config: BlackBoxConfig, seed: int) -> dict[str, np.ndarray]:
+    """``decisions`` random actions, ``U(low, high)``, in episodes from both angles uniform on the
+    circle at rest: ``states``, ``actions``, ``next_states`` (observations) and ``rewards``."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, DATA_BRANCH]))
+    box = env.action_space
+    if not isinstance(box, gym.spaces.Box) or box.shape != (1,):
+        raise ValueError(f"the black-box learner needs a Box action of one number, got {box}")
+    rows: dict[str, list] = {"states": [], "actions": [], "next_states": [], "rewards": []}
+    while len(rows["actions"]) < config.decisions:
+        start = [*rng.uniform(-np.pi, np.pi, 2), 0.0, 0.0]
+        obs, _ = env.reset(seed=int(rng.integers(2**31)), options={"state": start})
+        for _ in range(min(config.episode_decisions, config.decisions - len(rows["actions"]))):
+            action = rng.uniform(box.low, box.high).astype(box.dtype)
+            nxt, reward, terminated, truncated, _ = env.step(action)
+            for name, value in zip(rows, (obs, action[0], nxt, reward), strict=True):
+                rows[name].append(value)
+            obs = nxt
+            if terminated or truncated:
+                break
+    return {name: np.asarray(values, dtype=np.float64) for name, values in rows.items()}
+
+
+def limits_of(env: gym.Env) -> AcrobotParams:
+    """The bounds the env's spaces declare: the action's and the velocities' [rad/s], and the
+    decision's seconds; the planner's ``p`` (its masses and lengths are never read)."""
+    high = np.asarray(env.observation_space.high, dtype=float)
+    return AcrobotParams(max_torque=float(env.action_space.high[0]), max_vel1=high[2],
+                         max_vel2=high[3], dt=float(env.unwrapped.dt))  # fmt: skip
+
+
+def swing_up(model: LibraryModel, start: np.ndarray, goal: np.ndarray, config: BlackBoxConfig,
+             limits: AcrobotParams, seed: int) -> Trajectory:  # fmt: skip
+    """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
+    from ``start``, over the config's horizons, each warm-started from the model's rollout of
+    small random actions."""
+    optimiser = Optimiser(config.reserve * limits.max_torque, "learned", limits, model,
+                          tuple(float(v) for v in start))  # fmt: skip
+    rng = np.random.default_rng(np.random.SeedSequence([seed, DATA_BRANCH, 1]))
+    goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
+    for horizon in range(*config.horizons):
+        actions = 0.01 * limits.max_torque * rng.standard_normal(horizon)
+        states = [np.asarray(start, dtype=float)]
+        for u in actions:
+            states.append(model.step(states[-1], u))
+        for target in goals:
+            found = optimiser.approach(target, (np.array(states), actions))[1]
+            if found is not None:
+                return optimiser.trajectory(found)
+    raise ValueError(f"no swing-up found on the learnt model over horizons {config.horizons}")
+
+
+class BlackBoxLearner(Learner):
+    """Learns a model from the env's observations, actions and rewards only, then plans and
+    follows a funnel on it (``learn``); acts through that state feedback, with no clock."""
+
+    kind = KIND
+    describes = "black box: learnt model, planned funnel, LQR"
+    protocol = Protocol(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
+
+    def __init__(self, config: BlackBoxConfig, seed: int, env: gym.Env | None = None,
+                 built: tuple[LibraryModel, Trajectory] | None = None) -> None:  # fmt: skip
+        super().__init__(config, seed)
+        self.given_env = env
+        self.model, self.trajectory = built if built is not None else (None, None)
+        self.controller = None if built is None else self._controller()
+
+    def _controller(self) -> FunnelController:
+        assert self.model is not None and self.trajectory is not None
+        return FunnelController(self.trajectory, linear=self.model.jacobians)
+
+    def learn(self, run: Run) -> dict[str, Any]:
+        config, clock = self.config, time.perf_counter()
+        env = self.given_env if self.given_env is not None else black_box_env()
+        data = explore(env, config, self.seed)
+        cut = int(0.9 * len(data["actions"]))
+        train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
+        fields = ("states", "actions", "next_states")
+        self.model = LibraryModel.fit(*(train[k] for k in fields), config.harmonics,
+                                      config.threshold)  # fmt: skip
+        angles, reward_rms = best_angles(train["next_states"], train["rewards"], config.harmonics)
+        goal = self.model.equilibrium(angles)
+        start = env.reset(seed=self.seed)[0]
+        fitted = time.perf_counter()
+        self.trajectory = swing_up(self.model, start, goal, config, limits_of(env), self.seed)
+        planned = time.perf_counter()
+        self.controller = self._controller()
+        rest = self.greedy(env)
+        simulated = len(data["actions"]) * float(env.unwrapped.dt)
+        record = {
+            "kind": KIND, "config": config.to_dict(), "seed": self.seed, "task": Balance.name,
+            "told": list(TOLD),
+            "data": {"decisions": len(data["actions"]), "simulated_seconds": simulated,
+                     "held_out": len(held["actions"])},
+            "model": {"terms": self.model.terms,
+                      "held_out_errors": self.model.errors(*(held[k] for k in fields)),
+                      "reward_rms": reward_rms, "goal": goal.tolist()},
+            "swing_up": {"decisions": self.trajectory.steps, "seconds": self.trajectory.seconds},
+            "greedy_from_rest": rest,
+            "fit_seconds": fitted - clock, "plan_seconds": planned - fitted,
+            "wall_seconds": time.perf_counter() - clock, "versions": versions(),
+        }  # fmt: skip
+        if run.out is not None:
+            write_json(run.out / MODEL_FILE, self.model_record())
+            write_json(run.out / RUN_FILE, record)
+        return record
+
+    def greedy(self, env: gym.Env) -> dict[str, Any]:
+        """The task's assessment of one episode from rest (the env's own start) in ``env``."""
+        dt = float(env.unwrapped.dt)
+        limited = gym.wrappers.TimeLimit(env, round(self.config.seconds / dt))
+        actor = BalanceActor(limited, self.controller, discrete=False)
+        run_episode(limited, actor, self.seed, {"start_noise": 0.0})
+        return acrobot_of(env).task.assess(np.array(actor.states), dt)
+
+    def model_record(self) -> dict[str, Any]:
+        assert self.model is not None and self.trajectory is not None
+        t = self.trajectory
+        return {"format": FORMAT, "library": self.model.to_dict(),
+                "limits": dataclasses.asdict(t.params), "u_max": t.u_max,
+                "states": t.states.tolist(), "actions": t.torques.tolist()}  # fmt: skip
+
+    def env(self, **kwargs: Any) -> gym.Env:
+        assert self.trajectory is not None
+        steps = round(self.config.seconds / self.trajectory.dt)
+        return black_box_env(**{"max_episode_steps": steps, **kwargs})
+
+    def actor(self, env: gym.Env, episode: int) -> Actor:
+        assert self.controller is not None
+        return BalanceActor(env, self.controller, discrete=False)
+
+    @classmethod
+    def load(cls, run_dir: Path) -> BlackBoxLearner:
+        record = read_kind(run_dir, KIND, "black-box")
+        path = Path(run_dir) / MODEL_FILE
+        try:
+            data = read_json(path)
+            if data.get("format") != FORMAT:
+                raise ValueError(f"not a black-box model (format {data.get('format')!r})")
+            model = LibraryModel.from_dict(data["library"])
+            limits = AcrobotParams(**data["limits"])
+            trajectory = Trajectory(np.asarray(data["states"], dtype=float),
+                                    np.asarray(data["actions"], dtype=float), limits.dt,
+                                    "learned", float(data["u_max"]), limits)  # fmt: skip
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
+            raise ValueError(f"{path} is not a usable black-box model: {error}") from None
+        config = BlackBoxConfig.from_dict(record["config"])
+        return cls(config, int(record["seed"]), built=(model, trajectory))
