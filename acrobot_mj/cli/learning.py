@@ -13,10 +13,10 @@ from acrobot_mj.cli.tools import add_command, add_progress, positive_int, seed, 
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import read_json
 from acrobot_mj.report.plots import compare_curves, figure_format
+from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import DEFAULT, STARTS
-from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, recent_score

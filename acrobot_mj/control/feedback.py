@@ -42,7 +42,8 @@ class FunnelSettings:
 class FunnelController:
     """``u = pi(x)`` [N m] on ``trajectory``'s model: LQR inside its level set at upright, else
     TVLQR at the funnel point it follows (entered at the point of least cost), else energy
-    removal; ``linear``: the Jacobians of a learnt model the trajectory was planned on. Call :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
+    removal; ``linear``: the Jacobians of a learnt model the trajectory was planned on. Call
+    :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
 
     def __init__(
         self,

@@ -81,7 +81,8 @@ class LibraryModel:
         size = len(features(np.zeros(4), 0.0, self.harmonics))
         if np.shape(self.weights) != (size, 4) or not np.isfinite(self.weights).all():
             raise ValueError(f"a library model of {self.harmonics} harmonics needs finite "
-                             f"weights of shape ({size}, 4), got {np.shape(self.weights)}")  # fmt: skip
+                             f"weights of shape ({size}, 4), got "
+                             f"{np.shape(self.weights)}")  # fmt: skip
 
     @classmethod
     def fit(cls, states: np.ndarray, actions: np.ndarray, next_states: np.ndarray,
@@ -102,8 +103,8 @@ class LibraryModel:
         """The predicted next states of rows ``(n, 4)`` (or one state)."""
         states = np.asarray(states, dtype=np.float64)
         rows = np.atleast_2d(states)
-        out = rows + design(rows, np.broadcast_to(actions, len(rows)), self.harmonics) @ self.weights
-        return out.reshape(states.shape)
+        phi = design(rows, np.broadcast_to(actions, len(rows)), self.harmonics)
+        return (rows + phi @ self.weights).reshape(states.shape)
 
     def errors(self, states: np.ndarray, actions: np.ndarray, next_states: np.ndarray) -> dict:
         """RMS and largest prediction errors [rad, rad/s] per state variable on transitions."""
@@ -128,7 +129,8 @@ class LibraryModel:
 
         x, u, h = casadi.SX.sym("x", 4), casadi.SX.sym("u"), casadi.SX.sym("h")
         nxt = self.function(x, u, h)
-        return casadi.Function("jacobians", [x, u, h], [casadi.jacobian(nxt, x), casadi.jacobian(nxt, u)])
+        jacobians = [casadi.jacobian(nxt, x), casadi.jacobian(nxt, u)]
+        return casadi.Function("jacobians", [x, u, h], jacobians)
 
     def jacobians(self, x: np.ndarray, u: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """``A`` (4, 4) and ``B`` (4, 1) of the step at ``x``, action ``u``."""
