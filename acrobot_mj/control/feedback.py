@@ -6,6 +6,7 @@ begins. It needs no clock: its only memory is which point of the funnel it is fo
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -42,8 +43,9 @@ class FunnelSettings:
 class FunnelController:
     """``u = pi(x)`` [N m] on ``trajectory``'s model: LQR inside its level set at upright, else
     TVLQR at the funnel point it follows (entered at the point of least cost), else energy
-    removal; ``linear``: the Jacobians of a learnt model the trajectory was planned on. Call
-    :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
+    removal (or the law ``elsewhere``); ``linear``: the Jacobians of a learnt model the
+    trajectory was planned on. Call :meth:`reset` (or take a :meth:`fresh` copy) before each
+    episode."""
 
     def __init__(
         self,
@@ -52,8 +54,9 @@ class FunnelController:
         q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
         r: float = 1.0,
         linear: Jacobians | None = None,
+        elsewhere: Callable[[np.ndarray], float] | None = None,
     ) -> None:
-        self.trajectory, self.settings = trajectory, settings
+        self.trajectory, self.settings, self.elsewhere = trajectory, settings, elsewhere
         # The LQR at the swing-up's end (upright at rest), on the model the gains come from.
         end = UPRIGHT.copy() if linear is None else trajectory.states[-1].copy()
         self.lqr = LQR(q, r, trajectory.params, end, linear)
@@ -102,6 +105,8 @@ class FunnelController:
         if mode == "upright":
             return float(self.lqr(x))
         if mode == "damping":
+            if self.elsewhere is not None:
+                return float(self.elsewhere(x))
             return float(np.clip(-self.settings.damping * x[3], -self.limit, self.limit))
         k = self.index
         assert k is not None

@@ -19,6 +19,7 @@ import numpy as np
 from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
+from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
@@ -158,8 +159,13 @@ class BlackBoxLearner(Learner):
         self.controller = None if built is None else self._controller()
 
     def _controller(self) -> FunnelController:
+        """The funnel on the learnt model; elsewhere the LQR of the learnt model's state at rest
+        nearest the plan's start (hanging), which brings it back to where the funnel begins."""
         assert self.model is not None and self.trajectory is not None
-        return FunnelController(self.trajectory, linear=self.model.jacobians)
+        t, linear = self.trajectory, self.model.jacobians
+        rest = self.model.equilibrium(t.states[0, :2])
+        return FunnelController(t, linear=linear, elsewhere=LQR(p=t.params, target=rest,
+                                                                linear=linear))  # fmt: skip
 
     def learn(self, run: Run) -> dict[str, Any]:
         config, clock = self.config, time.perf_counter()

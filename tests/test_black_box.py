@@ -1,0 +1,183 @@
+"""The black-box learner: the generic library model (exact on data in its span, the same in numpy
+and CasADi, Jacobians that match finite differences), the goal from a learnt reward, the
+exploration's seeding, and the preset trained end to end, on the package's env and on one whose
+masses and inertias it was never told."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from acrobot_mj.cli import main
+from acrobot_mj.control.feedback import FunnelController
+from acrobot_mj.control.library import LibraryModel, best_angles, features
+from acrobot_mj.control.lqr import LQR, step_jacobians
+from acrobot_mj.control.trajopt import shipped
+from acrobot_mj.envs.disturbances import model_parameters, set_model_parameters
+from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.physics.dynamics import UPRIGHT
+from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner, black_box_env, explore
+from acrobot_mj.train.learners import Protocol, Run
+from acrobot_mj.train.trainer import load_learner
+
+RNG = np.random.default_rng(7)
+STATES = np.column_stack([RNG.uniform(-np.pi, np.pi, (400, 2)), RNG.uniform(-5, 5, (400, 2))])
+ACTIONS = RNG.uniform(-1, 1, 400)
+
+
+def a_model(harmonics: int = 2) -> LibraryModel:
+    weights = np.zeros((len(features(np.zeros(4), 0.0, harmonics)), 4))
+    weights[RNG.choice(len(weights), 12, replace=False)] = RNG.normal(0, 0.01, (12, 4))
+    return LibraryModel(harmonics, weights)
+
+
+# -- the library model ------------------------------------------------------------------------
+
+
+def test_the_fit_recovers_a_sparse_law_in_its_span() -> None:
+    # Increments written by hand, not through features(): three terms of q1, q2 and v1 v2 u.
+    q1, q2, v1, v2 = STATES.T
+    delta = np.zeros((400, 4))
+    delta[:, 2] = 0.3 * np.cos(q1) * ACTIONS - 0.02 * np.sin(2 * q2) * v1 * v2 + 0.1
+    delta[:, 3] = 0.05 * np.cos(q1) * np.sin(q2) * v2
+    model = LibraryModel.fit(STATES, ACTIONS, STATES + delta, harmonics=2)
+    # Exact data: the refit on the kept terms solves to rounding (1e-12 of increments ~0.3).
+    assert np.abs(model.step(STATES, ACTIONS) - STATES - delta).max() < 1e-12
+    # The threshold dropped every other term: 3, 1 and no term in the three columns.
+    assert np.count_nonzero(model.weights, axis=0).tolist() == [0, 0, 3, 1]
+
+
+def test_numpy_and_casadi_give_the_same_step_and_jacobians_match_differences() -> None:
+    model = a_model()
+    for x, u in zip(STATES[:5], ACTIONS[:5], strict=True):
+        symbolic = np.array(model.function(x, u, 0.0)).ravel()
+        assert np.abs(symbolic - model.step(x, u)).max() < 1e-13  # one sum, another order
+        a, b = model.jacobians(x, u)
+        eps = 1e-6  # central differences: truncation ~1e-12, rounding ~1e-10
+        for j in range(4):
+            dx = np.eye(4)[j] * eps
+            column = (model.step(x + dx, u) - model.step(x - dx, u)) / (2 * eps)
+            assert np.abs(column - a[:, j]).max() < 1e-7
+        column = (model.step(x, u + eps) - model.step(x, u - eps)) / (2 * eps)
+        assert np.abs(column - b[:, 0]).max() < 1e-7
+
+
+def test_a_saved_model_predicts_the_same_and_a_bad_one_is_refused() -> None:
+    model = a_model()
+    again = LibraryModel.from_dict(json.loads(json.dumps(model.to_dict())))
+    assert np.array_equal(again.step(STATES, ACTIONS), model.step(STATES, ACTIONS))
+    assert again.terms == 12 == model.terms
+    with pytest.raises(ValueError, match=r"needs finite weights of shape \(250, 4\)"):
+        LibraryModel(2, np.zeros((249, 4)))
+    with pytest.raises(ValueError, match="cannot fit 250 library terms"):
+        LibraryModel.fit(STATES[:100], ACTIONS[:100], STATES[:100], harmonics=2)
+
+
+def test_a_model_with_no_rest_point_says_so() -> None:
+    weights = np.zeros((len(features(np.zeros(4), 0.0, 1)), 4))
+    weights[0, 2] = 0.1  # a constant push on dq1: nothing stays at rest
+    with pytest.raises(ValueError, match="holds no state at rest near"):
+        LibraryModel(1, weights).equilibrium(np.array([1.0, 0.0]))
+
+
+def test_the_goal_is_where_the_learnt_reward_is_highest() -> None:
+    q1, q2 = STATES[:, 0], STATES[:, 1]
+    reward = (1 + np.sin(q1)) * (1 + np.cos(q2)) / 4  # the balance task's, in its span
+    angles, rms = best_angles(STATES, reward, harmonics=2)
+    assert rms < 1e-12 and np.abs(angles - UPRIGHT[:2]).max() < 1e-12  # pi/2 is on the grid
+
+
+def test_the_learnt_jacobians_drive_the_same_lqr_and_funnel() -> None:
+    # The analytic Jacobians passed as a "learnt" model give the LQR of the equations exactly.
+    plain, told = LQR(), LQR(linear=lambda x, u: step_jacobians(x, u))
+    assert np.abs(plain.gain - told.gain).max() < 1e-12
+    reserve = shipped("reserve")
+    funnel = FunnelController(reserve, linear=lambda x, u: step_jacobians(x, u, p=reserve.params),
+                              elsewhere=lambda x: 0.25)  # fmt: skip
+    assert np.allclose(funnel.gains, FunnelController(reserve).gains, rtol=0, atol=1e-9)
+    far = np.array([0.0, 2.0, 5.0, -8.0])  # no funnel point near: the law given for elsewhere
+    assert funnel.mode(far) == "damping" and funnel(far) == 0.25
+
+
+# -- exploration -------------------------------------------------------------------------------
+
+
+def test_exploration_is_seeded_and_refuses_discrete_actions() -> None:
+    config = BlackBoxConfig(decisions=300, episode_decisions=50)
+    first, again, other = (explore(black_box_env(), config, s) for s in (0, 0, 1))
+    assert all(np.array_equal(first[k], again[k]) for k in first)
+    assert not np.array_equal(first["states"], other["states"])
+    assert first["actions"].shape == (300,) and np.abs(first["actions"]).max() <= 1.0
+    # 6 episodes from rest with both angles anywhere.
+    assert np.count_nonzero(np.all(first["states"][:, 2:] == 0.0, axis=1)) == 6
+    with pytest.raises(ValueError, match="needs a Box action"):
+        explore(gym.make(Balance.env_id), config, 0)
+
+
+@pytest.mark.parametrize(
+    ("settings", "words"),
+    [({"decisions": 50}, "decisions"), ({"harmonics": 0}, "harmonics"),
+     ({"reserve": 0.0}, "reserve"), ({"horizons": (400, 300, 10)}, "horizons")],
+)  # fmt: skip
+def test_bad_settings_are_refused(settings, words) -> None:
+    with pytest.raises(ValueError, match=words):
+        BlackBoxConfig(**settings)
+
+
+def test_the_cli_refuses_settings_of_other_learners(tmp_path, capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["train", "--preset", "black_box", "--alpha", "0.1", "--out", str(tmp_path / "x")])
+    assert "--alpha: not a setting of the black_box preset" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["train", "--preset", "book", "--decisions", "10", "--out", str(tmp_path / "y")])
+    assert "--decisions: only the black_box preset takes it" in capsys.readouterr().err
+
+
+# -- trained end to end (about a minute each) --------------------------------------------------
+
+
+@pytest.mark.slow
+def test_the_preset_trains_balances_held_out_starts_and_replays(tmp_path, capsys) -> None:
+    from tests.test_disturbances import replays
+
+    out = tmp_path / "box"
+    assert main(["train", "--preset", "black_box", "--out", str(out)]) == 0
+    assert "random decisions" in capsys.readouterr().out
+    record = json.loads((out / "run.json").read_text())
+    # Measured: a 39-term model, held-out errors about 1e-4 rad/s; a 24 s plan; from rest
+    # balanced after 23.6 s. 1e-3 leaves room for other machines' rounding in the fit.
+    assert max(record["model"]["held_out_errors"]["rms"]) < 1e-3
+    assert record["greedy_from_rest"]["balanced_at_end"]
+    assert record["data"] == {"decisions": 20000, "simulated_seconds": 1000.0, "held_out": 2000}
+    protocol = Protocol(episodes=3, seed=0, start_noise=0.01, seconds=100.0)
+    from acrobot_mj.train.evaluate import evaluate
+
+    evaluated = evaluate(out, protocol)
+    # The issue's target: 1 of 3; measured 100 of 100 held-out starts within 24 s.
+    assert evaluated["balanced_at_end"] == [True] * 3
+    assert max(evaluated["first_balance_seconds"]) <= 40.0
+    replays(evaluated, Balance)
+    assert isinstance(load_learner(out), BlackBoxLearner)
+    (out / "model.json").write_text('{"format": "something else"}')
+    with pytest.raises(ValueError, match="model.json is not a usable black-box model"):
+        load_learner(out)
+
+
+@pytest.mark.slow
+def test_it_learns_an_acrobot_whose_parameters_it_was_never_told() -> None:
+    env = black_box_env()
+    nominal = model_parameters(env)
+    scales = {"m1": 1.2, "m2": 0.85, "I1": 0.9, "I2": 1.1}  # masses [kg], inertias [kg m^2]
+    set_model_parameters(env, {k: v * scales[k] for k, v in nominal.items()})
+    learner = BlackBoxLearner(BlackBoxConfig(), 0, env)
+    record = learner.learn(Run(None))
+    assert record["greedy_from_rest"]["balanced_at_end"]
+    # It learnt this acrobot, not the package's: on the nominal env the same model's
+    # predictions miss by far more than its held-out error.
+    data = explore(black_box_env(), BlackBoxConfig(decisions=500), 9)
+    assert learner.model is not None
+    miss = learner.model.errors(data["states"], data["actions"], data["next_states"])["rms"]
+    assert min(miss[2:]) > 100 * max(record["model"]["held_out_errors"]["rms"])
