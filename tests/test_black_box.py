@@ -162,7 +162,7 @@ def test_the_preset_trains_balances_held_out_starts_and_replays(tmp_path, capsys
     replays(evaluated, Balance)
     assert isinstance(load_learner(out), BlackBoxLearner)
     (out / "model.json").write_text('{"format": "something else"}')
-    with pytest.raises(ValueError, match="model.json is not a usable black-box model"):
+    with pytest.raises(ValueError, match=r"model\.json is not a usable black-box model"):
         load_learner(out)
 
 
