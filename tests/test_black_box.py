@@ -156,7 +156,7 @@ def test_the_preset_trains_balances_held_out_starts_and_replays(tmp_path, capsys
     from acrobot_mj.train.evaluate import evaluate
 
     evaluated = evaluate(out, protocol)
-    # The target: 1 of 3; measured 100 of 100 held-out starts within 24 s.
+    # The aim was 1 of 3; measured: 100 of 100 held-out starts within 24 s.
     assert evaluated["balanced_at_end"] == [True] * 3
     assert max(evaluated["first_balance_seconds"]) <= 40.0
     replays(evaluated, Balance)

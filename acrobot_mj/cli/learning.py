@@ -162,8 +162,8 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
                              "resume)")  # fmt: skip
         out = Path(args.out or f"runs/{args.preset}__seed{args.seed}")
         record = train(config, args.seed, out, progress=progress, overwrite=args.force)
-        words = plan_words if isinstance(config, PlanConfig) else black_box_words
-        print(f"trained -> {out}: " + words(record))
+        describe = plan_words if isinstance(config, PlanConfig) else black_box_words
+        print(f"trained -> {out}: " + describe(record))
         return record
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")

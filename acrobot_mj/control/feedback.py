@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -54,7 +55,7 @@ class FunnelController:
         q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
         r: float = 1.0,
         linear: Jacobians | None = None,
-        elsewhere: Callable[[np.ndarray], float] | None = None,
+        elsewhere: Callable[[np.ndarray], Any] | None = None,
     ) -> None:
         self.trajectory, self.settings, self.elsewhere = trajectory, settings, elsewhere
         # The LQR at the swing-up's end (upright at rest), on the model the gains come from.

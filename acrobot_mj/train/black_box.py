@@ -11,7 +11,7 @@ import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -114,12 +114,17 @@ def explore(env: gym.Env, config: BlackBoxConfig, seed: int) -> dict[str, np.nda
     return {name: np.asarray(values, dtype=np.float64) for name, values in rows.items()}
 
 
+def decision_seconds(env: gym.Env) -> float:
+    """The simulated seconds of one decision, as every Gymnasium MuJoCo env states (``dt``)."""
+    return float(env.unwrapped.dt)  # type: ignore[attr-defined]
+
+
 def limits_of(env: gym.Env) -> AcrobotParams:
     """The bounds the env's spaces declare: the action's and the velocities' [rad/s], and the
     decision's seconds; the planner's ``p`` (its masses and lengths are never read)."""
-    high = np.asarray(env.observation_space.high, dtype=float)
-    return AcrobotParams(max_torque=float(env.action_space.high[0]), max_vel1=high[2],
-                         max_vel2=high[3], dt=float(env.unwrapped.dt))  # fmt: skip
+    box, seen = cast(gym.spaces.Box, env.action_space), cast(gym.spaces.Box, env.observation_space)
+    return AcrobotParams(max_torque=float(box.high[0]), max_vel1=float(seen.high[2]),
+                         max_vel2=float(seen.high[3]), dt=decision_seconds(env))  # fmt: skip
 
 
 def swing_up(model: LibraryModel, start: np.ndarray, goal: np.ndarray, config: BlackBoxConfig,
@@ -155,7 +160,10 @@ class BlackBoxLearner(Learner):
                  built: tuple[LibraryModel, Trajectory] | None = None) -> None:  # fmt: skip
         super().__init__(config, seed)
         self.given_env = env
-        self.model, self.trajectory = built if built is not None else (None, None)
+        self.model: LibraryModel | None = None
+        self.trajectory: Trajectory | None = None
+        if built is not None:
+            self.model, self.trajectory = built
         self.controller = None if built is None else self._controller()
 
     def _controller(self) -> FunnelController:
@@ -174,8 +182,8 @@ class BlackBoxLearner(Learner):
         cut = int(0.9 * len(data["actions"]))
         train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
         fields = ("states", "actions", "next_states")
-        self.model = LibraryModel.fit(*(train[k] for k in fields), config.harmonics,
-                                      config.threshold)  # fmt: skip
+        self.model = LibraryModel.fit(train["states"], train["actions"], train["next_states"],
+                                      config.harmonics, config.threshold)  # fmt: skip
         angles, reward_rms = best_angles(train["next_states"], train["rewards"], config.harmonics)
         goal = self.model.equilibrium(angles)
         start = env.reset(seed=self.seed)[0]
@@ -184,7 +192,7 @@ class BlackBoxLearner(Learner):
         planned = time.perf_counter()
         self.controller = self._controller()
         rest = self.greedy(env)
-        simulated = len(data["actions"]) * float(env.unwrapped.dt)
+        simulated = len(data["actions"]) * decision_seconds(env)
         record = {
             "kind": KIND, "config": config.to_dict(), "seed": self.seed, "task": Balance.name,
             "told": list(TOLD),
@@ -205,8 +213,9 @@ class BlackBoxLearner(Learner):
 
     def greedy(self, env: gym.Env) -> dict[str, Any]:
         """The task's assessment of one episode from rest (the env's own start) in ``env``."""
-        dt = float(env.unwrapped.dt)
+        dt = decision_seconds(env)
         limited = gym.wrappers.TimeLimit(env, round(self.config.seconds / dt))
+        assert self.controller is not None
         actor = BalanceActor(limited, self.controller, discrete=False)
         run_episode(limited, actor, self.seed, {"start_noise": 0.0})
         return acrobot_of(env).task.assess(np.array(actor.states), dt)
