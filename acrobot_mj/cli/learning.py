@@ -299,9 +299,10 @@ def balance_words(record: dict[str, Any]) -> str:
     noise = protocol["start_noise"]
     starts = "uniform" if protocol.get("starts_from") == "uniform" else f"U(-{noise:g}, {noise:g})"
     caught, pushes = summary["first_balance_seconds"], summary["pushes"]
+    when = "" if caught["median"] is None else (
+        f" (median {caught['median']:.4g} s, at most {caught['max']:.4g} s)")  # fmt: skip
     words = (f"{summary['episodes']} held-out starts ({starts}): "
-             f"{summary['episodes'] - summary['never_balanced']} caught their balance (median "
-             f"{caught['median'] if caught['median'] is not None else '-'} s), "
+             f"{summary['episodes'] - summary['never_balanced']} caught their balance{when}, "
              f"{summary['balanced']} ended balanced, {summary['falls']} falls")  # fmt: skip
     if pushes["total"]:
         words += (f"; {pushes['recovered']} of {pushes['total']} pushes recovered from; "
