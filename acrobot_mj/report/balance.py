@@ -41,8 +41,11 @@ class BalanceActor:
     physics step); records each step's state and applied torque."""
 
     def __init__(self, env: gym.Env, controller: SwingUpController | Feedback,
-                 discrete: bool, noise: Any = None) -> None:  # fmt: skip
+                 discrete: bool, noise: Any = None, observed: bool = False) -> None:  # fmt: skip
         self.env = acrobot_of(env)
+        # observed: the controller sees the observation (angles wrapped), not MuJoCo's state.
+        self.observed = observed
+        self.obs: np.ndarray | None = None
         # A state feedback has a memory of its own for this episode, and hears each torque.
         self.feedback: Feedback | None = None
         if isinstance(controller, SwingUpController):
@@ -56,17 +59,19 @@ class BalanceActor:
         self.torques: list[float] = []
 
     def _act(self) -> Any:
-        u = self.controller(self.env.state)
+        u = self.controller(self.obs if self.observed else self.env.state)
         if self.noise is not None:
             rng, sigma = self.noise
             self.env.data.qfrc_applied[1] = sigma * rng.standard_normal()
         return np.array([u], dtype=np.float32) if self.modulator is None else self.modulator(u)
 
     def begin(self, obs: np.ndarray) -> Any:
+        self.obs = np.asarray(obs, dtype=np.float64)
         self.states.append(self.env.state.tolist())
         return self._act()
 
     def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
+        self.obs = np.asarray(obs, dtype=np.float64)
         self.states.append(self.env.state.tolist())
         self.torques.append(float(self.env.data.ctrl[0]))
         if self.feedback is not None:

@@ -216,7 +216,7 @@ class BlackBoxLearner(Learner):
         dt = decision_seconds(env)
         limited = gym.wrappers.TimeLimit(env, round(self.config.seconds / dt))
         assert self.controller is not None
-        actor = BalanceActor(limited, self.controller, discrete=False)
+        actor = BalanceActor(limited, self.controller, discrete=False, observed=True)
         run_episode(limited, actor, self.seed, {"start_noise": 0.0})
         return acrobot_of(env).task.assess(np.array(actor.states), dt)
 
@@ -234,7 +234,7 @@ class BlackBoxLearner(Learner):
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
         assert self.controller is not None
-        return BalanceActor(env, self.controller, discrete=False)
+        return BalanceActor(env, self.controller, discrete=False, observed=True)
 
     @classmethod
     def load(cls, run_dir: Path) -> BlackBoxLearner:
