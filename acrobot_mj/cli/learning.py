@@ -30,7 +30,8 @@ PLAN_OPTIONS = (
     ("--hold", "hold", "seconds of balance after the swing-up (default 60)"),
     ("--data-noise", "data_noise", "start noise of the data episodes (default 1.0)"),
     ("--horizons", "horizons", "start horizons of the search, START:STOP:STEP physics steps"),
-    ("--targets", "targets", "upright poses the search tries, indices 0-5, e.g. 1,4 (all)"),
+    ("--targets", "targets", "upright poses the search tries, indices 0-5, e.g. 1,4"),
+    ("--starts", "starts", "warm starts of the search: rest (default) or pumping"),
 )
 
 
@@ -140,6 +141,8 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxCo
         if text is not None and dest in ("horizons", "targets"):
             parts = text.split(":" if dest == "horizons" else ",")
             overrides[dest] = tuple(_number(v, int, _flag(dest)) for v in parts)
+        elif text is not None and dest == "starts":
+            overrides[dest] = text
         elif text is not None:
             kind = int if dest == "identify_decisions" else float
             overrides[dest] = _number(text, kind, _flag(dest))

@@ -36,7 +36,8 @@ class PlanConfig:
     """The balance preset's settings: decisions of data and their start noise [rad, rad/s], the
     plan's torque bound [N m], {-1, 0, +1} torques, the search's horizons ``(start, stop, step)``
     [physics steps] and upright targets (indices of :data:`~acrobot_mj.control.trajopt.TARGETS`;
-    None: the defaults), and the seconds of balance after the swing-up."""
+    None: the defaults), the seconds of balance after the swing-up, and the search's warm starts
+    (:data:`~acrobot_mj.control.trajopt.STARTS`)."""
 
     identify_decisions: int = 200
     data_noise: float = 1.0
@@ -45,6 +46,7 @@ class PlanConfig:
     horizons: tuple[int, int, int] | None = None
     targets: tuple[int, ...] | None = None
     hold: float = 60.0
+    starts: str = "rest"
 
     def __post_init__(self) -> None:
         check_int("identify_decisions", self.identify_decisions, 3)
@@ -59,6 +61,8 @@ class PlanConfig:
             if len(h) != 3 or not all(isinstance(v, int) and v > 0 for v in h) or h[1] <= h[0]:
                 raise ValueError(f"horizons must be (start, stop, step) steps > 0, got {h!r}")
             object.__setattr__(self, "horizons", h)
+        if self.starts not in ("rest", "pumping"):
+            raise ValueError(f"starts must be 'rest' or 'pumping', got {self.starts!r}")
         if self.targets is not None:
             t = tuple(self.targets)
             if not t or not all(isinstance(v, int) and 0 <= v < 6 for v in t):
@@ -81,7 +85,7 @@ class PlanConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PlanConfig:
         data = {k: tuple(v) if k in ("horizons", "targets") and v else v for k, v in data.items()}
-        return cls().replace(**data)
+        return cls().replace(**{"starts": "pumping", **data})  # before 0.5: pumping starts
 
 
 class PlanLearner(Learner):
@@ -104,11 +108,11 @@ class PlanLearner(Learner):
 
         config, start = self.config, time.perf_counter()
         model = learn_model(config, self.seed)
-        targets = TARGETS if config.targets is None else tuple(TARGETS[i] for i in config.targets)
+        targets = None if config.targets is None else tuple(TARGETS[i] for i in config.targets)
         horizons = None if config.horizons is None else range(*config.horizons)
         p = AcrobotParams(**model["params"])
         self.trajectory = min_time(config.reserve, horizons=horizons, targets=targets, p=p,
-                                   progress=run.progress)  # fmt: skip
+                                   progress=run.progress, starts=config.starts)  # fmt: skip
         trained = time.perf_counter() - start
         with self.env() as env:
             result = closed_loop(self.trajectory, config.discrete, config.hold, env=env)
