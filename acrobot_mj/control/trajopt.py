@@ -283,10 +283,16 @@ class Optimiser:
         return None
 
     def rest(self, horizon: int) -> Arrays:
-        """A rollout of ``horizon`` steps of torques ``N(0, 0.01^2)`` N m, drawn from the horizon
-        alone: almost at rest, a warm start that commits to no way of swinging."""
+        """A rollout from ``start`` of ``horizon`` steps of torques ``N(0, 0.01^2)`` N m, drawn from
+        the horizon alone, on the model: almost at rest, a warm start that commits to no way of
+        swinging."""
         torques = 0.01 * np.random.default_rng([0, horizon]).standard_normal(horizon)
-        return integrators.simulate(HANGING, torques, self.method, self.p), torques
+        if self.model is None:
+            return integrators.simulate(np.array(self.start), torques, self.method, self.p), torques
+        states = [np.array(self.start)]
+        for u in torques:
+            states.append(self.model.step(states[-1], u))
+        return np.array(states), torques
 
     def candidates(self, horizon: int, target: np.ndarray, starts: str = "rest") -> list[Arrays]:
         """The exact and shortened trajectories from the ``starts`` rollout (``"rest"`` or

@@ -118,7 +118,7 @@ def closed_loop(trajectory: Trajectory, discrete: bool = False, hold: float = 60
 def load_trajectory(reserve: float, cache: Any = None, optimise: bool = False,
                     progress: bool = False) -> tuple:  # fmt: skip
     """The swing-up for ``|u| <= reserve`` N m and where it came from: the package's (1.0, 0.8),
-    one cached in ``cache``, or a new optimisation (CasADi, minutes)."""
+    one cached in ``cache``, or a new optimisation (CasADi, under a minute)."""
     if not (isinstance(reserve, (int, float)) and 0.0 < reserve <= 1.0):
         raise ValueError(f"the torque reserve must be in (0, 1] N m, got {reserve!r}")
     name = {1.0: "min_time", 0.8: "reserve"}.get(float(reserve))

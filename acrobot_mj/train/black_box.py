@@ -128,21 +128,17 @@ def limits_of(env: gym.Env) -> AcrobotParams:
 
 
 def swing_up(model: LibraryModel, start: np.ndarray, goal: np.ndarray, config: BlackBoxConfig,
-             limits: AcrobotParams, seed: int) -> Trajectory:  # fmt: skip
+             limits: AcrobotParams) -> Trajectory:  # fmt: skip
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
     from ``start``, over the config's horizons, each warm-started from the model's rollout of
-    small random actions."""
+    tiny random actions (:meth:`~acrobot_mj.control.trajopt.Optimiser.rest`)."""
     optimiser = Optimiser(config.reserve * limits.max_torque, "learned", limits, model,
                           tuple(float(v) for v in start))  # fmt: skip
-    rng = np.random.default_rng(np.random.SeedSequence([seed, DATA_BRANCH, 1]))
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
     for horizon in range(*config.horizons):
-        actions = 0.01 * limits.max_torque * rng.standard_normal(horizon)
-        states = [np.asarray(start, dtype=float)]
-        for u in actions:
-            states.append(model.step(states[-1], u))
+        warm = optimiser.rest(horizon)
         for target in goals:
-            found = optimiser.approach(target, (np.array(states), actions))[1]
+            found = optimiser.approach(target, warm)[1]
             if found is not None:
                 return optimiser.trajectory(found)
     raise ValueError(f"no swing-up found on the learnt model over horizons {config.horizons}")
@@ -188,7 +184,7 @@ class BlackBoxLearner(Learner):
         goal = self.model.equilibrium(angles)
         start = env.reset(seed=self.seed)[0]
         fitted = time.perf_counter()
-        self.trajectory = swing_up(self.model, start, goal, config, limits_of(env), self.seed)
+        self.trajectory = swing_up(self.model, start, goal, config, limits_of(env))
         planned = time.perf_counter()
         self.controller = self._controller()
         rest = self.greedy(env)
