@@ -148,7 +148,7 @@ def test_the_preset_trains_balances_held_out_starts_and_replays(tmp_path, capsys
     assert "random decisions" in capsys.readouterr().out
     record = json.loads((out / "run.json").read_text())
     # Measured: a 39-term model, held-out errors about 1e-4 rad/s; a 24 s plan; from rest
-    # balanced after 23.6 s. 1e-3 leaves room for other machines' rounding in the fit.
+    # balanced after 23.7 s. 1e-3 leaves room for other machines' rounding in the fit.
     assert max(record["model"]["held_out_errors"]["rms"]) < 1e-3
     assert record["greedy_from_rest"]["balanced_at_end"]
     assert record["data"] == {"decisions": 20000, "simulated_seconds": 1000.0, "held_out": 2000}

@@ -336,7 +336,7 @@ def _candidates(job: tuple[Optimiser, int, np.ndarray, str]) -> list[Arrays]:
     return optimiser.candidates(horizon, target, starts)
 
 
-def min_time(u_max: float = 1.0, method: str = "semi_implicit_euler",
+def min_time(u_max: float = 1.0, method: str = "semi_implicit_euler", *,
              horizons: range | None = None, targets: tuple[np.ndarray, ...] | None = None,
              p: AcrobotParams = REPORT, progress: bool = False, starts: str = "rest",
              jobs: int = 2) -> Trajectory:  # fmt: skip
