@@ -35,7 +35,7 @@ FORMAT = "acrobot_mj.black_box_model"
 #: What the learner is told, in the run record and the docs.
 TOLD = (
     "the env's spaces: a Box action (a number in [-1, 1]) and four observations, the first two "
-    "angles wrapped at +-pi",
+    "angles wrapped at +-pi; the bounds they declare and the seconds of a decision (env.dt)",
     "the reward of each decision",
     "it may reset the env to a state it names (angles uniform on the circle, at rest)",
 )
