@@ -158,3 +158,14 @@ class SafePoints:
             signal.signal(number, handler)
         if kind is None:
             self.check()
+
+
+def check_settings(config: type, data: Any, what: str) -> None:
+    """Refuse keys of ``data`` that are not fields of the dataclass ``config``, naming them and
+    the known ones (``what``: the settings' name in the error)."""
+    import dataclasses
+
+    names = sorted(f.name for f in dataclasses.fields(config))
+    unknown = sorted(set(data) - set(names))
+    if unknown:
+        raise ValueError(f"unknown {what} settings {unknown}; known: {names}")

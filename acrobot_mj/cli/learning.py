@@ -229,24 +229,28 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
 def plan_words(record: dict[str, Any]) -> str:
     """One line on a balance run: the model, the plan, the result from rest."""
     model, plan, rest = record["model"], record["plan"], record["greedy_from_rest"]
-    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
     return (
         f"model from {model['data_decisions']} random-torque decisions (RMS error "
-        f"{model['rms']:.2g}); plan {plan['seconds']:g} s to upright; from rest: {held} after "
-        f"{rest['swing_up_seconds']:g} s, largest error {rest['max_error_during_hold'] or 0:.2g} "
-        f"rad; {record['wall_seconds']:.0f} s"
+        f"{model['rms']:.2g}); plan {plan['seconds']:g} s to upright; {rest_words(rest)}, "
+        f"largest error {rest['max_error_during_hold'] or 0:.2g} rad; "
+        f"{record['wall_seconds']:.0f} s"
     )
+
+
+def rest_words(rest: dict[str, Any]) -> str:
+    """``from rest: balanced after T s`` (or how long it held) for a balance-task assessment."""
+    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
+    return f"from rest: {held} after {rest['swing_up_seconds']:g} s"
 
 
 def black_box_words(record: dict[str, Any]) -> str:
     """One line on a black-box run: its data, its model, the plan, the result from rest."""
-    data, model, rest = record["data"], record["model"], record["greedy_from_rest"]
-    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
+    data, model = record["data"], record["model"]
     return (
         f"{model['terms']}-term model from {data['decisions']} random decisions (held-out RMS "
         f"error {max(model['held_out_errors']['rms']):.2g}); plan "
-        f"{record['swing_up']['seconds']:g} s to upright; from rest: {held} after "
-        f"{rest['swing_up_seconds']:g} s; {record['wall_seconds']:.0f} s"
+        f"{record['swing_up']['seconds']:g} s to upright; {rest_words(record['greedy_from_rest'])}"
+        f"; {record['wall_seconds']:.0f} s"
     )
 
 

@@ -94,10 +94,15 @@ class LibraryModel:
         weights = thresholded_least_squares(a, increments(states, next_states), threshold)
         return cls(harmonics, weights)
 
+    @functools.cached_property
+    def used(self) -> np.ndarray:
+        """Indices of the library terms in use (a nonzero weight for some state variable)."""
+        return np.flatnonzero(np.abs(self.weights).sum(axis=1))
+
     @property
     def terms(self) -> int:
-        """The library terms in use (a nonzero weight for some state variable)."""
-        return int(np.count_nonzero(np.abs(self.weights).sum(axis=1)))
+        """How many library terms are in use."""
+        return len(self.used)
 
     def step(self, states: np.ndarray, actions: np.ndarray | float) -> np.ndarray:
         """The predicted next states of rows ``(n, 4)`` (or one state)."""
@@ -118,10 +123,10 @@ class LibraryModel:
         import casadi
 
         x, u, h = casadi.SX.sym("x", 4), casadi.SX.sym("u"), casadi.SX.sym("h")
-        used = np.flatnonzero(np.abs(self.weights).sum(axis=1))
         phi = features(x, u, self.harmonics, casadi)
-        terms = casadi.vertcat(*[phi[i] for i in used])
-        return casadi.Function("step", [x, u, h], [x + casadi.mtimes(self.weights[used].T, terms)])
+        terms = casadi.vertcat(*[phi[i] for i in self.used])
+        step = x + casadi.mtimes(self.weights[self.used].T, terms)
+        return casadi.Function("step", [x, u, h], [step])
 
     @functools.cached_property
     def _jacobians(self) -> Any:
@@ -153,9 +158,8 @@ class LibraryModel:
         return x
 
     def to_dict(self) -> dict[str, Any]:
-        used = np.flatnonzero(np.abs(self.weights).sum(axis=1))
-        return {"harmonics": self.harmonics, "terms": used.tolist(),
-                "weights": self.weights[used].tolist()}  # fmt: skip
+        return {"harmonics": self.harmonics, "terms": self.used.tolist(),
+                "weights": self.weights[self.used].tolist()}  # fmt: skip
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> LibraryModel:
@@ -166,7 +170,7 @@ class LibraryModel:
 
 
 def reward_terms(states: np.ndarray, harmonics: int) -> np.ndarray:
-    """The angle part of :func:`features` of rows: ``(n, (1 + 2H)^2)``."""
+    """The angle part of :func:`features` of rows (angles first): ``(n, (1 + 2H)^2)``."""
     q1, q2 = np.asarray(states, dtype=np.float64)[:, :2].T
     terms = [a * b for a in angle_terms(q1, harmonics, np) for b in angle_terms(q2, harmonics, np)]
     return np.stack(np.broadcast_arrays(*terms), axis=1)
@@ -181,5 +185,5 @@ def best_angles(states: np.ndarray, rewards: np.ndarray, harmonics: int = HARMON
     rms = float(np.sqrt(np.mean((a @ weights - rewards) ** 2)))
     axis = np.linspace(-np.pi, np.pi, grid)
     lattice = np.stack(np.meshgrid(axis, axis, indexing="ij"), axis=-1).reshape(-1, 2)
-    values = reward_terms(np.pad(lattice, ((0, 0), (0, 2))), harmonics) @ weights
+    values = reward_terms(lattice, harmonics) @ weights
     return lattice[int(np.argmax(values))], rms

@@ -4,8 +4,6 @@
 
 from __future__ import annotations
 
-import builtins
-import contextlib
 import json
 import signal
 import sys
@@ -353,9 +351,8 @@ def min_time(u_max: float = 1.0, method: str = "semi_implicit_euler", *,
         targets = TARGETS[:3] if starts == "rest" else TARGETS
     best = None
     work = [(optimiser, horizon, target, starts) for horizon in horizons for target in targets]
-    with Steps(len(work), "swing-up search", progress, "warm starts") as bar, \
-            _pool(jobs, len(work)) as pool:  # fmt: skip
-        for found_here in pool.map(_candidates, work):  # in order: the same best every time
+    with Steps(len(work), "swing-up search", progress, "warm starts") as bar:
+        for found_here in _mapped(work, jobs):  # in order: the same best every time
             for found in found_here:
                 if best is None or _cost(found) < _cost(best):
                     best = found
@@ -368,14 +365,13 @@ def min_time(u_max: float = 1.0, method: str = "semi_implicit_euler", *,
     return optimiser.trajectory(best)
 
 
-@contextlib.contextmanager
-def _pool(jobs: int, size: int) -> Iterator[Any]:
-    """Processes for ``jobs`` > 1 and more than one start, else this process."""
-    if jobs <= 1 or size <= 1:
-        yield builtins
+def _mapped(work: list[tuple[Optimiser, int, np.ndarray, str]], jobs: int) -> Iterator[Any]:
+    """Each start's candidates, in order: on ``jobs`` processes where there are several."""
+    if jobs <= 1 or len(work) <= 1:
+        yield from map(_candidates, work)
         return
-    with ProcessPoolExecutor(min(jobs, size)) as pool:
-        yield pool
+    with ProcessPoolExecutor(min(jobs, len(work))) as pool:
+        yield from pool.map(_candidates, work)
 
 
 def _cost(path: Arrays) -> tuple[int, float]:

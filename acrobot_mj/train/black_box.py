@@ -16,7 +16,7 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.checks import check_float, check_int, check_settings
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
 from acrobot_mj.control.lqr import LQR
@@ -80,10 +80,7 @@ class BlackBoxConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> BlackBoxConfig:
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ValueError(f"unknown black-box settings {unknown}; known: {sorted(names)}")
+        check_settings(cls, data, "black-box")
         return cls(**{**data, "horizons": tuple(data.get("horizons", cls.horizons))})
 
 

@@ -16,7 +16,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float
+from acrobot_mj.checks import check_float, check_settings
 from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
@@ -63,10 +63,7 @@ class FeedbackConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> FeedbackConfig:
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ValueError(f"unknown state-feedback settings {unknown}; known: {sorted(names)}")
+        check_settings(cls, data, "state-feedback")
         return cls(**data)
 
 

@@ -14,7 +14,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.checks import check_float, check_int, check_settings
 from acrobot_mj.control.identification import realise
 from acrobot_mj.control.lqr import SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
@@ -70,10 +70,7 @@ class PlanConfig:
             object.__setattr__(self, "targets", t)
 
     def replace(self, **changes: Any) -> PlanConfig:
-        names = [f.name for f in dataclasses.fields(self)]
-        unknown = sorted(set(changes) - set(names))
-        if unknown:
-            raise ValueError(f"unknown balance-preset settings {unknown}; known: {names}")
+        check_settings(PlanConfig, changes, "balance-preset")
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
