@@ -145,10 +145,14 @@ def test_lqr_recovers_inside_its_basin_and_nothing_beats_the_bound(report) -> No
     _, r = report
     low, high = r["controllers"]["lqr"]["q1_basin_rad"]
     bound = r["controllers"]["bound_any_controller_q1_rad"]
-    # Computed independently by hand (docs/explain/validation.md): no bounded controller recovers
-    # beyond about 0.084 rad.
-    assert bound == pytest.approx(0.084, abs=5e-4)
+    # Each unstable mode alone allows 0.084 rad, computed by hand (docs/explain/validation.md);
+    # both together, with one torque for the two, only 0.0151 rad.
+    assert r["controllers"]["bound_one_mode_q1_rad"] == pytest.approx(0.084, abs=5e-4)
+    assert bound == pytest.approx(0.01506, abs=1e-5)
     assert 0.005 < high < bound and -bound < low < -0.005
+    # The constrained LQR reaches the bound to within the bisection's 1e-3 rad (quick run).
+    mpc_low, mpc_high = r["controllers"]["constrained_lqr"]["q1_basin_rad"]
+    assert bound - 1e-3 <= mpc_high <= bound and -bound <= mpc_low <= -bound + 1e-3
     controller = lqr.LQR()
     inside = UPRIGHT + np.array(
         [[0.5 * high, 0, 0, 0], [0.5 * low, 0, 0, 0], [0.9 * high, 0, 0, 0]]
@@ -156,6 +160,27 @@ def test_lqr_recovers_inside_its_basin_and_nothing_beats_the_bound(report) -> No
     assert lqr.balances(controller, inside).all()
     outside = UPRIGHT + np.array([[1.1 * bound, 0, 0, 0], [-1.1 * bound, 0, 0, 0]])
     assert not lqr.balances(controller, outside).any()
+    assert not lqr.balances(lqr.MPC(controller), outside).any()
+
+
+@pytest.mark.parametrize(("factor", "reachable"), [(0.98, True), (1.02, False)])
+def test_the_joint_bound_is_where_no_torque_sequence_reaches_zero(factor, reachable) -> None:
+    # Independent of the support function: the two unstable modes after 200 steps, scaled by
+    # L^-200, are z0 + sum_k L^-(k+1) beta u_k. Minimise their size over |u_k| <= 1 (a box QP):
+    # from a pure q1 offset of 0.98 times the bound they reach zero, from 1.02 they do not.
+    a, b = lqr.discrete_model()
+    values, right = np.linalg.eig(a)
+    unstable = np.flatnonzero(np.abs(values) > 1.0)
+    rows = np.linalg.inv(right)[unstable].real
+    growth = values[unstable].real
+    m = (growth[:, None] ** -np.arange(1.0, 201)[None, :]) * (rows @ b)  # (2, 200)
+    bound = 1.0 / lqr.NullRegion(a, b, 1.0).depth(np.array([1.0, 0.0, 0.0, 0.0]))
+    z0 = rows @ np.array([factor * bound, 0.0, 0.0, 0.0])
+    ridge = 1e-10 * np.abs(m).max() ** 2  # keeps H positive definite, 1e-10 of its scale
+    u = lqr.box_qp(m.T @ m + ridge * np.eye(200), m.T @ z0, 1.0)
+    left = np.abs(z0 + m @ u).max() / np.abs(z0).max()
+    # Measured: 6e-8 of the start left at 0.98 (the ridge), 0.018 at 1.02; 1e-6 between them.
+    assert (left < 1e-6) == reachable
 
 
 @pytest.mark.parametrize(("factor", "escapes"), [(0.95, False), (1.05, True)])
@@ -208,3 +233,52 @@ def test_no_controller_recovers_a_kick_outside_the_null_controllable_region() ->
     # Kicks of U(-0.02, 0.02) rad/s are all inside; the region shrinks with the kick, by scale.
     assert lqr.null_controllable(kicks * 0.4).all()
     assert lqr.null_controllable(kicks * 2).mean() < inside.mean()
+
+
+def test_the_box_qp_finds_what_trying_every_set_of_held_bounds_finds() -> None:
+    # Independent of the active-set path: for 5 torques, try all 3^5 ways to hold each at
+    # -1, free or +1, minimise over the free ones, keep the feasible minimum.
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        m = rng.normal(size=(5, 5))
+        h, f = m @ m.T + 0.1 * np.eye(5), rng.normal(scale=3.0, size=5)
+        best, value = None, np.inf
+        for pattern in np.array(np.meshgrid(*[[-1, 0, 1]] * 5)).reshape(5, -1).T:
+            free = pattern == 0
+            u = pattern.astype(float)
+            if free.any():
+                u[free] = np.linalg.solve(h[np.ix_(free, free)], -(f + h @ u)[free])
+            if np.all(np.abs(u) <= 1 + 1e-12) and 0.5 * u @ h @ u + f @ u < value:
+                best, value = u, 0.5 * u @ h @ u + f @ u
+        # 1e-9: both are exact solves of the same small, well-conditioned systems.
+        np.testing.assert_allclose(lqr.box_qp(h, f, 1.0), best, atol=1e-9)
+
+
+def test_the_mpc_is_the_lqr_until_the_torque_saturates() -> None:
+    plain, mpc = lqr.LQR(), lqr.MPC(lqr.LQR())
+    near = UPRIGHT + np.array([0.001, -0.002, 0.003, 0.0])
+    assert mpc(near) == plain(near)  # the same number where no planned torque saturates
+    # The plan with no bound starts with the LQR's torque: the terminal cost is the LQR's
+    # cost-to-go (1e-6 of its gain: the 40-step condensed Hessian's rounding).
+    np.testing.assert_allclose(mpc.free[0], -plain.gain[0], rtol=1e-6)
+    with pytest.raises(ValueError, match="horizon must be a positive number of steps"):
+        lqr.MPC(plain, 0)
+
+
+def test_the_mpc_recovers_the_kicks_the_null_controllable_region_holds() -> None:
+    # On the linear discrete model (where the region is exact): every kick of U(-0.05, 0.05)
+    # rad/s well inside is brought back, none outside, and more than the saturated LQR.
+    a, b = lqr.discrete_model()
+    plain = lqr.LQR()
+    mpc = lqr.MPC(plain)
+    kicks = np.zeros((40, 4))
+    kicks[:, 2:] = np.random.default_rng(3).uniform(-0.05, 0.05, (40, 2))
+    x, y = kicks.copy(), kicks.copy()
+    for _ in range(200):  # 10 s: the slowest unstable mode grows e-fold in 0.53 s
+        x = x @ a.T + mpc(UPRIGHT + x)[:, None] @ b.T
+        y = y @ a.T + np.clip(-y @ plain.gain.T, -1.0, 1.0) @ b.T
+    recovered, depth = np.abs(x).max(axis=1) < 1e-6, mpc.region.depth(kicks)
+    # Measured: 28 of the 30 inside; the two missed lie at depth 0.994 and 0.996, where a plan
+    # of 40 steps (2 s) is too short. 0.99 leaves that edge out.
+    assert recovered[depth < 0.99].all() and not recovered[depth > 1.0].any()
+    assert recovered.sum() == 28 and (np.abs(y).max(axis=1) < 1e-6).sum() == 19

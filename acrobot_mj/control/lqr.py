@@ -1,6 +1,7 @@
 """Linear feedback: exact Jacobians of the env's step, discrete LQR at upright (saturated, its
-basin, and the bound no controller with ``|tau| <= 1`` N m can beat), TVLQR along a swing-up
-(joining the LQR's cost at upright without a seam) and sigma-delta for {-1, 0, +1} torques."""
+basin, and the bound no controller with ``|tau| <= 1`` N m can beat), the constrained LQR (linear
+MPC) whose basin reaches that bound, TVLQR along a swing-up (joining the LQR's cost at upright
+without a seam) and sigma-delta for {-1, 0, +1} torques."""
 
 from __future__ import annotations
 
@@ -86,13 +87,16 @@ class LQR:
     gain: np.ndarray = field(init=False)
     #: The Riccati solution: the cost-to-go ``x' S x`` of the error.
     cost: np.ndarray = field(init=False)
+    #: The step's Jacobians ``A`` (4, 4) and ``B`` (4, 1) at ``target``, zero torque.
+    a: np.ndarray = field(init=False, repr=False)
+    b: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.linear is None:
-            a, b = discrete_model(p=self.p)
+            self.a, self.b = discrete_model(p=self.p)
         else:
-            a, b = self.linear(self.target, 0.0)
-        self.gain, self.cost = dlqr(a, b, np.diag(self.q), np.array([[self.r]]))
+            self.a, self.b = self.linear(self.target, 0.0)
+        self.gain, self.cost = dlqr(self.a, self.b, np.diag(self.q), np.array([[self.r]]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         limit = self.p.max_torque
@@ -142,22 +146,115 @@ def null_controllable(offsets: np.ndarray, p: AcrobotParams = REPORT,
                       directions: int = 720) -> np.ndarray:  # fmt: skip
     """For each state offset from upright ``(n, 4)`` [rad, rad/s]: can any torque sequence with
     ``|tau| <= max_torque``, held for each step of the env's discrete map, bring the unstable
-    modes of the linearisation back to zero? Their null-controllable region is the set of
-    ``-sum_k L^-(k+1) b u_k``, ``|u_k| <= 1``; an offset is inside where its unstable part is
-    within the region's support in each of ``directions`` directions (a bound no controller
-    beats, up to the linearisation)."""
-    a, b = discrete_model(p=p)
-    values, right = np.linalg.eig(a)
-    unstable = np.flatnonzero(np.abs(values) > 1.0 + 1e-12)
-    rows = np.linalg.inv(right)[unstable].real  # left eigenvectors of the unstable modes
-    growth, beta = values[unstable].real, (rows @ b)[:, 0] * p.max_torque
-    steps = int(np.ceil(np.log(1e18) / np.log(growth.min())))  # until the terms vanish
-    terms = growth[None, :] ** -np.arange(1.0, steps + 1)[:, None] * beta  # (steps, modes)
-    angle = np.linspace(0.0, np.pi, directions, endpoint=False)
-    c = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-    support = np.abs(terms @ c.T).sum(axis=0)  # the same for c and -c: the region is symmetric
-    z = np.asarray(offsets, dtype=float) @ rows.T
-    return np.all(np.abs(z @ c.T) <= support, axis=-1)
+    modes of the linearisation back to zero? (:class:`NullRegion` of the env's step.)"""
+    return NullRegion(*discrete_model(p=p), p.max_torque, directions).contains(offsets)
+
+
+class NullRegion:
+    """The null-controllable region of the unstable modes of ``x' = A x + B u``, ``|u| <=
+    limit``: the set of ``-sum_k L^-(k+1) b u_k`` in the modes' coordinates. An offset is inside
+    where its unstable part is within the region's support in each of ``directions``
+    directions: a bound no controller beats, up to the linearisation."""
+
+    def __init__(self, a: np.ndarray, b: np.ndarray, limit: float, directions: int = 720):
+        values, right = np.linalg.eig(a)
+        unstable = np.flatnonzero(np.abs(values) > 1.0 + 1e-12)
+        self.rows = np.linalg.inv(right)[unstable].real  # left eigenvectors of those modes
+        growth, beta = values[unstable].real, (self.rows @ b)[:, 0] * limit
+        steps = int(np.ceil(np.log(1e18) / np.log(growth.min())))  # until the terms vanish
+        terms = growth[None, :] ** -np.arange(1.0, steps + 1)[:, None] * beta  # (steps, modes)
+        angle = np.linspace(0.0, np.pi, directions, endpoint=False)
+        self.directions = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+        # The same for c and -c: the region is symmetric.
+        self.support = np.abs(terms @ self.directions.T).sum(axis=0)
+
+    def depth(self, offsets: np.ndarray) -> np.ndarray:
+        """How far out each offset ``(..., 4)`` lies: 1 on the region's edge, below 1 inside."""
+        z = np.asarray(offsets, dtype=float) @ self.rows.T
+        return np.max(np.abs(z @ self.directions.T) / self.support, axis=-1)
+
+    def contains(self, offsets: np.ndarray) -> np.ndarray:
+        """Is each offset ``(..., 4)`` inside the region?"""
+        return self.depth(offsets) <= 1.0
+
+
+def box_qp(h: np.ndarray, f: np.ndarray, limit: float) -> np.ndarray:
+    """``argmin 0.5 u' H u + f' u`` over ``|u_i| <= limit``, ``H`` positive definite: a primal
+    active-set method (Nocedal and Wright, ch. 16.5). It holds some coordinates at a bound and
+    minimises exactly over the rest; a minimiser outside the box is stepped towards up to the
+    first bound, which is then held; a held coordinate whose gradient points into the box is
+    let go; it ends when none does."""
+    u = np.clip(np.linalg.solve(h, -f), -limit, limit)
+    held = np.where(np.abs(u) >= limit, np.sign(u), 0.0)  # +1 upper, -1 lower, 0 free
+    slack = 1e-12 * (np.max(np.abs(f)) + np.max(np.abs(h)) * limit)  # rounding in H u + f
+    for _ in range(10 * len(f)):
+        free = held == 0
+        goal = np.where(free, 0.0, held * limit)
+        goal[free] = np.linalg.solve(h[np.ix_(free, free)], -(f + h @ goal)[free])
+        outside = free & (np.abs(goal) > limit)
+        if outside.any():  # step towards the face's minimum up to the first bound, and hold it
+            d = goal - u
+            reach = np.full(len(u), np.inf)
+            reach[outside] = (np.sign(d[outside]) * limit - u[outside]) / d[outside]
+            first = int(np.argmin(reach))
+            u = u + reach[first] * d
+            held[first] = np.sign(d[first])
+            u[first] = held[first] * limit
+            continue
+        u = goal
+        pull = held * (h @ u + f)  # > 0: the held coordinate would rather move inside
+        if np.max(pull) <= slack:
+            return u
+        held[int(np.argmax(pull))] = 0.0
+    raise RuntimeError("the box-constrained QP did not converge")
+
+
+class MPC:
+    """The constrained LQR at ``lqr``'s target: over ``horizon`` steps of its linear model it
+    minimises ``sum e' Q e + r u^2`` plus its cost-to-go ``e' S e`` at the end, subject to
+    ``|u| <= max_torque`` N m, and applies the first torque (linear MPC). Where no torque of the
+    plan saturates this is the LQR exactly; where they saturate it uses the torque it has, so
+    its basin approaches the :class:`NullRegion` (measured: docs/guide/balance.md). A function
+    of the state alone: it keeps no memory between calls."""
+
+    def __init__(self, lqr: LQR, horizon: int = 40) -> None:
+        if not isinstance(horizon, int) or horizon < 1:
+            raise ValueError(f"horizon must be a positive number of steps, got {horizon!r}")
+        self.lqr, self.horizon, self.limit = lqr, horizon, lqr.p.max_torque
+        a, b, q = lqr.a, lqr.b, np.diag(lqr.q)
+        # The errors e_1..e_N as ``Phi e_0 + Gamma u``: powers of A, and A^(k-1-j) B.
+        powers = [np.eye(4)]
+        for _ in range(horizon):
+            powers.append(a @ powers[-1])
+        phi = np.stack(powers[1:])
+        gamma = np.zeros((horizon, 4, horizon))
+        for k in range(horizon):
+            for j in range(k + 1):
+                gamma[k, :, j] = (powers[k - j] @ b)[:, 0]
+        weights = np.stack([q] * (horizon - 1) + [lqr.cost])
+        self.hessian = lqr.r * np.eye(horizon) + np.einsum("kim,kij,kjn->mn", gamma, weights,
+                                                           gamma)  # fmt: skip
+        self.linear_term = np.einsum("kim,kij,kjn->mn", gamma, weights, phi)  # f = F e_0
+        self.free = -np.linalg.solve(self.hessian, self.linear_term)  # the plan with no bound
+        self.region = NullRegion(a, b, self.limit)
+
+    def plan(self, x: np.ndarray) -> np.ndarray:
+        """The ``horizon`` torques [N m] it plans from state ``x`` ``(4,)``."""
+        error = state_error(x, self.lqr.target)
+        free = self.free @ error
+        if np.max(np.abs(free)) <= self.limit:
+            return free
+        return box_qp(self.hessian, self.linear_term @ error, self.limit)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """The torque [N m] in state ``x`` ``(4,)``, or one per state of ``(n, 4)``: the LQR's
+        own where the plan does not saturate (the same number, so the two agree exactly)."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim > 1:
+            return np.array([self(row) for row in x.reshape(-1, 4)]).reshape(x.shape[:-1])
+        if np.max(np.abs(self.free @ state_error(x, self.lqr.target))) <= self.limit:
+            return self.lqr(x)
+        return np.asarray(self.plan(x)[0])
 
 
 def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:

@@ -29,7 +29,7 @@ PARAMETERS = ("m1", "m2", "I1", "I2")
 #: 0.35 s and 0.53 s).
 SETTLE = 2.0
 #: Past this error [rad] after a catch, the acrobot has fallen: no ``|tau| <= 1`` N m brings back
-#: even a q1 offset at rest past 0.084 rad (the unstable modes' linearised bound). A smaller
+#: even a q1 offset at rest past 0.015 rad (the unstable modes' linearised bound). A smaller
 #: excursion that comes back is a wobble, not a fall.
 FALL = 0.5
 

@@ -1,5 +1,6 @@
 """The references the learners are measured against, in the MuJoCo env: energy pumping, the
-saturated LQR and its basin, the bound for any controller, and the minimum-time swing-up."""
+saturated and the constrained LQR and their basins, the bound for any controller, and the
+minimum-time swing-up."""
 
 from __future__ import annotations
 
@@ -9,7 +10,15 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.lqr import LQR, balances, q1_basin, unstable_mode_bound
+from acrobot_mj.control.lqr import (
+    LQR,
+    MPC,
+    NullRegion,
+    balances,
+    discrete_model,
+    q1_basin,
+    unstable_mode_bound,
+)
 from acrobot_mj.control.policies import energy_pumping_torque, pumping_energies
 from acrobot_mj.control.search import min_time_search
 from acrobot_mj.control.trajopt import shortest_to_height
@@ -21,8 +30,8 @@ from acrobot_mj.report.crosscheck import METHODS
 
 
 def controllers(quick: bool = False) -> dict[str, Any]:
-    """Energy pumping from rest, the saturated LQR and its basin, and the bound for
-    ``|tau| <= 1``."""
+    """Energy pumping from rest, the saturated and the constrained LQR and their basins, and the
+    bound for ``|tau| <= 1``."""
     env = gym.make(HeightGoal.env_id, continuous=True)
     energies: list[float] = []
 
@@ -38,6 +47,10 @@ def controllers(quick: bool = False) -> dict[str, Any]:
     fine = {dt: np.diff(pumping_energies(dt)).min() for dt in (1e-2, 1e-3)}
     lqr = LQR()
     low, high = q1_basin(lqr, upper=0.2, resolution=1e-3 if quick else 1e-4)
+    mpc = MPC(lqr)
+    mpc_basin = q1_basin(mpc, upper=0.05, resolution=1e-3 if quick else 1e-4)
+    region = NullRegion(*discrete_model(), P.max_torque)
+    joint = float(1.0 / region.depth(np.array([1.0, 0.0, 0.0, 0.0])))  # the region is linear
     n, scale = 200 if quick else 2000, np.array([0.02, 0.02, 0.05, 0.05])
     starts = dynamics.UPRIGHT + np.random.default_rng(0).uniform(-1, 1, (n, 4)) * scale
     bound = unstable_mode_bound()
@@ -62,7 +75,9 @@ def controllers(quick: bool = False) -> dict[str, Any]:
             "sampled_box": scale.tolist(), "sampled": n,
             "sampled_fraction_balanced": float(np.mean(balances(lqr, starts))),
         },
-        "bound_any_controller_q1_rad": min(bound.values()), "bound_per_unstable_mode": bound,
+        "constrained_lqr": {"horizon": mpc.horizon, "q1_basin_rad": list(mpc_basin)},
+        "bound_any_controller_q1_rad": joint, "bound_one_mode_q1_rad": min(bound.values()),
+        "bound_per_unstable_mode": bound,
     }  # fmt: skip
 
 

@@ -115,7 +115,7 @@ def balance_section(report: dict[str, Any], quick: bool) -> dict[str, Any]:
                          "an upper bound on the minimum time to upright at rest",
         "closed_loop": loops,
         "robustness": robustness(trajectories, cases=cases),
-        "bounds_mean": f"the {bound:.3f} rad bound and the {basin:.4f} rad LQR basin are pure "
+        "bounds_mean": f"the {bound:.4f} rad bound and the {basin:.4f} rad LQR basin are pure "
                        "q1 offsets of a state at rest from upright, not the states a swing-up "
                        "reaches: following a trajectory to upright at rest with TVLQR, the "
                        "acrobot arrives with errors of 1e-9 rad (continuous torques) or 1e-2 rad "
@@ -152,7 +152,10 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ("energy pumping from rest: steps to the goal",
          f"{pumping['steps_to_goal']} ({pumping['seconds']:g} s)"),
         ("saturated LQR: q1 offsets it recovers from [rad]", f"{basin[0]:.4f} .. {basin[1]:.4f}"),
-        ("bound for any |tau| <= 1 controller, pure q1 offset [rad]", f"{bound:.4f}"),
+        ("constrained LQR (MPC): q1 offsets it recovers from [rad]",
+         "{:.4f} .. {:.4f}".format(*ctl["constrained_lqr"]["q1_basin_rad"])),
+        ("bound for any |tau| <= 1 controller, pure q1 offset: both unstable modes / one [rad]",
+         f"{bound:.4f} / {ctl['bound_one_mode_q1_rad']:.3f}"),
         ("minimum-time swing-up, frame_skip 4 [decisions]", str(fs4)),
         ("minimum-time swing-up, frame_skip 1 [steps]", str(mt["min_time_steps_frame_skip_1"])),
         ("the same with continuous torques (the optimiser, from that sequence) [steps]",

@@ -146,7 +146,7 @@ class BlackBoxLearner(Learner):
     follows a funnel on it (``learn``); acts through that state feedback, with no clock."""
 
     kind = KIND
-    describes = "black box: learnt model, planned funnel, LQR"
+    describes = "black box: learnt model, planned funnel, constrained LQR"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
 
     def __init__(self, config: BlackBoxConfig, seed: int, env: gym.Env | None = None,

@@ -71,7 +71,7 @@ class FeedbackLearner(Learner):
     """Builds the controller (``learn``); acts through it from any start, with no clock."""
 
     kind = KIND
-    describes = "state feedback: TVLQR funnel, LQR, energy removal"
+    describes = "state feedback: TVLQR funnel, constrained LQR, energy removal"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0, starts_from="uniform",
                         seconds=120.0)  # fmt: skip
 
