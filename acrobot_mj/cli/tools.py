@@ -280,7 +280,7 @@ def add_balance(commands: Commands) -> None:
                     "swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
                     "Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
                     "optimised with CasADi otherwise) with TVLQR, then balance with the "
-                    "saturated LQR; write balance.json (every step's torque and state) and a "
+                    "constrained LQR; write balance.json (every step's torque and state) and a "
                     "video.")  # fmt: skip
     p.add_argument("--feedback", action="store_true", help="build the state-feedback controller "
                    "(no clock: swings up from any start, again after a push) into a run "

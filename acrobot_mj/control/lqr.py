@@ -287,19 +287,21 @@ def tvlqr(trajectory: Trajectory, lqr: LQR, q: tuple[float, ...], r: float,
 
 
 class SwingUpController:
-    """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory``, then the LQR at
-    upright, both on the trajectory's model; ``q`` and ``r`` weight state error and torque."""
+    """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory``, then the
+    constrained LQR at upright (:class:`MPC`), both on the trajectory's model; ``q`` and ``r``
+    weight state error and torque."""
 
     def __init__(self, trajectory: Trajectory, q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
                  r: float = 1.0) -> None:  # fmt: skip
         self.trajectory = trajectory
         self.lqr = LQR(q, r, trajectory.params)
+        self.balancer = MPC(self.lqr)
         self.gains = tvlqr(trajectory, self.lqr, q, r)[1]
 
     def __call__(self, k: int, x: np.ndarray) -> float:
         """The torque [N m] at physics step ``k`` (0 at the start) in state ``x``."""
         if k >= self.trajectory.steps:
-            return float(self.lqr(x))
+            return float(self.balancer(x))
         error = state_error(x, self.trajectory.states[k])
         u = self.trajectory.torques[k] - self.gains[k] @ error
         limit = self.trajectory.params.max_torque
