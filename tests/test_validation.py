@@ -263,6 +263,8 @@ def test_the_mpc_is_the_lqr_until_the_torque_saturates() -> None:
     np.testing.assert_allclose(mpc.free[0], -plain.gain[0], rtol=1e-6)
     with pytest.raises(ValueError, match="horizon must be a positive number of steps"):
         lqr.MPC(plain, 0)
+    with pytest.raises(ValueError, match="the constrained LQR needs a finite state"):
+        mpc(UPRIGHT + np.array([np.nan, 0.0, 0.0, 0.0]))
 
 
 def test_the_mpc_recovers_the_kicks_the_null_controllable_region_holds() -> None:

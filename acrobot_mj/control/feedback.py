@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,7 @@ import numpy as np
 from acrobot_mj.checks import check_float
 from acrobot_mj.control.lqr import LQR, MPC, Jacobians, tvlqr
 from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.integrators import Stepping
 
@@ -24,12 +26,13 @@ class FunnelSettings:
     """Levels of the LQR costs ``e' S e`` (dimensionless: the costs of
     :class:`~acrobot_mj.control.lqr.LQR`'s weights) that switch between the modes: at upright
     below ``upright``; a followed funnel point is kept below ``track`` and entered below
-    ``entry``; elsewhere ``tau = -clip(damping dq2, -1, 1)`` [N m, N m s/rad] takes energy out.
-    The balancer at upright is the constrained LQR over ``horizon`` steps
-    (:class:`~acrobot_mj.control.lqr.MPC`), or the saturated LQR where it is 0. The levels were
-    chosen on the analytic model, from 100 uniform starts and 200 kicks at upright of seeds
-    other than the evaluation's; 40 steps (2 s) hold every kick of ``U(-0.05, 0.05)`` rad/s
-    that 80 hold in MuJoCo (100 kicks, evaluation seed 0)."""
+    ``entry``, or below ``track`` where a rollout of the funnel on the model from there reaches
+    upright (:meth:`FunnelController.reaches`); elsewhere ``tau = -clip(damping dq2, -1, 1)``
+    [N m, N m s/rad] takes energy out. The balancer at upright is the constrained LQR over
+    ``horizon`` steps (:class:`~acrobot_mj.control.lqr.MPC`), or the saturated LQR where it is
+    0. The levels were chosen on the analytic model, from 100 uniform starts and 200 kicks at
+    upright of seeds other than the evaluation's; 40 steps (2 s) hold every kick of
+    ``U(-0.05, 0.05)`` rad/s that 80 hold in MuJoCo (100 kicks, evaluation seed 0)."""
 
     upright: float = 100.0
     track: float = 200.0
@@ -51,20 +54,29 @@ class FunnelSettings:
 class FunnelController:
     """``u = pi(x)`` [N m] on ``trajectory``'s model: the constrained LQR inside the LQR's level
     set at upright, else TVLQR at the funnel point it follows (entered at the point of least
-    cost), else energy removal (or the law ``elsewhere``); ``linear``: the Jacobians of a learnt
-    model the trajectory was planned on. Call :meth:`reset` (or take a :meth:`fresh` copy)
-    before each episode."""
+    cost), else energy removal (or the law ``elsewhere``); ``linear`` and ``step``: the
+    Jacobians and the step ``x' = step(x, u)`` of a learnt model the trajectory was planned on
+    (without ``step`` a learnt model's entries are not checked by rollout); ``check``: whether
+    to check entries by rollout at all (its rollout applies continuous torques, so not for
+    {-1, 0, +1}). Call :meth:`reset` (or take a :meth:`fresh` copy) before each episode."""
 
     def __init__(
         self,
         trajectory: Trajectory,
         settings: FunnelSettings = FunnelSettings(),
+        *,
         q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
         r: float = 1.0,
         linear: Jacobians | None = None,
         elsewhere: Callable[[np.ndarray], Any] | None = None,
+        step: Callable[[np.ndarray, float], np.ndarray] | None = None,
+        check: bool = True,
     ) -> None:
         self.trajectory, self.settings, self.elsewhere = trajectory, settings, elsewhere
+        if step is None and linear is None:
+            step = partial(integrators.step_states, p=trajectory.params, method=trajectory.method)
+        self.check = check
+        self.step = step if check else None
         # The LQR at the swing-up's end (upright at rest), on the model the gains come from.
         end = UPRIGHT.copy() if linear is None else trajectory.states[-1].copy()
         self.lqr = LQR(q, r, trajectory.params, end, linear)
@@ -102,10 +114,31 @@ class FunnelController:
         e = state_error(x[None], points)
         levels = np.einsum("ki,kij,kj->k", e, costs, e)
         best = int(np.argmin(levels))
-        if levels[best] < self.settings.entry:
+        if levels[best] < self.settings.entry or (
+            levels[best] < self.settings.track and self.reaches(x, best)
+        ):
             self.index = best
             return "funnel"
         return "damping"
+
+    def reaches(self, x: np.ndarray, k: int) -> bool:
+        """Does the funnel, followed from point ``k`` in state ``x`` on the controller's own
+        model, stay within ``track`` and end inside the balancer's level set? (False where it
+        has no model step.) A simulation-based check of the funnel, as Reist and Tedrake's."""
+        if self.step is None:
+            return False
+        for j in range(k, self.trajectory.steps):
+            e = state_error(x, self.trajectory.states[j])
+            if e @ self.costs[j] @ e > self.settings.track:
+                return False
+            x = np.asarray(self.step(x, self.funnel_torque(j, x)), dtype=float)
+        error = state_error(x, self.lqr.target)
+        return bool(error @ self.lqr.cost @ error < self.settings.upright)
+
+    def funnel_torque(self, k: int, x: np.ndarray) -> float:
+        """TVLQR at funnel point ``k``: ``clip(u*_k - K_k (x - x*_k))`` [N m]."""
+        u = self.trajectory.torques[k] - self.gains[k] @ state_error(x, self.trajectory.states[k])
+        return float(np.clip(u, -self.limit, self.limit))
 
     def __call__(self, x: np.ndarray) -> float:
         """The torque [N m] in state ``x``; it moves the memory one funnel point on."""
@@ -119,9 +152,8 @@ class FunnelController:
             return float(np.clip(-self.settings.damping * x[3], -self.limit, self.limit))
         k = self.index
         assert k is not None
-        u = self.trajectory.torques[k] - self.gains[k] @ state_error(x, self.trajectory.states[k])
         self.index = k + 1 if k + 1 < self.trajectory.steps else None
-        return float(np.clip(u, -self.limit, self.limit))
+        return self.funnel_torque(k, x)
 
 
 #: Steps added to the nominal swing-up's length for each warm start of a replan, in order.
@@ -192,7 +224,8 @@ class AdaptiveFunnel:
                 break
         else:
             return "kept: no swing-up found on the identified model"
-        self.funnel = FunnelController(optimiser.trajectory(found), self.nominal.settings)
+        self.funnel = FunnelController(optimiser.trajectory(found), self.nominal.settings,
+                                       check=self.nominal.check)  # fmt: skip
         return "replanned"
 
 

@@ -38,10 +38,19 @@ def features(x: Any, u: Any, harmonics: int, xp: Any = np) -> list[Any]:
 
 
 def design(states: np.ndarray, actions: np.ndarray, harmonics: int) -> np.ndarray:
-    """``phi`` of each row: ``(n, features)``."""
+    """``phi`` of each row: ``(n, features)``, the numbers :func:`features` gives, as outer
+    products (the same products in the same order)."""
     x = np.asarray(states, dtype=np.float64).T
     u = np.asarray(actions, dtype=np.float64)
-    return np.stack(np.broadcast_arrays(*features(x, u, harmonics)), axis=1)
+    q1, q2, v1, v2 = x
+
+    def columns(terms: list[Any]) -> np.ndarray:
+        return np.stack(np.broadcast_arrays(*terms), axis=1)
+
+    first, second = (columns(angle_terms(q, harmonics, np)) for q in (q1, q2))
+    monomials = columns([1.0, v1, v2, u, v1 * v1, v1 * v2, v2 * v2, v1 * u, v2 * u, u * u])
+    rows = first[:, :, None, None] * second[:, None, :, None] * monomials[:, None, None, :]
+    return rows.reshape(len(rows), -1)
 
 
 def increments(states: np.ndarray, next_states: np.ndarray) -> np.ndarray:

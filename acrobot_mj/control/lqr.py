@@ -240,6 +240,8 @@ class MPC:
 
     def plan(self, x: np.ndarray) -> np.ndarray:
         """The ``horizon`` torques [N m] it plans from state ``x`` ``(4,)``."""
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"the constrained LQR needs a finite state, got {np.asarray(x)}")
         error = state_error(x, self.lqr.target)
         free = self.free @ error
         if np.max(np.abs(free)) <= self.limit:
@@ -254,7 +256,7 @@ class MPC:
             return np.array([self(row) for row in x.reshape(-1, 4)]).reshape(x.shape[:-1])
         if np.max(np.abs(self.free @ state_error(x, self.lqr.target))) <= self.limit:
             return self.lqr(x)
-        return np.asarray(self.plan(x)[0])
+        return np.asarray(self.plan(x)[0])  # also where x is not finite: plan says so
 
 
 def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:

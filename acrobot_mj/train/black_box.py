@@ -165,8 +165,8 @@ class BlackBoxLearner(Learner):
         assert self.model is not None and self.trajectory is not None
         t, linear = self.trajectory, self.model.jacobians
         rest = self.model.equilibrium(t.states[0, :2])
-        return FunnelController(t, linear=linear, elsewhere=LQR(p=t.params, target=rest,
-                                                                linear=linear))  # fmt: skip
+        elsewhere = LQR(p=t.params, target=rest, linear=linear)
+        return FunnelController(t, linear=linear, elsewhere=elsewhere, step=self.model.step)
 
     def learn(self, run: Run) -> dict[str, Any]:
         config, clock = self.config, time.perf_counter()

@@ -79,7 +79,9 @@ class FeedbackLearner(Learner):
         super().__init__(config, seed)
         self.trajectory = trajectory or shipped(SWING_UPS[config.reserve])
         start = time.perf_counter()
-        self.controller = FunnelController(self.trajectory, config.funnel)
+        # The entry check rolls out continuous torques: with {-1, 0, +1} it made catches later.
+        self.controller = FunnelController(self.trajectory, config.funnel,
+                                           check=not config.discrete)  # fmt: skip
         self.build_seconds = time.perf_counter() - start
 
     def learn(self, run: Run) -> dict[str, Any]:
