@@ -370,8 +370,21 @@ def _mapped(work: list[tuple[Optimiser, int, np.ndarray, str]], jobs: int) -> It
     if jobs <= 1 or len(work) <= 1:
         yield from map(_candidates, work)
         return
-    with ProcessPoolExecutor(min(jobs, len(work))) as pool:
+    pool = ProcessPoolExecutor(min(jobs, len(work)))
+    try:
         yield from pool.map(_candidates, work)
+    except BaseException:
+        # Interrupted (Ctrl-C, SIGTERM): stop the workers' IPOPT solves now, not when they end.
+        # Python 3.14 has terminate_workers(); before it, the processes are only in _processes.
+        stop = getattr(pool, "terminate_workers", None)
+        if stop is not None:
+            stop()
+        else:
+            for process in list(getattr(pool, "_processes", {}).values()):
+                process.terminate()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _cost(path: Arrays) -> tuple[int, float]:
