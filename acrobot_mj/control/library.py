@@ -28,13 +28,17 @@ def angle_terms(angle: Any, harmonics: int, xp: Any) -> list[Any]:
     return [1.0] + [f(k * angle) for k in range(1, harmonics + 1) for f in (xp.cos, xp.sin)]
 
 
+def monomial_terms(v1: Any, v2: Any, u: Any) -> list[Any]:
+    """The monomials of degree <= 2 in the velocities and the action."""
+    return [1.0, v1, v2, u, v1 * v1, v1 * v2, v2 * v2, v1 * u, v2 * u, u * u]
+
+
 def features(x: Any, u: Any, harmonics: int, xp: Any = np) -> list[Any]:
     """``phi(x, u)``: ``(1 + 2H)^2 * 10`` terms of state ``x`` (four numbers, rows or symbols)
     and action ``u``."""
     q1, q2, v1, v2 = (x[i] for i in range(4))
     angles = [a * b for a in angle_terms(q1, harmonics, xp) for b in angle_terms(q2, harmonics, xp)]
-    monomials = [1.0, v1, v2, u, v1 * v1, v1 * v2, v2 * v2, v1 * u, v2 * u, u * u]
-    return [a * m for a in angles for m in monomials]
+    return [a * m for a in angles for m in monomial_terms(v1, v2, u)]
 
 
 def design(states: np.ndarray, actions: np.ndarray, harmonics: int) -> np.ndarray:
@@ -48,7 +52,7 @@ def design(states: np.ndarray, actions: np.ndarray, harmonics: int) -> np.ndarra
         return np.stack(np.broadcast_arrays(*terms), axis=1)
 
     first, second = (columns(angle_terms(q, harmonics, np)) for q in (q1, q2))
-    monomials = columns([1.0, v1, v2, u, v1 * v1, v1 * v2, v2 * v2, v1 * u, v2 * u, u * u])
+    monomials = columns(monomial_terms(v1, v2, u))
     rows = first[:, :, None, None] * second[:, None, :, None] * monomials[:, None, None, :]
     return rows.reshape(len(rows), -1)
 

@@ -218,7 +218,7 @@ class MPC:
     of the state alone: it keeps no memory between calls."""
 
     def __init__(self, lqr: LQR, horizon: int = 40) -> None:
-        if not isinstance(horizon, int) or horizon < 1:
+        if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
             raise ValueError(f"horizon must be a positive number of steps, got {horizon!r}")
         self.lqr, self.horizon, self.limit = lqr, horizon, lqr.p.max_torque
         a, b, q = lqr.a, lqr.b, np.diag(lqr.q)
@@ -236,17 +236,17 @@ class MPC:
                                                            gamma)  # fmt: skip
         self.linear_term = np.einsum("kim,kij,kjn->mn", gamma, weights, phi)  # f = F e_0
         self.free = -np.linalg.solve(self.hessian, self.linear_term)  # the plan with no bound
-        self.region = NullRegion(a, b, self.limit)
 
-    def plan(self, x: np.ndarray) -> np.ndarray:
-        """The ``horizon`` torques [N m] it plans from state ``x`` ``(4,)``."""
+    def plan(self, x: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The ``horizon`` torques [N m] it plans from state ``x`` ``(4,)``, and whether any
+        is at the bound (where none is, it is the plan with no bound)."""
         if not np.all(np.isfinite(x)):
             raise ValueError(f"the constrained LQR needs a finite state, got {np.asarray(x)}")
         error = state_error(x, self.lqr.target)
         free = self.free @ error
         if np.max(np.abs(free)) <= self.limit:
-            return free
-        return box_qp(self.hessian, self.linear_term @ error, self.limit)
+            return free, False
+        return box_qp(self.hessian, self.linear_term @ error, self.limit), True
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """The torque [N m] in state ``x`` ``(4,)``, or one per state of ``(n, 4)``: the LQR's
@@ -254,9 +254,8 @@ class MPC:
         x = np.asarray(x, dtype=float)
         if x.ndim > 1:
             return np.array([self(row) for row in x.reshape(-1, 4)]).reshape(x.shape[:-1])
-        if np.max(np.abs(self.free @ state_error(x, self.lqr.target))) <= self.limit:
-            return self.lqr(x)
-        return np.asarray(self.plan(x)[0])  # also where x is not finite: plan says so
+        torques, saturated = self.plan(x)
+        return np.asarray(torques[0]) if saturated else self.lqr(x)
 
 
 def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
