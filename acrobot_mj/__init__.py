@@ -11,8 +11,8 @@ from acrobot_mj.envs.gl import configure_gl
 configure_gl()
 
 from acrobot_mj.envs.tasks import TASKS, HeightGoal  # noqa: E402  registers the tasks
-from acrobot_mj.files import __version__  # noqa: E402
 from acrobot_mj.physics.params import AcrobotParams  # noqa: E402
+from acrobot_mj.version import __version__  # noqa: E402
 
 if TYPE_CHECKING:  # the class itself for type checkers; at run time __getattr__ imports it
     from acrobot_mj.envs.acrobot import AcrobotEnv

@@ -11,8 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-#: The package's version (``pyproject.toml`` reads it from here).
-__version__ = "0.4.0"
+from acrobot_mj.version import __version__
 
 
 def versions() -> dict[str, str]:
@@ -21,17 +20,22 @@ def versions() -> dict[str, str]:
     import mujoco
     import numpy
 
-    return {"python": platform.python_version(), "acrobot_mj": __version__,
-            "mujoco": mujoco.__version__, "gymnasium": gymnasium.__version__,
-            "numpy": numpy.__version__}  # fmt: skip
+    return {
+        "python": platform.python_version(),
+        "acrobot_mj": __version__,
+        "mujoco": mujoco.__version__,
+        "gymnasium": gymnasium.__version__,
+        "numpy": numpy.__version__,
+    }
 
 
 def check_regular(path: str | Path) -> None:
     """IsADirectoryError (an OSError) where ``path`` exists and is not a regular file: renaming
     a record over it would replace a device, and reading a pipe waits for a writer forever."""
     if Path(path).exists() and not Path(path).is_file():
-        raise IsADirectoryError(f"{path} exists and is not a regular file (a folder, a device or "
-                                "a pipe): name a file")  # fmt: skip
+        raise IsADirectoryError(
+            f"{path} exists and is not a regular file (a folder, a device or a pipe): name a file"
+        )
 
 
 def write_atomic(path: str | Path, write: Callable[[IO[bytes]], object]) -> Path:

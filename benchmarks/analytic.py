@@ -131,12 +131,17 @@ def analytic_rows(quick: bool = False, rounds: int | None = None) -> dict[str, A
     sizes: dict[int, dict[str, float]] = {}
     for n in SIZES:
         steps = max(10, budget // n)
-        envs = {b: AcrobotVectorEnv(num_envs=n, frame_skip=FRAME_SKIP, backend=b)
-                for b in ("analytic", "mujoco")}  # fmt: skip
+        envs = {
+            b: AcrobotVectorEnv(num_envs=n, frame_skip=FRAME_SKIP, backend=b)
+            for b in ("analytic", "mujoco")
+        }
         _env_rate(envs["analytic"], 2)  # compiled (or loaded from numba's cache) first
         samples: dict[str, list[float]] = {
-            "analytic_env": [], "mujoco_env": [], "kernel_scan": [], "kernel_scan_threads": []
-        }  # fmt: skip
+            "analytic_env": [],
+            "mujoco_env": [],
+            "kernel_scan": [],
+            "kernel_scan_threads": [],
+        }
         decisions = max(10, 10 * budget // n)
         for _ in range(rounds):
             samples["analytic_env"].append(_env_rate(envs["analytic"], steps))
@@ -160,8 +165,11 @@ def analytic_rows(quick: bool = False, rounds: int | None = None) -> dict[str, A
 
 def report_lines(rows: dict[str, Any]) -> list[str]:
     """The rows as text."""
-    lines = ["", f"analytic backend (frame_skip {rows['frame_skip']}, decisions of "
-             f"{rows['decision_s']:g} s): decisions/s, simulated s per wall s"]  # fmt: skip
+    lines = [
+        "",
+        f"analytic backend (frame_skip {rows['frame_skip']}, decisions of "
+        f"{rows['decision_s']:g} s): decisions/s, simulated s per wall s",
+    ]
     head = f"{'N':>6} {'analytic env':>13} {'MuJoCo env':>11} {'scan 1 thread':>14} "
     lines.append(head + f"{'scan threads':>13} {'sim s/s analytic':>17} {'MuJoCo':>7} {'an/MJ':>6}")
     for n, r in rows["sizes"].items():
@@ -171,9 +179,11 @@ def report_lines(rows: dict[str, Any]) -> list[str]:
             f"{r['mujoco_env_sim_s_per_s']:7.0f} {r['analytic_vs_mujoco']:6.1f}"
         )
     p = rows["profile_N1024"]
-    lines.append(f"analytic env step at N=1024: {p['step_us']:.0f} us, of which physics "
-                 f"{p['physics_us']:.0f} us ({100 * p['physics_fraction']:.0f} %), the rest "
-                 f"{p['rest_us']:.0f} us")  # fmt: skip
+    lines.append(
+        f"analytic env step at N=1024: {p['step_us']:.0f} us, of which physics "
+        f"{p['physics_us']:.0f} us ({100 * p['physics_fraction']:.0f} %), the rest "
+        f"{p['rest_us']:.0f} us"
+    )
     return lines
 
 

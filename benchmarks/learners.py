@@ -53,8 +53,9 @@ def tuned_learner(decisions: int) -> Rate:
                 noise = config.start_noise_at(episode)
                 options = {"start_noise": noise} if noise > 0 else None
                 seed = episode_seed(k, episode)
-                steps += run_episode(env, Learning(agent), seed, options,
-                                     max_steps=decisions - steps).length  # fmt: skip
+                steps += run_episode(
+                    env, Learning(agent), seed, options, max_steps=decisions - steps
+                ).length
                 episode += 1
         return steps / (time.perf_counter() - start)
 

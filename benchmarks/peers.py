@@ -215,8 +215,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     for peer, entry in result["peers"].items():
         for n, row in entry["rows"].items():
-            print(f"{peer} Acrobot-v1, N={n}: {row['steps_per_second']:.0f} steps/s, "
-                  f"{row['sim_seconds_per_second']:.0f} simulated s/s")  # fmt: skip
+            print(
+                f"{peer} Acrobot-v1, N={n}: {row['steps_per_second']:.0f} steps/s, "
+                f"{row['sim_seconds_per_second']:.0f} simulated s/s"
+            )
     for why in result["skipped"].values():
         print(f"skipped {why}")
     return 0

@@ -91,8 +91,11 @@ def scaling_table(sizes: list[int], steps: int, rounds: int) -> dict[int, dict[s
     table = {}
     for size in sizes:
         work = max(20, steps // size)
-        rates = {"vector_env": vector_env(size, work), "batch_ceiling": batch_ceiling(size, work),
-                 "batch_io_floor": io_floor(size, work)}  # fmt: skip
+        rates = {
+            "vector_env": vector_env(size, work),
+            "batch_ceiling": batch_ceiling(size, work),
+            "batch_io_floor": io_floor(size, work),
+        }
         samples: dict[str, list[float]] = {name: [] for name in rates}
         for k in range(rounds):
             for name, measure in rates.items():
@@ -104,8 +107,10 @@ def scaling_table(sizes: list[int], steps: int, rounds: int) -> dict[int, dict[s
 def scaling_lines(table: dict) -> list[str]:
     """The scaling table as text: rates, and the vector env as a fraction of the ceiling and of
     the floor."""
-    lines = [f"{'N':>6} {'vector env steps/s':>20} {'batch ceiling':>15} {'fraction':>9} "
-             f"{'batch + I/O':>13} {'fraction':>9}"]  # fmt: skip
+    lines = [
+        f"{'N':>6} {'vector env steps/s':>20} {'batch ceiling':>15} {'fraction':>9} "
+        f"{'batch + I/O':>13} {'fraction':>9}"
+    ]
     for size, row in table.items():
         ours, ceiling = row["vector_env"], row["batch_ceiling"]
         floor = row.get("batch_io_floor")  # absent from results of earlier versions

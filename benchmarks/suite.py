@@ -132,8 +132,9 @@ def compile_seconds() -> dict[str, float]:
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
         for label in ("cold", "cached"):
-            out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                                 text=True, check=True)  # fmt: skip
+            out = subprocess.run(
+                [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+            )
             times[label] = float(out.stdout.strip().splitlines()[-1])
     return times
 
@@ -293,8 +294,10 @@ def report(result: dict[str, Any]) -> str:
         lines.append(f"{name:<36} {rate:11.0f} {rate / base:13.2f} {rate / ceiling:10.2f}")
     lines.append("")
     compiled = result["compiled_learner"]
-    lines.append(f"book learner (compiled): build and first episode {compiled['cold']:.1f} s in "
-                 f"a fresh process, {compiled['cached']:.1f} s from numba's cache")  # fmt: skip
+    lines.append(
+        f"book learner (compiled): build and first episode {compiled['cold']:.1f} s in "
+        f"a fresh process, {compiled['cached']:.1f} s from numba's cache"
+    )
     lines.append(sibling("learners").tuned_seeds_line(result["tuned_seeds"]))
     lines.append("")
     for key, value in result["ratios"].items():

@@ -27,7 +27,7 @@ from heldout_sb3 import CosSin, Protocol, parse_args, report, set_up_torch
 from sac_acrobot import HYPERPARAMETERS
 
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.train.plan import PlanLearner
+from acrobot_mj.train.balance_preset import PlanLearner
 from acrobot_mj.train.records import spread
 
 FRAME_SKIP = 4
@@ -36,8 +36,13 @@ LAST_60_S = 300
 
 
 def make_env(start_noise: float) -> gym.Env:
-    env = gym.make(Balance.env_id, continuous=True, frame_skip=FRAME_SKIP, start_noise=start_noise,
-                   max_episode_steps=500)  # fmt: skip
+    env = gym.make(
+        Balance.env_id,
+        continuous=True,
+        frame_skip=FRAME_SKIP,
+        start_noise=start_noise,
+        max_episode_steps=500,
+    )
     return CosSin(env)
 
 
@@ -110,8 +115,9 @@ def main(argv: list[str] | None = None) -> dict:
     record = evaluate(act, protocol)
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")
-    record = report("SAC (balance)", args, record, HYPERPARAMETERS, train_seconds, started,
-                    model.num_timesteps)  # fmt: skip
+    record = report(
+        "SAC (balance)", args, record, HYPERPARAMETERS, train_seconds, started, model.num_timesteps
+    )
     summary = record["summary"]
     print(
         f"balanced for the last 60 s: {summary['balanced']}/{summary['episodes']} held-out starts; "

@@ -69,8 +69,9 @@ def lockstep_interrupted_and_resumed(config, seeds, tmp_path, monkeypatch, stop_
     Ctrl-C inside the ``stop_at``-th ``vec.step`` (mid-episode), checked to have stopped part-way
     at each learner's episode boundary, then resumed: the two lists of run records."""
     from acrobot_mj.envs.vector import AcrobotVectorEnv
+    from acrobot_mj.train.checkpoint import load_checkpoint
     from acrobot_mj.train.lockstep import train_lockstep
-    from acrobot_mj.train.records import CHECKPOINT_FILE, load_checkpoint
+    from acrobot_mj.train.records import CHECKPOINT_FILE
 
     whole = train_lockstep(config, seeds, tmp_path / "whole")
     calls = {"n": 0}

@@ -178,11 +178,24 @@ def test_the_compiled_step_is_the_python_step_bit_for_bit() -> None:
 def test_the_compiled_observation_is_the_shared_one_bit_for_bit() -> None:
     wrap_jit = compiled(xp.wrap)
     rng = np.random.default_rng(6)
-    angles = np.concatenate([
-        rng.uniform(-4, 4, 4000), rng.uniform(-1e6, 1e6, 4000),
-        [math.pi, -math.pi, np.nextafter(math.pi, 0), np.nextafter(-math.pi, -4), 3 * math.pi,
-         -3 * math.pi, 0.0, -0.0, 1e6 - 1, 2 * math.pi],
-    ])  # fmt: skip
+    angles = np.concatenate(
+        [
+            rng.uniform(-4, 4, 4000),
+            rng.uniform(-1e6, 1e6, 4000),
+            [
+                math.pi,
+                -math.pi,
+                np.nextafter(math.pi, 0),
+                np.nextafter(-math.pi, -4),
+                3 * math.pi,
+                -3 * math.pi,
+                0.0,
+                -0.0,
+                1e6 - 1,
+                2 * math.pi,
+            ],
+        ]
+    )
     wrapped = wrap_angle(angles)
     jit_wrapped = np.array([wrap_jit(float(a)) for a in angles])
     np.testing.assert_array_equal(jit_wrapped, wrapped)
@@ -216,8 +229,15 @@ def test_threads_change_no_number_and_follow_the_size() -> None:
 
 
 def test_make_vec_pickling_and_rendering() -> None:
-    vec = gym.make_vec(acrobot_mj.ENV_ID, num_envs=3, backend="analytic", render_mode="rgb_array",
-                       width=32, height=24, **CASES["height_goal"])  # fmt: skip
+    vec = gym.make_vec(
+        acrobot_mj.ENV_ID,
+        num_envs=3,
+        backend="analytic",
+        render_mode="rgb_array",
+        width=32,
+        height=24,
+        **CASES["height_goal"],
+    )
     env = vec.unwrapped
     assert isinstance(env, AcrobotVectorEnv) and env.backend == "analytic" and env.batch is None
     obs, _ = vec.reset(seed=2)

@@ -95,8 +95,11 @@ def test_the_learnt_jacobians_drive_the_same_lqr_and_funnel() -> None:
     plain, told = LQR(), LQR(linear=lambda x, u: step_jacobians(x, u))
     assert np.abs(plain.gain - told.gain).max() < 1e-12  # the same Jacobians: rounding only
     reserve = shipped("reserve")
-    funnel = FunnelController(reserve, linear=lambda x, u: step_jacobians(x, u, p=reserve.params),
-                              elsewhere=lambda x: 0.25)  # fmt: skip
+    funnel = FunnelController(
+        reserve,
+        linear=lambda x, u: step_jacobians(x, u, p=reserve.params),
+        elsewhere=lambda x: 0.25,
+    )
     # Its LQR sits at the swing-up's end, (pi/2, 2 pi): the same Jacobians up to rounding in
     # the angle, which the Riccati recursion along 476 steps carries to far below 1e-9.
     assert np.allclose(funnel.gains, FunnelController(reserve).gains, rtol=0, atol=1e-9)
@@ -121,9 +124,13 @@ def test_exploration_is_seeded_and_refuses_discrete_actions() -> None:
 
 @pytest.mark.parametrize(
     ("settings", "words"),
-    [({"decisions": 50}, "decisions"), ({"harmonics": 0}, "harmonics"),
-     ({"reserve": 0.0}, "reserve"), ({"horizons": (400, 300, 10)}, "horizons")],
-)  # fmt: skip
+    [
+        ({"decisions": 50}, "decisions"),
+        ({"harmonics": 0}, "harmonics"),
+        ({"reserve": 0.0}, "reserve"),
+        ({"horizons": (400, 300, 10)}, "horizons"),
+    ],
+)
 def test_bad_settings_are_refused(settings, words) -> None:
     with pytest.raises(ValueError, match=words):
         BlackBoxConfig(**settings)

@@ -80,6 +80,10 @@ def test_every_command_and_option_says_what_it_is_in_plain_text(name) -> None:
 
 
 def test_python_dash_m_runs_the_command() -> None:
-    done = subprocess.run([sys.executable, "-m", "acrobot_mj", "--version"], capture_output=True,
-                          text=True, timeout=60)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-m", "acrobot_mj", "--version"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 0 and done.stdout.strip() == __version__

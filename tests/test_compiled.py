@@ -24,9 +24,9 @@ from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.spaces import observation_space
 from acrobot_mj.physics.integrators import Stepping, step_one
 from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.train.checkpoint import load_checkpoint
 from acrobot_mj.train.learners import Run, make_env
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import load_checkpoint
 from acrobot_mj.train.trainer import learner_for, train
 
 BOOK = PRESETS["book"]
@@ -133,8 +133,10 @@ def test_the_learners_call_their_kernels_without_dispatch_after_the_first() -> N
     grid = PRESETS["report"].make_agent(0, env.observation_space)
     for agent in (tiles, grid):
         run_episode(env, Learning(agent), 0, max_steps=5)
-    for pinned, kernel in ((tiles._decide_tiles, sarsa_lambda.decide_tiles),
-                           (grid._learn, sarsa.sarsa_learn)):  # fmt: skip
+    for pinned, kernel in (
+        (tiles._decide_tiles, sarsa_lambda.decide_tiles),
+        (grid._learn, sarsa.sarsa_learn),
+    ):
         assert not inspect.ismethod(pinned) and pinned is not compiled(kernel)
     assert compilation.without_dispatch(sarsa.sarsa_step, ()) is sarsa.sarsa_step
     kernel = compiled(sarsa.sarsa_step)
@@ -264,12 +266,29 @@ def random_decision(rng, n_features: int = 200, n_actions: int = 3):
     outcome = (float(rng.standard_normal() * 100), ending == 1, ending == 2)
     factor, cutoff = float(rng.uniform(0, 1)), float(rng.choice([0.0, 1e-3, 0.05, 0.5]))
     epsilon = float(rng.choice([0.0, 0.3]))
-    settings = (float(rng.uniform(0, 1)), float(rng.uniform(0, 1)), factor, cutoff, epsilon,
-                n_features, bool(rng.random() < 0.5))  # fmt: skip
+    settings = (
+        float(rng.uniform(0, 1)),
+        float(rng.uniform(0, 1)),
+        factor,
+        cutoff,
+        epsilon,
+        n_features,
+        bool(rng.random() < 0.5),
+    )
     stream = (rng.random(8), int(rng.integers(0, 6)))
     scratch = (np.zeros(k), np.zeros(n_actions))
-    return (w, a, active, following, outcome, (pairs, values, place, *undo), (n, 0), settings,
-            stream, scratch)  # fmt: skip
+    return (
+        w,
+        a,
+        active,
+        following,
+        outcome,
+        (pairs, values, place, *undo),
+        (n, 0),
+        settings,
+        stream,
+        scratch,
+    )
 
 
 def test_the_compiled_decision_is_the_python_one() -> None:

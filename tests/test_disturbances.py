@@ -16,7 +16,7 @@ from acrobot_mj.envs.disturbances import (
 from acrobot_mj.envs.tasks import Balance, HeightGoal
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.feedback import FeedbackConfig
+from acrobot_mj.train.feedback_run import FeedbackConfig
 from acrobot_mj.train.learners import DEFAULT, Protocol
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.trainer import train
@@ -44,8 +44,12 @@ def replays(record: dict, task: type) -> None:
     in its final state, bit for bit (MuJoCo is deterministic; JSON floats round-trip)."""
     for k, start in enumerate(record["start_states"]):
         torques = record["torques"][k]
-        env = gym.make(task.env_id, continuous=True, max_episode_steps=len(torques),
-                       integrator=record["physics"]["integrator"])  # fmt: skip
+        env = gym.make(
+            task.env_id,
+            continuous=True,
+            max_episode_steps=len(torques),
+            integrator=record["physics"]["integrator"],
+        )
         pushes = record.get("pushes", [[]] * len(torques))[k]
         parameters = record["parameters"][k] if "parameters" in record else None
         assert replay(env, start, torques, pushes, parameters).tolist() == record["final_states"][k]
@@ -63,17 +67,22 @@ def test_uniform_starts_are_at_rest_with_both_angles_anywhere() -> None:
     for angle in (0, 1):
         counts = np.histogram(starts[:, angle], bins=4, range=(-np.pi, np.pi))[0]
         assert np.all(np.abs(counts - 500) < 100), counts
-    assert not np.array_equal(starts, Protocol(episodes=2000, starts_from="uniform", seed=1)
-                              .starts(HANGING))  # fmt: skip
+    assert not np.array_equal(
+        starts, Protocol(episodes=2000, starts_from="uniform", seed=1).starts(HANGING)
+    )
 
 
 def test_a_protocol_of_the_old_settings_reads_as_before() -> None:
     # The stored per-start minima and earlier eval.json records hold these three keys only.
     assert DEFAULT.to_dict() == {"episodes": 100, "start_noise": 0.05, "seed": 0}
     assert Protocol(seconds=30.0, push_every=5.0, push_size=0.1).to_dict() == {
-        "episodes": 100, "start_noise": 0.05, "seed": 0, "seconds": 30.0, "push_every": 5.0,
+        "episodes": 100,
+        "start_noise": 0.05,
+        "seed": 0,
+        "seconds": 30.0,
+        "push_every": 5.0,
         "push_size": 0.1,
-    }  # fmt: skip
+    }
 
 
 @pytest.mark.parametrize(
@@ -126,22 +135,31 @@ def test_catches_falls_and_recoveries_by_hand() -> None:
     # it at 5-9 and 13-22 after the push (15 decisions).
     wobbled = recoveries(np.array([up] * 10 + [wobble] * 3 + [up] * 10), tol, dt, pushes=[5])
     assert wobbled["falls"] == 0
-    assert wobbled["after_pushes"] == [{"recovered_seconds": 4.0, "fell": False,
-                                        "balanced_seconds": 7.5}]  # fmt: skip
+    assert wobbled["after_pushes"] == [
+        {"recovered_seconds": 4.0, "fell": False, "balanced_seconds": 7.5}
+    ]
     held = recoveries(np.full(10, up), tol, dt, pushes=[4])
-    assert held["after_pushes"][0] == {"recovered_seconds": 0.0, "fell": False,
-                                       "balanced_seconds": 3.0}  # fmt: skip
+    assert held["after_pushes"][0] == {
+        "recovered_seconds": 0.0,
+        "fell": False,
+        "balanced_seconds": 3.0,
+    }
     never = recoveries(np.full(10, down), tol, dt, pushes=[])
-    assert never == {"first_balance_seconds": None, "falls": 0, "balanced_at_end": False,
-                     "after_pushes": []}  # fmt: skip
+    assert never == {
+        "first_balance_seconds": None,
+        "falls": 0,
+        "balanced_at_end": False,
+        "after_pushes": [],
+    }
 
 
 # -- evaluation records ----------------------------------------------------------------------
 
 
 def test_a_pushed_and_perturbed_evaluation_replays_in_mujoco(book_run) -> None:
-    protocol = Protocol(episodes=3, seed=5, seconds=20.0, push_every=1.0, push_size=0.3,
-                        perturb=0.05)  # fmt: skip
+    protocol = Protocol(
+        episodes=3, seed=5, seconds=20.0, push_every=1.0, push_size=0.3, perturb=0.05
+    )
     record = evaluate(book_run, protocol, minima="none")
     assert record["physics"] == {"frame_skip": 4, "integrator": "euler"}
     for k in range(3):
@@ -161,8 +179,9 @@ def test_a_pushed_and_perturbed_evaluation_replays_in_mujoco(book_run) -> None:
 def test_pushes_and_perturbations_come_from_the_evaluation_seed_only(book_run, tmp_path) -> None:
     other = tmp_path / "other_seed"
     train(TINY_BOOK, seed=3, out_dir=other)
-    protocol = Protocol(episodes=2, seed=1, seconds=10.0, push_every=2.0, push_size=0.2,
-                        perturb=0.1)  # fmt: skip
+    protocol = Protocol(
+        episodes=2, seed=1, seconds=10.0, push_every=2.0, push_size=0.2, perturb=0.1
+    )
     first, again = (evaluate(book_run, protocol, minima="none") for _ in range(2))
     elsewhere = evaluate(other, protocol, minima="none")
     for key in ("start_states", "parameters"):
@@ -183,8 +202,9 @@ def test_the_feedback_controller_from_uniform_starts_and_pushes(feedback_run) ->
     # U(-0.5, 0.5) rad/s every 75 s. The controller catches its balance from rest in 23.55 s
     # along the shipped swing-up; from anywhere within about 60 s (100 of 100 uniform starts of
     # the docs' evaluation).
-    protocol = Protocol(episodes=3, seed=0, starts_from="uniform", seconds=150.0,
-                        push_every=75.0, push_size=0.5)  # fmt: skip
+    protocol = Protocol(
+        episodes=3, seed=0, starts_from="uniform", seconds=150.0, push_every=75.0, push_size=0.5
+    )
     record = evaluate(feedback_run, protocol)
     summary = record["summary"]
     assert summary["never_balanced"] == 0 and summary["balanced_at_end"] == 3

@@ -103,9 +103,24 @@ def test_the_rl_zoo_trains_with_the_shipped_hyperparameters_and_records_a_video(
 
     conf = Path(__file__).resolve().parents[1] / "acrobot_mj" / "zoo" / "ppo.yml"
     env = ["--algo", "ppo", "--env", "acrobot_mj/AcrobotRL-v0"]
-    train = [sys.executable, "-m", "rl_zoo3.train", *env, "--gym-packages", "acrobot_mj",
-             "-conf", str(conf), "-n", "4096", "--seed", "0", "-f", "logs",
-             "--eval-freq", "-1"]  # fmt: skip
+    train = [
+        sys.executable,
+        "-m",
+        "rl_zoo3.train",
+        *env,
+        "--gym-packages",
+        "acrobot_mj",
+        "-conf",
+        str(conf),
+        "-n",
+        "4096",
+        "--seed",
+        "0",
+        "-f",
+        "logs",
+        "--eval-freq",
+        "-1",
+    ]
     done = subprocess.run(train, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "Using 'default' hyperparameters" not in done.stdout  # the shipped ones
@@ -114,7 +129,17 @@ def test_the_rl_zoo_trains_with_the_shipped_hyperparameters_and_records_a_video(
     done = subprocess.run(video, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert len(list((tmp_path / "logs").rglob("*.mp4"))) == 1
-    enjoy = [sys.executable, "-c", ZOO.format("enjoy"), *env, "-f", "logs", "-n", "50",
-             "--no-render", "--deterministic"]  # fmt: skip
+    enjoy = [
+        sys.executable,
+        "-c",
+        ZOO.format("enjoy"),
+        *env,
+        "-f",
+        "logs",
+        "-n",
+        "50",
+        "--no-render",
+        "--deterministic",
+    ]
     done = subprocess.run(enjoy, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]

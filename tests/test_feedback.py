@@ -17,7 +17,7 @@ from acrobot_mj.control.trajopt import shipped
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.feedback import FeedbackConfig, FeedbackLearner
+from acrobot_mj.train.feedback_run import FeedbackConfig, FeedbackLearner
 from acrobot_mj.train.learners import Protocol
 from acrobot_mj.train.trainer import load_learner, train
 
@@ -137,8 +137,9 @@ def test_the_constrained_lqr_holds_more_kicks_than_the_saturated_one(tmp_path) -
     # Measured over 100 (seed 0): the saturated LQR holds 43 without a fall, the constrained
     # one 59, every one still inside the null-controllable region after the step the kick
     # lands in. The first 30 are 14 and 18, and no kick the LQR holds is lost.
-    protocol = Protocol(episodes=30, seed=0, start_noise=0.01, seconds=45, push_every=30,
-                        push_size=0.05)  # fmt: skip
+    protocol = Protocol(
+        episodes=30, seed=0, start_noise=0.01, seconds=45, push_every=30, push_size=0.05
+    )
     held = {}
     for horizon in (0, 40):
         out = tmp_path / str(horizon)
@@ -154,8 +155,20 @@ def test_the_cli_builds_a_run_that_evaluate_takes(tmp_path, capsys) -> None:
     assert "state feedback built in" in words and "from rest: balanced after 23.55 s" in words
     record = json.loads((out / "run.json").read_text())
     assert record["kind"] == "state_feedback" and record["greedy_from_rest"]["balanced_at_end"]
-    argv = ["evaluate", str(out), "--episodes", "2", "--starts", "uniform", "--seconds", "80",
-            "--push-every", "70", "--push-size", "0.05"]  # fmt: skip
+    argv = [
+        "evaluate",
+        str(out),
+        "--episodes",
+        "2",
+        "--starts",
+        "uniform",
+        "--seconds",
+        "80",
+        "--push-every",
+        "70",
+        "--push-size",
+        "0.05",
+    ]
     assert main(argv) == 0
     line = capsys.readouterr().out
     assert "2 held-out starts (uniform): 2 caught their balance" in line

@@ -35,8 +35,15 @@ def test_the_sdist_carries_the_docs_examples_changelog_and_license(tmp_path: Pat
     (sdist,) = tmp_path.glob("acrobot_mj-*.tar.gz")
     with tarfile.open(sdist) as archive:
         names = {n.split("/", 1)[1] for n in archive.getnames() if "/" in n}
-    for name in ("LICENSE", "CHANGELOG.md", "README.md", "docs/conf.py", "docs/index.md",
-                 "acrobot_mj_main.py", "models/acrobot.xml"):  # fmt: skip
+    for name in (
+        "LICENSE",
+        "CHANGELOG.md",
+        "README.md",
+        "docs/conf.py",
+        "docs/index.md",
+        "acrobot_mj_main.py",
+        "models/acrobot.xml",
+    ):
         assert name in names, name
     assert any(n.startswith("examples/") and n.endswith(".py") for n in names)
     assert not [n for n in names if "_build" in n or "__pycache__" in n]

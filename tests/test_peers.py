@@ -45,14 +45,18 @@ def test_run_peer_parses_the_last_json_line(compare) -> None:
 @pytest.mark.parametrize(
     ("code", "said"),
     [
-        ("import sys; sys.stderr.write('first\\nModuleNotFoundError: jax\\n'); sys.exit(3)",
-         "exited with 3: ModuleNotFoundError: jax"),
+        (
+            "import sys; sys.stderr.write('first\\nModuleNotFoundError: jax\\n'); sys.exit(3)",
+            "exited with 3: ModuleNotFoundError: jax",
+        ),
         ("print('not json')", "printed no peer result (last line: not json)"),
-        ("print('{\"peers\": {\"gymnax\": {\"rows\": {\"1\": {}}}}, \"skipped\": {}}')",
-         "printed no peer result"),
+        (
+            'print(\'{"peers": {"gymnax": {"rows": {"1": {}}}}, "skipped": {}}\')',
+            "printed no peer result",
+        ),
         ("", "printed no peer result (last line: nothing)"),
     ],
-)  # fmt: skip
+)
 def test_run_peer_failures_are_one_line(compare, code: str, said: str) -> None:
     with pytest.raises(compare.PeerError) as error:
         compare.run_peer(python_printing(code), 30)

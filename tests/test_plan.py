@@ -19,10 +19,10 @@ from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics import dynamics
 from acrobot_mj.physics.integrators import Stepping
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.train import plan
+from acrobot_mj.train import balance_preset as plan
+from acrobot_mj.train.balance_preset import PlanConfig, PlanLearner
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import Protocol
-from acrobot_mj.train.plan import PlanConfig, PlanLearner
 from acrobot_mj.train.trainer import train
 
 TRUTH = AcrobotParams().lumped

@@ -9,13 +9,14 @@ import pytest
 
 from acrobot_mj.cli import main
 from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import read_rows
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import Protocol, Run, learner_seed, train_one
 from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import CheckpointError, load_checkpoint, recent_median
+from acrobot_mj.train.records import recent_median
 from acrobot_mj.train.trainer import load_learner, train
 
 # Three learners of four episodes of at most 400 decisions: with seed 2 their scores differ
@@ -137,8 +138,15 @@ def test_interrupt_names_the_learner_and_resume_finishes_the_same(tmp_path):
 # only learner 2 reaches the goal (its score 372.5, the others 400), so a choice is made. Every
 # decision draws from the learner's own stream (epsilon's test).
 TABULAR = PRESETS["report"].replace(episodes=8, population=4, max_episode_steps=400, frame_skip=4)
-KEYS = ("episode_lengths", "episode_returns", "episode_successes", "greedy_from_rest",
-        "population", "steps", "decisions_total")  # fmt: skip
+KEYS = (
+    "episode_lengths",
+    "episode_returns",
+    "episode_successes",
+    "greedy_from_rest",
+    "population",
+    "steps",
+    "decisions_total",
+)
 
 
 def log_rows(run):

@@ -25,22 +25,21 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from acrobot_mj.checks import clear_stop, raise_stop
 from acrobot_mj.cli import main
 from acrobot_mj.envs.rollout import PolicyActor, run_episode
 from acrobot_mj.files import is_sealed, write_json
-from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import (
-    CHECKPOINT_FILE,
+from acrobot_mj.stops import clear_stop, raise_stop
+from acrobot_mj.train.checkpoint import (
     CheckpointError,
     Checkpoints,
-    History,
     load_checkpoint,
     read_history,
     save_checkpoint,
 )
-from acrobot_mj.train.sweep import parse_sweep
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.records import CHECKPOINT_FILE, History
+from acrobot_mj.train.sweep_file import parse_sweep
 from acrobot_mj.train.trainer import load_learner, train
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -206,8 +205,9 @@ def test_seeds_in_worker_processes_stop_save_and_refuse_a_trainer_inside(tmp_pat
     for k in (0, 1):
         wait_for(tmp_path / "multi" / f"seed_{k}" / "checkpoint.npz")
     inside = tmp_path / "multi" / "seed_1"
-    other = _cli(["train", "--preset", "book", "--episodes", "1", "--force", "--out", str(inside)],
-                 tmp_path)  # fmt: skip
+    other = _cli(
+        ["train", "--preset", "book", "--episodes", "1", "--force", "--out", str(inside)], tmp_path
+    )
     assert other.returncode == 2 and len(other.stderr.splitlines()) == 1, other.stderr
     assert "is inside" in other.stderr and f"pid {child.pid}" in other.stderr
     stopped = time.monotonic()
@@ -246,8 +246,10 @@ def test_a_lockstep_resume_starts_a_seed_that_never_reached_a_checkpoint(tmp_pat
     assert not (tmp_path / "part" / "seed_1").exists()
     train_lockstep(config, [0, 1], tmp_path / "part", resume=True)
     for seed in (0, 1):
-        mine, theirs = (load_checkpoint(tmp_path / run / f"seed_{seed}" / CHECKPOINT_FILE)
-                        for run in ("part", "whole"))  # fmt: skip
+        mine, theirs = (
+            load_checkpoint(tmp_path / run / f"seed_{seed}" / CHECKPOINT_FILE)
+            for run in ("part", "whole")
+        )
         assert mine[0]["episodes_done"] == theirs[0]["episodes_done"] == 4
         assert mine[1].keys() == theirs[1].keys()
         assert all(np.array_equal(mine[1][k], theirs[1][k]) for k in mine[1])
@@ -438,8 +440,9 @@ def test_workers_stop_with_a_killed_sweep_driver(tmp_path) -> None:
     trial = tmp_path / "sw" / "trials" / "lam=0.9__seed=0"
     wait_for(trial / "checkpoint.npz")
     # The sweep holds its running trial's directory: --force does not take it.
-    other = _cli(["train", "--preset", "book", "--episodes", "1", "--force", "--out", str(trial)],
-                 tmp_path)  # fmt: skip
+    other = _cli(
+        ["train", "--preset", "book", "--episodes", "1", "--force", "--out", str(trial)], tmp_path
+    )
     assert other.returncode == 2 and "in use by" in other.stderr, other.stderr
     assert len(other.stderr.splitlines()) == 1
     child.kill()  # kill -9: the driver cannot tell anyone
@@ -474,8 +477,9 @@ def test_two_trainers_on_one_directory_one_is_refused(tmp_path) -> None:
 def test_a_dead_owners_lock_and_temporaries_are_taken_over(tmp_path, capsys) -> None:
     run = tmp_path / "run"
     run.mkdir()
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    ).stdout.strip()
     (run / ".lock").write_text(json.dumps({"pid": int(dead), "host": "h", "started": 0}))
     (run / f".checkpoint.npz.{dead}.tmp").write_bytes(b"half a zip")
     (run / f".vid.{dead}.tmp.mp4").write_bytes(b"a killed render's video")
@@ -599,8 +603,10 @@ def test_a_hand_edited_run_record_is_one_line_not_a_traceback(
     record.update(edit)
     record = {k: v for k, v in record.items() if v is not None}
     (trained / "run.json").write_text(json.dumps(record))
-    out = {"render": ["--out", str(trained.parent / "x.mp4")],
-           "curves": ["--out", str(trained.parent / "x.png")]}  # fmt: skip
+    out = {
+        "render": ["--out", str(trained.parent / "x.mp4")],
+        "curves": ["--out", str(trained.parent / "x.png")],
+    }
     for command in commands:
         assert exits([command, str(trained), *out.get(command, [])]) == 2, command
         err = capsys.readouterr().err.strip()
@@ -663,9 +669,11 @@ def test_no_command_writes_into_a_run_that_is_training(tmp_path, exits, capsys) 
     try:
         wait_for(tmp_path / "run" / "checkpoint.npz")
         other = str(tmp_path / "other")
-        for command in (["render", "--policy", "zero", "--steps", "5", "--out", "{run}/x.mp4"],
-                        ["demo", "--steps", "5", "--json", "{run}/notes.json"],
-                        ["curves", other, "--out", "{run}/other.png"]):  # fmt: skip
+        for command in (
+            ["render", "--policy", "zero", "--steps", "5", "--out", "{run}/x.mp4"],
+            ["demo", "--steps", "5", "--json", "{run}/notes.json"],
+            ["curves", other, "--out", "{run}/other.png"],
+        ):
             code = exits([part.format(run=tmp_path / "run") for part in command])
             err = capsys.readouterr().err.strip()
             assert code == 2 and "is in use by" in err and len(err.splitlines()) == 1, err
@@ -781,8 +789,9 @@ def test_a_sweep_evaluates_again_where_a_trials_evaluation_was_edited(
 
 def _mount_tmpfs(path: Path, options: str) -> None:
     path.mkdir()
-    result = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(path)],
-                            capture_output=True, text=True)  # fmt: skip
+    result = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(path)], capture_output=True, text=True
+    )
     if result.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here ({result.stderr.strip()}): needs root")
 
@@ -825,8 +834,10 @@ def test_a_full_disk_during_evaluate_or_curves_is_one_line_and_leaves_nothing(
                 f.write(b"x" * 4096)
         before = sorted(p.name for p in run.iterdir())
         curves = ["curves", str(run), "--out", str(run / "c.png")]
-        for argv, name in [(["evaluate", str(run), "--episodes", "2"], "eval.json"),
-                           (curves, "c.png")]:  # fmt: skip
+        for argv, name in [
+            (["evaluate", str(run), "--episodes", "2"], "eval.json"),
+            (curves, "c.png"),
+        ]:
             assert exits(argv) == 2
             err = capsys.readouterr().err.strip()
             assert f"cannot write {run / name}" in err and len(err.splitlines()) == 1, err
@@ -876,8 +887,9 @@ def test_a_fifo_named_like_a_lock_neither_hangs_nor_is_taken(tmp_path) -> None:
     assert done.returncode == 0, done.stderr
     done = _cli([*args, "--out", "parent"], tmp_path)  # the directory's own lock: refused
     assert done.returncode == 2 and len(done.stderr.splitlines()) == 1, done.stderr
-    assert done.stderr.strip().endswith("parent/.lock is not a lock file: remove it, or choose "
-                                        "another directory")  # fmt: skip
+    assert done.stderr.strip().endswith(
+        "parent/.lock is not a lock file: remove it, or choose another directory"
+    )
     (tmp_path / "folder" / ".lock").mkdir(parents=True)  # a folder: never read, nor taken
     assert _cli([*args, "--out", "folder/sub"], tmp_path).returncode == 0
     done = _cli([*args, "--out", "folder"], tmp_path)
@@ -913,11 +925,13 @@ def _cli(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess:
 def test_a_broken_gl_choice_fails_only_rendering(tmp_path, gl, display, says) -> None:
     env = {"MUJOCO_GL": gl, **({"DISPLAY": display} if display else {})}
     assert _cli(["params"], tmp_path, **env).returncode == 0
-    trained = _cli(["train", "--episodes", "1", "--max-episode-steps", "5", "--out", "r"],
-                   tmp_path, **env)  # fmt: skip
+    trained = _cli(
+        ["train", "--episodes", "1", "--max-episode-steps", "5", "--out", "r"], tmp_path, **env
+    )
     assert trained.returncode == 0, trained.stderr
-    rendered = _cli(["render", "--policy", "zero", "--steps", "2", "--out", "v.mp4"], tmp_path,
-                    **env)  # fmt: skip
+    rendered = _cli(
+        ["render", "--policy", "zero", "--steps", "2", "--out", "v.mp4"], tmp_path, **env
+    )
     assert rendered.returncode == 2 and says in rendered.stderr
     assert len(rendered.stderr.strip().splitlines()) == 1
     assert "tried egl" in rendered.stderr and "(it works here)" in rendered.stderr
@@ -1002,8 +1016,8 @@ def test_checkpoints_stay_small_and_count_their_lines_of_the_episode_log(tmp_pat
 
 
 def test_a_lockstep_checkpoint_missing_arrays_is_refused_not_a_traceback(tmp_path) -> None:
+    from acrobot_mj.train.checkpoint import save_checkpoint
     from acrobot_mj.train.lockstep import train_lockstep
-    from acrobot_mj.train.records import save_checkpoint
 
     config = PRESETS["report"].replace(episodes=2, max_episode_steps=20)
     train_lockstep(config, [0, 1], tmp_path)
@@ -1131,8 +1145,14 @@ def test_a_checkpoint_declaring_a_huge_array_is_refused_before_allocating(traine
     assert "q.npy declares 96,000,000,000 bytes" in err and len(err.splitlines()) == 1, err
 
 
-@pytest.mark.parametrize("command", [["evaluate", "{run}"], ["curves", "{run}", "--out", "{out}"],
-                                     ["render", "{run}", "--out", "{out}.mp4"]])  # fmt: skip
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["evaluate", "{run}"],
+        ["curves", "{run}", "--out", "{out}"],
+        ["render", "{run}", "--out", "{out}.mp4"],
+    ],
+)
 def test_a_record_nested_too_deeply_is_one_line(trained, tmp_path, command, exits, capsys):
     # Valid JSON 200,000 levels deep: Python's parser raised RecursionError.
     text = (trained / "run.json").read_text().rstrip()[:-1]
@@ -1147,10 +1167,23 @@ def test_a_record_nested_too_deeply_is_one_line(trained, tmp_path, command, exit
     ("record", "argv"),
     [
         ("run.json", ["evaluate", "{run}", "--episodes", "1"]),
-        ("episodes.jsonl", ["train", "--preset", "report", "--episodes", "3",
-                            "--max-episode-steps", "30", "--out", "{run}", "--resume"]),
+        (
+            "episodes.jsonl",
+            [
+                "train",
+                "--preset",
+                "report",
+                "--episodes",
+                "3",
+                "--max-episode-steps",
+                "30",
+                "--out",
+                "{run}",
+                "--resume",
+            ],
+        ),
     ],
-)  # fmt: skip
+)
 def test_a_pipe_in_place_of_a_record_is_one_line_not_a_hang(trained, record, argv, capsys):
     # Reading a FIFO waits for a writer forever: evaluate and the resume hung.
     (trained / record).unlink()
@@ -1205,11 +1238,21 @@ def test_seeds_beyond_memory_or_open_files_are_refused_at_once(tmp_path, exits, 
     import resource
 
     limit = lambda: resource.setrlimit(resource.RLIMIT_NOFILE, (200, 200))  # noqa: E731
-    argv = [sys.executable, "-m", "acrobot_mj_main", *args, "--seeds", "300", "--lockstep",
-            "--out", str(tmp_path / "many")]  # fmt: skip
+    argv = [
+        sys.executable,
+        "-m",
+        "acrobot_mj_main",
+        *args,
+        "--seeds",
+        "300",
+        "--lockstep",
+        "--out",
+        str(tmp_path / "many"),
+    ]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    done = subprocess.run(argv, cwd=tmp_path, env=env, preexec_fn=limit, capture_output=True,
-                          text=True, timeout=120)  # fmt: skip
+    done = subprocess.run(
+        argv, cwd=tmp_path, env=env, preexec_fn=limit, capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert "300 seeds in lockstep keep 600 files open; this process may open 200" in done.stderr
 

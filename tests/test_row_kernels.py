@@ -26,9 +26,23 @@ from tests.test_vector import KWARGS, _actions, _assert_identical, _run
 
 #: Velocities at and around both limits, signed zeros, infinities and NaN [rad/s].
 EDGES = np.array(
-    [0.0, -0.0, MAX_VEL1, -MAX_VEL1, MAX_VEL2, -MAX_VEL2, np.nextafter(MAX_VEL1, np.inf),
-     np.nextafter(-MAX_VEL2, -np.inf), 1e300, -np.inf, np.inf, np.nan, 3.0, -40.0]
-)  # fmt: skip
+    [
+        0.0,
+        -0.0,
+        MAX_VEL1,
+        -MAX_VEL1,
+        MAX_VEL2,
+        -MAX_VEL2,
+        np.nextafter(MAX_VEL1, np.inf),
+        np.nextafter(-MAX_VEL2, -np.inf),
+        1e300,
+        -np.inf,
+        np.inf,
+        np.nan,
+        3.0,
+        -40.0,
+    ]
+)
 
 
 @contextmanager
@@ -163,9 +177,13 @@ def _rule_by_rows(task, columns) -> tuple:
 
 @pytest.mark.parametrize(
     "name, options",
-    [("height_goal", {}), ("height_goal", {"goal_height": -0.3, "goal_reward": 7.5,
-     "step_reward": -0.25}), ("balance", {}), ("balance", {"tolerance": 1.0})],
-)  # fmt: skip
+    [
+        ("height_goal", {}),
+        ("height_goal", {"goal_height": -0.3, "goal_reward": 7.5, "step_reward": -0.25}),
+        ("balance", {}),
+        ("balance", {"tolerance": 1.0}),
+    ],
+)
 def test_the_compiled_outcomes_are_the_python_rule_bit_for_bit(name, options) -> None:
     task = get_task(name)((1.0, 1.0), **options)
     rng = np.random.default_rng(7)
@@ -232,9 +250,14 @@ def test_a_subclass_with_its_own_rule_is_not_given_its_parents_compiled_one() ->
 # others (another shape or kind) are refused before it, the third after it has checked them.
 @pytest.mark.parametrize(
     "actions",
-    [np.array([0, 1, 3] * 5), np.array([-1] + [0] * 14), np.zeros(15, dtype=np.int32) + 5,
-     np.zeros(14, dtype=np.int64), np.zeros(15)],
-)  # fmt: skip
+    [
+        np.array([0, 1, 3] * 5),
+        np.array([-1] + [0] * 14),
+        np.zeros(15, dtype=np.int32) + 5,
+        np.zeros(14, dtype=np.int64),
+        np.zeros(15),
+    ],
+)
 def test_bad_actions_get_the_same_error_and_write_nothing(actions) -> None:
     messages = []
     for python in (False, True):

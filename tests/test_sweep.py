@@ -16,9 +16,11 @@ import pytest
 
 from acrobot_mj.cli import main
 from acrobot_mj.train import lockstep as lockstep_module
+from acrobot_mj.train.checkpoint import load_checkpoint
 from acrobot_mj.train.lockstep import LOCKSTEP_GROUP_FROM
-from acrobot_mj.train.records import CHECKPOINT_FILE, load_checkpoint
-from acrobot_mj.train.sweep import load_sweep, parse_sweep, run_sweep
+from acrobot_mj.train.records import CHECKPOINT_FILE
+from acrobot_mj.train.sweep import run_sweep
+from acrobot_mj.train.sweep_file import load_sweep, parse_sweep
 
 TINY = """
 preset = "report"
@@ -238,9 +240,14 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path) -> None:
     # The command as a user runs it, watched from outside: what listens while Ray runs.
     command = ["sweep", str(sweep), "--backend", "ray", "--num-cpus", "2", "--out", str(out)]
     before, seen = _listening(), set()
-    child = subprocess.Popen([sys.executable, "-m", "acrobot_mj_main", *command], cwd=tmp_path,
-                             env={**os.environ, "PYTHONPATH": str(ROOT)},
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    child = subprocess.Popen(
+        [sys.executable, "-m", "acrobot_mj_main", *command],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     while child.poll() is None:
         seen |= _listening() - before
         time.sleep(0.1)

@@ -10,16 +10,12 @@ import pytest
 
 from acrobot_mj.agents import DivergenceError
 from acrobot_mj.envs.wrappers import make_gymnasium_acrobot
+from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig, parse_value
 from acrobot_mj.train.evaluate import evaluate, evaluate_learner
 from acrobot_mj.train.learners import DEFAULT, AgentLearner, Protocol, Run, make_env
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import (
-    CHECKPOINT_FILE,
-    CheckpointError,
-    load_checkpoint,
-    save_checkpoint,
-)
+from acrobot_mj.train.records import CHECKPOINT_FILE
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import load_learner, train
 from tests.conftest import lockstep_interrupted_and_resumed
@@ -425,7 +421,10 @@ def test_a_diverging_learner_in_a_group_is_named_and_checkpointed(tmp_path) -> N
 
     config = PRESETS["report"].replace(step_reward=-1e308, episodes=3, max_episode_steps=20)
     checkpoint = tmp_path / "seed_4" / CHECKPOINT_FILE
-    with pytest.raises(DivergenceError, match=r"diverged in episode 1 of seed 4 .*step_reward "
-                       rf"-1e\+308.*; {checkpoint} keeps the state after episode 0$"):  # fmt: skip
+    with pytest.raises(
+        DivergenceError,
+        match=r"diverged in episode 1 of seed 4 .*step_reward "
+        rf"-1e\+308.*; {checkpoint} keeps the state after episode 0$",
+    ):
         train_lockstep(config, [4], tmp_path)
     assert load_checkpoint(tmp_path / "seed_4" / CHECKPOINT_FILE)[0]["episodes_done"] == 0

@@ -25,8 +25,9 @@ def test_the_symbolic_step_is_the_numpy_step(method) -> None:
         np.testing.assert_allclose(
             np.array(step(state, torque)).ravel(),
             integrators.step_states(state, torque, method=method, limits=False),
-            rtol=0, atol=1e-12,
-        )  # fmt: skip
+            rtol=0,
+            atol=1e-12,
+        )
 
 
 def test_the_shipped_reserve_trajectory_loads() -> None:

@@ -68,8 +68,17 @@ def user_report(tmp_path_factory: pytest.TempPathFactory) -> str:
     (folder / "mypy.ini").write_text("[mypy]\n")  # not the checkout's configuration
     with pytest.MonkeyPatch.context() as patch:
         patch.chdir(folder)
-        stdout, stderr, _ = api.run(["--config-file", "mypy.ini", "--cache-dir", "cache",
-                                     "--no-error-summary", "user.py", "library.py"])  # fmt: skip
+        stdout, stderr, _ = api.run(
+            [
+                "--config-file",
+                "mypy.ini",
+                "--cache-dir",
+                "cache",
+                "--no-error-summary",
+                "user.py",
+                "library.py",
+            ]
+        )
     assert not stderr, stderr
     return stdout
 
@@ -106,8 +115,11 @@ def test_the_typed_options_name_every_keyword_the_envs_take() -> None:
     builtin = [TASKS["height_goal"], TASKS["balance"]]
     task_keys = TaskOptions.__required_keys__ | TaskOptions.__optional_keys__
     assert task_keys == {"start_noise"}.union(*(task.options for task in builtin))
-    own = [p.name for p in inspect.signature(AcrobotEnv).parameters.values()
-           if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]  # fmt: skip
+    own = [
+        p.name
+        for p in inspect.signature(AcrobotEnv).parameters.values()
+        if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    ]
     env_keys = EnvOptions.__required_keys__ | EnvOptions.__optional_keys__
     assert env_keys == task_keys | (set(own) - {"render_mode"})
     assert not EnvOptions.__required_keys__

@@ -13,9 +13,9 @@ import pytest
 
 import acrobot_mj
 from acrobot_mj.control.trajopt import shipped
+from acrobot_mj.envs.control_loop import balance_env, closed_loop
 from acrobot_mj.envs.tasks import Balance, HeightGoal
 from acrobot_mj.envs.vector import PER_ENV, SHARED, AcrobotVectorEnv
-from acrobot_mj.report.balance import balance_env, closed_loop
 
 KWARGS = {"frame_skip": 4, "start_noise": 0.1}
 
@@ -161,8 +161,14 @@ def test_render_grid_and_every_frame() -> None:
 
 def test_gymnasium_vector_record_video_records_every_sub_env(tmp_path) -> None:
     pytest.importorskip("moviepy")  # the wrapper with its defaults, the env with its own
-    vec = gym.make_vec(acrobot_mj.ENV_ID, num_envs=2, render_mode="rgb_array", width=32,
-                       height=32, max_episode_steps=5)  # fmt: skip
+    vec = gym.make_vec(
+        acrobot_mj.ENV_ID,
+        num_envs=2,
+        render_mode="rgb_array",
+        width=32,
+        height=32,
+        max_episode_steps=5,
+    )
     folder = tmp_path / "videos"
     env = gym.wrappers.vector.RecordVideo(vec, str(folder), episode_trigger=lambda e: e == 0)
     env.reset(seed=0)

@@ -240,8 +240,11 @@ def test_a_followed_log_that_is_cut_back_is_counted_again(tmp_path, capsys) -> N
 def test_a_sweep_shows_a_bar_over_its_trials_when_asked(tmp_path) -> None:
     sweep = 'preset = "report"\nepisodes = 2\nmax_episode_steps = 20\nseeds = [0, 1]\n'
     (tmp_path / "s.toml").write_text(sweep)
-    done = _cli(["sweep", "s.toml", "--jobs", "1", "--out", "sw", "--progress"], tmp_path,
-                capture_output=True)  # fmt: skip
+    done = _cli(
+        ["sweep", "s.toml", "--jobs", "1", "--out", "sw", "--progress"],
+        tmp_path,
+        capture_output=True,
+    )
     assert done.returncode == 0, done.stderr
     assert "sweep sw: 100%|" in done.stderr and "2/2" in done.stderr
 

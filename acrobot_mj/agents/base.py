@@ -96,8 +96,9 @@ class RandomStream:
         except (ValueError, AttributeError) as error:
             raise ValueError(f"random state is not a generator's state ({error})") from None
         if kind != type(self.generator.bit_generator).__name__:
-            raise ValueError(f"random state is for {kind!r}, not "
-                             f"{type(self.generator.bit_generator).__name__}")  # fmt: skip
+            raise ValueError(
+                f"random state is for {kind!r}, not {type(self.generator.bit_generator).__name__}"
+            )
         block, position = np.asarray(state["block"], dtype=np.float64), int(state["next"])
         if block.ndim != 1 or not 0 <= position <= len(block):
             raise ValueError("random state has an inconsistent block position")

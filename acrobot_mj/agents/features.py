@@ -62,8 +62,14 @@ class StateGrid:
                 raise ValueError(f"{name} must be (low, high) with low < high, got {(low, high)}")
         (low_a, high_a), (low_v, high_v) = self.angle_range, self.velocity_range
         n_a, n_v = self.angle_bins, self.velocity_bins
-        consts = (low_a, (n_a - 1) / (high_a - low_a), float(n_a),
-                  low_v, (n_v - 1) / (high_v - low_v), float(n_v))  # fmt: skip
+        consts = (
+            low_a,
+            (n_a - 1) / (high_a - low_a),
+            float(n_a),
+            low_v,
+            (n_v - 1) / (high_v - low_v),
+            float(n_v),
+        )
         object.__setattr__(self, "constants", consts)  # grid_cell's
 
     @property
@@ -125,9 +131,14 @@ class TileCoder:
     ``k`` displaced by ``k * (1, 3, 5, 7)[j] / n_tilings`` of a tile; ``wrap`` variables wrap,
     the others get one extra tile."""
 
-    def __init__(self, groups: Sequence[tuple[Sequence[int], int]], tiles: Sequence[int],
-                 low: Sequence[float], high: Sequence[float],
-                 wrap: Sequence[bool] = (True, True, False, False)) -> None:  # fmt: skip
+    def __init__(
+        self,
+        groups: Sequence[tuple[Sequence[int], int]],
+        tiles: Sequence[int],
+        low: Sequence[float],
+        high: Sequence[float],
+        wrap: Sequence[bool] = (True, True, False, False),
+    ) -> None:
         n_vars = len(tiles)
         if not (len(low) == len(high) == len(wrap) == n_vars):
             raise ValueError("tiles, low, high and wrap must have one entry per variable")
@@ -150,8 +161,10 @@ class TileCoder:
         tilings = sum(n for _, n in self.groups)
         features = sum(n * math.prod(extent[v] for v in vs) for vs, n in self.groups)
         # Under 1 kB a tiling while it is built, and a learner needs a weight per feature.
-        check_memory(f"tile coding of {tilings:,} tilings and {features:,} features",
-                     1e3 * tilings + 8.0 * features)  # fmt: skip
+        check_memory(
+            f"tile coding of {tilings:,} tilings and {features:,} features",
+            1e3 * tilings + 8.0 * features,
+        )
         offsets, strides, bases, base = [], [], [], 0
         for variables, n_tilings in self.groups:
             stride, step = np.zeros(n_vars, dtype=np.int64), 1
@@ -166,9 +179,15 @@ class TileCoder:
                 bases.append(base)
                 base += step
         self.num_features, self.num_active = base, len(bases)
-        self.tables = (self.low, np.array(self.tiles) / (self.high - self.low), np.array(offsets),
-                       np.array(extent), np.array(self.wrap), np.array(strides),
-                       np.array(bases, dtype=np.int64))  # fmt: skip
+        self.tables = (
+            self.low,
+            np.array(self.tiles) / (self.high - self.low),
+            np.array(offsets),
+            np.array(extent),
+            np.array(self.wrap),
+            np.array(strides),
+            np.array(bases, dtype=np.int64),
+        )
 
     def active(self, obs: Sequence[float]) -> np.ndarray:
         """The active tile of every tiling, int64 ``(num_active,)``."""
@@ -177,12 +196,19 @@ class TileCoder:
         return out
 
     def __repr__(self) -> str:
-        return (f"TileCoder({self.num_active} tilings, {self.num_features} features, "
-                f"tiles={self.tiles}, groups={self.groups})")  # fmt: skip
+        return (
+            f"TileCoder({self.num_active} tilings, {self.num_features} features, "
+            f"tiles={self.tiles}, groups={self.groups})"
+        )
 
 
-def book_tile_coder(space: Any, tilings: int = 12, subset_tilings: bool = True,
-                    angle_tiles: int = 6, velocity_tiles: int = 7) -> TileCoder:  # fmt: skip
+def book_tile_coder(
+    space: Any,
+    tilings: int = 12,
+    subset_tilings: bool = True,
+    angle_tiles: int = 6,
+    velocity_tiles: int = 7,
+) -> TileCoder:
     """Sutton and Barto's acrobot tile coding over ``space``'s bounds: ``tilings`` over all four
     variables and, with ``subset_tilings``, 3 per three variables, 2 per pair, 3 per variable."""
     groups: list[tuple[tuple[int, ...], int]] = [((0, 1, 2, 3), tilings)]

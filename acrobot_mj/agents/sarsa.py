@@ -56,8 +56,9 @@ def group_step(q, ids, s, a, rewards, s2, terminated, config, blocks, positions)
     """:func:`sarsa_step` of learners ``ids``, the next actions into ``a``."""
     for j in range(ids.shape[0]):
         i = ids[j]
-        a[i], positions[i] = sarsa_step(q[i], s[i], a[i], rewards[j], s2[j], terminated[j],
-                                        config, blocks[i], positions[i])  # fmt: skip
+        a[i], positions[i] = sarsa_step(
+            q[i], s[i], a[i], rewards[j], s2[j], terminated[j], config, blocks[i], positions[i]
+        )
         s[i] = s2[j]
 
 
@@ -73,9 +74,15 @@ class Sarsa:
     """One-step tabular SARSA over a grid (``index(obs)`` and ``num_features``; a
     :class:`~acrobot_mj.agents.features.StateGrid`'s cells are found in the compiled update)."""
 
-    def __init__(self, grid: StateGrid, n_actions: int = 3, alpha: float = 0.5,
-                 gamma: float = 1.0, epsilon: float = 0.001,
-                 seed: int | np.random.SeedSequence | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        grid: StateGrid,
+        n_actions: int = 3,
+        alpha: float = 0.5,
+        gamma: float = 1.0,
+        epsilon: float = 0.001,
+        seed: int | np.random.SeedSequence | None = None,
+    ) -> None:
         self.grid, self.n_actions = grid, n_actions
         self.config = SarsaConfig(alpha, gamma, epsilon)
         self.stream = RandomStream(seed)
@@ -112,15 +119,30 @@ class Sarsa:
             if x.shape != (4,):
                 raise ValueError(f"observations must be (q1, q2, dq1, dq2), got shape {x.shape}")
             s2, a2, stream.position = self._learn(
-                self._q, self._s, self._a, float(reward), x, bool(terminated), self.grid.constants,
-                self._rates, stream.block, stream.position,
-            )  # fmt: skip
+                self._q,
+                self._s,
+                self._a,
+                float(reward),
+                x,
+                bool(terminated),
+                self.grid.constants,
+                self._rates,
+                stream.block,
+                stream.position,
+            )
         else:
             s2 = -1 if terminated else self.grid.index(obs)
             a2, stream.position = compiled(sarsa_step)(
-                self._q, self._s, self._a, float(reward), s2, bool(terminated), self._rates,
-                stream.block, stream.position,
-            )  # fmt: skip
+                self._q,
+                self._s,
+                self._a,
+                float(reward),
+                s2,
+                bool(terminated),
+                self._rates,
+                stream.block,
+                stream.position,
+            )
         if terminated or truncated:
             self._s = self._a = -1
             return None
@@ -182,19 +204,35 @@ class SarsaGroup:
     def begin_episodes(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
         self.s[ids] = self.grid.indices(obs)
         self._reserve(ids)
-        compiled(group_begin)(self.q, ids, self.s, self.a, self.config.epsilon, self.blocks,
-                              self.positions)  # fmt: skip
+        compiled(group_begin)(
+            self.q, ids, self.s, self.a, self.config.epsilon, self.blocks, self.positions
+        )
         return self.a[ids]
 
-    def learn(self, ids: np.ndarray, rewards: np.ndarray, obs: np.ndarray,
-              terminated: np.ndarray, truncated: np.ndarray) -> np.ndarray:  # fmt: skip
+    def learn(
+        self,
+        ids: np.ndarray,
+        rewards: np.ndarray,
+        obs: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+    ) -> np.ndarray:
         """One update per learner in ``ids``; their next actions (-1 where the episode ended)."""
         s2 = self.grid.indices(obs)
         s2[terminated] = -1
         self._reserve(ids)
-        compiled(group_step)(self.q, ids, self.s, self.a, np.asarray(rewards, dtype=np.float64),
-                             s2, np.asarray(terminated, dtype=bool), self._rates, self.blocks,
-                             self.positions)  # fmt: skip
+        compiled(group_step)(
+            self.q,
+            ids,
+            self.s,
+            self.a,
+            np.asarray(rewards, dtype=np.float64),
+            s2,
+            np.asarray(terminated, dtype=bool),
+            self._rates,
+            self.blocks,
+            self.positions,
+        )
         return np.where(terminated | truncated, -1, self.a[ids])
 
     def state_dict(self, k: int) -> dict[str, np.ndarray]:

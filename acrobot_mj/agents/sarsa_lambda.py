@@ -126,8 +126,9 @@ def decide(w, a, active, following, outcome, traces, count, settings, stream, sc
 
 
 @jitable
-def decide_tiles(obs, tables, w, a, active, following, outcome, traces, count, settings, stream,
-                 scratch) -> tuple:  # fmt: skip
+def decide_tiles(
+    obs, tables, w, a, active, following, outcome, traces, count, settings, stream, scratch
+) -> tuple:
     """:func:`decide`, the next state's tiles first coded from ``obs`` into ``following``."""
     if not outcome[1]:  # terminated: no next state
         low, scale, offset, extent, wrap, stride, base = tables
@@ -151,14 +152,25 @@ def rewind(w, undo_pairs, undo_values, logged) -> None:
 class SarsaLambda:
     """Sarsa(lambda) over ``features`` (``active(obs)``, ``num_features``, ``num_active``)."""
 
-    def __init__(self, features: Any, n_actions: int = 3, *, alpha: float = 0.2 / 48,
-                 gamma: float = 1.0, lam: float = 0.9, epsilon: float = 0.0,
-                 traces: str = "replacing", trace_cutoff: float = 1e-3,
-                 seed: int | np.random.SeedSequence | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        features: Any,
+        n_actions: int = 3,
+        *,
+        alpha: float = 0.2 / 48,
+        gamma: float = 1.0,
+        lam: float = 0.9,
+        epsilon: float = 0.0,
+        traces: str = "replacing",
+        trace_cutoff: float = 1e-3,
+        seed: int | np.random.SeedSequence | None = None,
+    ) -> None:
         self.config = SarsaLambdaConfig(alpha, gamma, epsilon, lam, traces, trace_cutoff)
         if features.num_active > PAIRWISE_BLOCK:
-            raise ValueError(f"Sarsa(lambda) sums at most {PAIRWISE_BLOCK} active features "
-                             f"(numpy's order), got {features.num_active}")  # fmt: skip
+            raise ValueError(
+                f"Sarsa(lambda) sums at most {PAIRWISE_BLOCK} active features "
+                f"(numpy's order), got {features.num_active}"
+            )
         self.features, self.n_actions = features, n_actions
         self.num_features = features.num_features
         weights = float(n_actions) * self.num_features  # three arrays of their size: the
@@ -178,8 +190,15 @@ class SarsaLambda:
         self._tiles = isinstance(features, TileCoder)
         self._scratch = (np.zeros(features.num_active), np.zeros(n_actions))
         c = self.config
-        self._settings = (c.alpha, c.gamma, c.gamma * c.lam, c.trace_cutoff, c.epsilon,
-                          self.num_features, c.traces == "replacing")  # fmt: skip
+        self._settings = (
+            c.alpha,
+            c.gamma,
+            c.gamma * c.lam,
+            c.trace_cutoff,
+            c.epsilon,
+            self.num_features,
+            c.traces == "replacing",
+        )
         self._decide = compiled(decide)
         self._decide_tiles = self._first_tiles_call  # then without numba's dispatch
         self._begun, self._stream_at_start = 0, self.stream.position_now()
@@ -236,18 +255,34 @@ class SarsaLambda:
         if self._tiles:  # the next tiles coded in the same compiled call
             following = self._active if terminated else self._next
             a2, self._count, self._logged, stream.position, delta = self._decide_tiles(
-                np.ascontiguousarray(obs, dtype=np.float64), self.features.tables, self._w, self._a,
-                self._active, following, outcome, traces, (self._count, self._logged),
-                self._settings, (stream.block, stream.position), self._scratch,
-            )  # fmt: skip
+                np.ascontiguousarray(obs, dtype=np.float64),
+                self.features.tables,
+                self._w,
+                self._a,
+                self._active,
+                following,
+                outcome,
+                traces,
+                (self._count, self._logged),
+                self._settings,
+                (stream.block, stream.position),
+                self._scratch,
+            )
             self._next = self._active
         else:
             following = self._active if terminated else self.features.active(obs)
             a2, self._count, self._logged, stream.position, delta = self._decide(
-                self._w, self._a, self._active, following, outcome, traces,
-                (self._count, self._logged), self._settings, (stream.block, stream.position),
+                self._w,
+                self._a,
+                self._active,
+                following,
+                outcome,
+                traces,
+                (self._count, self._logged),
+                self._settings,
+                (stream.block, stream.position),
                 self._scratch,
-            )  # fmt: skip
+            )
         if a2 == -2:
             self._a = -1
             raise DivergenceError(f"the TD error is {delta} (alpha {self.config.alpha:g})")
@@ -269,8 +304,9 @@ class SarsaLambda:
                 setattr(self, name, np.concatenate([old, np.zeros(room - len(old), old.dtype)]))
         if self._undo[0].size and self._logged + self.features.num_active > self._undo[0].size:
             size = 2 * self._undo[0].size + self.features.num_active
-            self._undo = tuple(np.concatenate([u, np.zeros(size - len(u), u.dtype)])
-                               for u in self._undo)  # fmt: skip
+            self._undo = tuple(
+                np.concatenate([u, np.zeros(size - len(u), u.dtype)]) for u in self._undo
+            )
         self._traces = (self._pairs, self._values, self._place, *self._undo)
 
     def greedy_action(self, obs: Any, stream: RandomStream) -> int:

@@ -11,25 +11,45 @@ import threading
 from collections.abc import Sequence
 from typing import Any
 
-from acrobot_mj.checks import clear_stop, raise_stop
-from acrobot_mj.cli import learning, tools
+from acrobot_mj.cli import evaluation, learning, tools
 from acrobot_mj.envs.gl import GLBackendError
-from acrobot_mj.files import __version__
+from acrobot_mj.stops import clear_stop, raise_stop
+from acrobot_mj.train.checkpoint import CheckpointError
 from acrobot_mj.train.lock import RunDirectoryBusy
-from acrobot_mj.train.records import CheckpointError, resumable
+from acrobot_mj.train.records import resumable
+from acrobot_mj.version import __version__
 
-COMMANDS = (learning.add_train, learning.add_evaluate, tools.add_render, tools.add_validate,
-            tools.add_balance, learning.add_sweep, learning.add_curves, tools.add_bench,
-            tools.add_demo, tools.add_params)  # fmt: skip
+COMMANDS = (
+    learning.add_train,
+    evaluation.add_evaluate,
+    tools.add_render,
+    tools.add_validate,
+    tools.add_balance,
+    learning.add_sweep,
+    evaluation.add_curves,
+    tools.add_bench,
+    tools.add_demo,
+    tools.add_params,
+)
 #: What a command reports in one line: ImportError is an optional extra not installed (the
 #: message names it), ArithmeticError a learner that diverged.
-ERRORS = (ValueError, TypeError, OSError, ImportError, ArithmeticError, CheckpointError,
-          GLBackendError, RunDirectoryBusy)  # fmt: skip
+ERRORS = (
+    ValueError,
+    TypeError,
+    OSError,
+    ImportError,
+    ArithmeticError,
+    CheckpointError,
+    GLBackendError,
+    RunDirectoryBusy,
+)
 
 
 #: What ``acrobot-mj --help`` says above the commands.
-DESCRIPTION = ("The Acrobot on MuJoCo: train learners that swing it up, evaluate them on held-out "
-               "starts, render videos, balance it upright, and check the physics.")  # fmt: skip
+DESCRIPTION = (
+    "The Acrobot on MuJoCo: train learners that swing it up, evaluate them on held-out "
+    "starts, render videos, balance it upright, and check the physics."
+)
 EPILOG = "Each command has its own help: acrobot-mj COMMAND --help."
 
 

@@ -1,9 +1,8 @@
-"""``acrobot-mj train | evaluate | sweep | curves``: parsers and handlers."""
+"""``acrobot-mj train | sweep``: parsers and handlers."""
 
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 from typing import Any
 
@@ -11,17 +10,14 @@ from acrobot_mj.checks import check_memory
 from acrobot_mj.cli import tools
 from acrobot_mj.cli.tools import add_command, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import read_json
-from acrobot_mj.report.plots import compare_curves, figure_format
+from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
-from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import DEFAULT, STARTS
-from acrobot_mj.train.plan import PlanConfig
 from acrobot_mj.train.presets import PRESETS
-from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, recent_score
+from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.seeds import train_seeds
-from acrobot_mj.train.sweep import load_sweep, run_sweep, summary_table
+from acrobot_mj.train.sweep import run_sweep, summary_table
+from acrobot_mj.train.sweep_file import load_sweep
 from acrobot_mj.train.trainer import train
 
 #: The balance preset's options: flag, PlanConfig field, help.
@@ -74,25 +70,38 @@ def _flag(name: str) -> str:
 
 
 def add_train(commands: tools.Commands) -> None:
-    p = add_command(commands, "train", train_command,
-                    "train a learner, write run.json, checkpoint and learning curve",
-                    "Train a preset's learner. Every setting can be overridden with --FIELD VALUE "
-                    "(floats may be fractions, e.g. --alpha 0.2/48).")  # fmt: skip
-    p.add_argument("--preset", choices=sorted(PRESETS), default="report",
-                   help="the settings to start from")  # fmt: skip
+    p = add_command(
+        commands,
+        "train",
+        train_command,
+        "train a learner, write run.json, checkpoint and learning curve",
+        "Train a preset's learner. Every setting can be overridden with --FIELD VALUE "
+        "(floats may be fractions, e.g. --alpha 0.2/48).",
+    )
+    p.add_argument(
+        "--preset", choices=sorted(PRESETS), default="report", help="the settings to start from"
+    )
     p.add_argument("--seed", type=seed, default=0, help="seed (the first one with --seeds)")
     p.add_argument("--seeds", type=positive_int, help="train K seeds, write summary.json")
     p.add_argument("--jobs", type=positive_int, default=1, help="processes for --seeds")
-    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
-                   help="with --seeds: train them together on one vector env (tabular SARSA, "
-                   "the same runs); default: from 25 seeds a process")  # fmt: skip
-    p.add_argument("--out", type=tools.path_text,
-                   help="run directory (default runs/PRESET__ALGORITHM__seedS)")  # fmt: skip
+    p.add_argument(
+        "--lockstep",
+        action=argparse.BooleanOptionalAction,
+        help="with --seeds: train them together on one vector env (tabular SARSA, "
+        "the same runs); default: from 25 seeds a process",
+    )
+    p.add_argument(
+        "--out", type=tools.path_text, help="run directory (default runs/PRESET__ALGORITHM__seedS)"
+    )
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--force", action="store_true", help="overwrite a run already in --out")
     add_progress(p)
-    p.add_argument("--tensorboard", metavar="DIR", type=tools.path_text,
-                   help="episode scalars to DIR for TensorBoard")  # fmt: skip
+    p.add_argument(
+        "--tensorboard",
+        metavar="DIR",
+        type=tools.path_text,
+        help="episode scalars to DIR for TensorBoard",
+    )
     group = p.add_argument_group("settings (defaults: the preset's)")
     for name in field_names():
         group.add_argument(_flag(name), dest=name, metavar="VALUE", help=SETTING_HELP[name])
@@ -101,11 +110,20 @@ def add_train(commands: tools.Commands) -> None:
     plan = p.add_argument_group("balance preset (identify, plan, TVLQR)")
     for flag, dest, text in PLAN_OPTIONS:
         plan.add_argument(flag, dest=f"plan_{dest}", metavar="VALUE", help=text)
-    plan.add_argument("--discrete", dest="plan_discrete", action="store_true",
-                      help="{-1, 0, +1} N m torques (sigma-delta), not continuous")  # fmt: skip
+    plan.add_argument(
+        "--discrete",
+        dest="plan_discrete",
+        action="store_true",
+        help="{-1, 0, +1} N m torques (sigma-delta), not continuous",
+    )
     box = p.add_argument_group("black_box preset (told nothing of the equations)")
-    box.add_argument("--decisions", dest="box_decisions", type=positive_int, metavar="N",
-                     help="decisions of random exploration (default 20000)")  # fmt: skip
+    box.add_argument(
+        "--decisions",
+        dest="box_decisions",
+        type=positive_int,
+        metavar="N",
+        help="decisions of random exploration (default 20000)",
+    )
 
 
 def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxConfig:
@@ -120,8 +138,10 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxCo
     if isinstance(preset, BlackBoxConfig):
         refused = [_flag(name) for name in given] + plan
         if refused:
-            raise ValueError(f"{', '.join(refused)}: not a setting of the black_box preset (it "
-                             "takes --decisions)")  # fmt: skip
+            raise ValueError(
+                f"{', '.join(refused)}: not a setting of the black_box preset (it "
+                "takes --decisions)"
+            )
         decisions = args.box_decisions
         return preset if decisions is None else preset.replace(decisions=decisions)
     if args.box_decisions is not None:
@@ -132,8 +152,10 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxCo
         return preset.replace(**{name: parse_value(name, getattr(args, name)) for name in given})
     refused = [_flag(name) for name in given if name != "identify_decisions"]
     if refused:
-        raise ValueError(f"{', '.join(refused)}: not a setting of the balance preset (a planner, "
-                         "not a tabular or tile-coded learner)")  # fmt: skip
+        raise ValueError(
+            f"{', '.join(refused)}: not a setting of the balance preset (a planner, "
+            "not a tabular or tile-coded learner)"
+        )
     overrides: dict[str, Any] = {"discrete": True} if args.plan_discrete else {}
     texts = {"identify_decisions": args.identify_decisions}
     texts.update((dest, getattr(args, f"plan_{dest}")) for _, dest, _ in PLAN_OPTIONS)
@@ -160,9 +182,11 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     config, progress = config_of(args), show_progress(args)
     if isinstance(config, (PlanConfig, BlackBoxConfig)):
         if args.seeds is not None or args.resume or args.jobs != 1:
-            raise ValueError(f"the {args.preset} preset trains one seed per command (no --seeds, "
-                             "--jobs or --resume: a run takes minutes and has nothing to "
-                             "resume)")  # fmt: skip
+            raise ValueError(
+                f"the {args.preset} preset trains one seed per command (no --seeds, "
+                "--jobs or --resume: a run takes minutes and has nothing to "
+                "resume)"
+            )
         out = Path(args.out or f"runs/{args.preset}__seed{args.seed}")
         record = train(config, args.seed, out, progress=progress, overwrite=args.force)
         describe = plan_words if isinstance(config, PlanConfig) else black_box_words
@@ -171,15 +195,24 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     if args.seeds is None and args.jobs != 1:
         raise ValueError("--jobs runs several seeds at once: it needs --seeds")
     if args.seeds is None and args.lockstep is not None:
-        raise ValueError("--lockstep trains several seeds together: it needs --seeds (a "
-                         "population's learners train one by one: faster here)")  # fmt: skip
+        raise ValueError(
+            "--lockstep trains several seeds together: it needs --seeds (a "
+            "population's learners train one by one: faster here)"
+        )
     if args.seeds is not None:
         return _train_seeds(args, config, progress)
     out = args.run_out = Path(
         args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}"
     )
-    record = train(config, args.seed, out, resume=args.resume, progress=progress,
-                   overwrite=args.force, tensorboard=args.tensorboard)  # fmt: skip
+    record = train(
+        config,
+        args.seed,
+        out,
+        resume=args.resume,
+        progress=progress,
+        overwrite=args.force,
+        tensorboard=args.tensorboard,
+    )
     task = get_task(config.task)
     pop = record.get("population")
     kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
@@ -203,9 +236,17 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
     # Each seed's records (its history of every episode, its summary) stay in memory.
     check_memory(f"--seeds {args.seeds}", args.seeds * (2**16 + 100 * config.episodes))
     seeds = list(range(args.seed, args.seed + args.seeds))
-    summary = train_seeds(config, seeds, out, jobs=args.jobs, resume=args.resume,
-                          progress=progress, overwrite=args.force, tensorboard=args.tensorboard,
-                          lockstep=args.lockstep)  # fmt: skip
+    summary = train_seeds(
+        config,
+        seeds,
+        out,
+        jobs=args.jobs,
+        resume=args.resume,
+        progress=progress,
+        overwrite=args.force,
+        tensorboard=args.tensorboard,
+        lockstep=args.lockstep,
+    )
     task = get_task(config.task)
     score, s = task.score, summary["successes"]
     g = summary[f"greedy_from_rest_{score.quantity}"]
@@ -217,8 +258,10 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
     )
     held = summary["held_out"]
     m, n = held[f"median_{score.quantity}"], held["protocol"]["episodes"]
-    words = (f"held out ({n} starts): per-seed median {score.unit}, median over seeds "
-             f"{m['median']:g} (IQR {m['q25']:g}-{m['q75']:g})")  # fmt: skip
+    words = (
+        f"held out ({n} starts): per-seed median {score.unit}, median over seeds "
+        f"{m['median']:g} (IQR {m['q25']:g}-{m['q75']:g})"
+    )
     if "median_ratio" in held:
         words += f", {held['median_ratio']['median']:.3g} x the per-start minima"
     distinct = held["distinct_outcomes"]["held_out"]
@@ -254,182 +297,56 @@ def black_box_words(record: dict[str, Any]) -> str:
     )
 
 
-def add_evaluate(commands: tools.Commands) -> None:
-    p = add_command(commands, "evaluate", evaluate_command,
-                    "greedy episodes of a trained run from held-out starts -> eval.json",
-                    "Greedy episodes from held-out starts (rest plus U(-S, S) on each angle and "
-                    "velocity, drawn with a seed no training uses), and apart from rest. "
-                    "eval.json holds every episode's start state and actions, to replay "
-                    "anywhere.")  # fmt: skip
-    p.add_argument("run_dir", help="a directory written by acrobot-mj train")
-    p.add_argument("--episodes", type=positive_int, help=f"default {DEFAULT.episodes}")
-    p.add_argument("--start-noise", type=float, metavar="S",
-                   help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a "
-                   "balance-preset run 0.01)")  # fmt: skip
-    p.add_argument("--seed", type=seed, help="seed of the held-out starts, pushes and "
-                   "perturbations (default 0)")  # fmt: skip
-    p.add_argument("--starts", choices=STARTS, help="noise: rest plus U(-S, S) (the default); "
-                   "uniform: both angles uniform on the circle, at rest")  # fmt: skip
-    p.add_argument("--seconds", type=float, metavar="T",
-                   help="simulated seconds per episode (default: the run's own)")  # fmt: skip
-    p.add_argument("--push-every", type=float, metavar="P",
-                   help="push every P seconds (default: no pushes)")  # fmt: skip
-    p.add_argument("--push-size", type=float, metavar="V",
-                   help="each push adds U(-V, V) rad/s to each joint velocity")  # fmt: skip
-    p.add_argument("--perturb", type=float, metavar="F", help="scale each link's mass and "
-                   "inertia by U(1-F, 1+F) per episode; the controller keeps its model "
-                   "(default 0)")  # fmt: skip
-    p.add_argument("--minima", action="store_true", help="compute per-start minimum-time "
-                   "references (beam search, ~4 s a start) where none are stored")  # fmt: skip
-
-
-def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
-    starts = args.starts
-    if args.start_noise is not None:  # noise starts, whatever the run's own protocol starts
-        if starts == "uniform":
-            raise ValueError("--start-noise is for --starts noise, not uniform")
-        starts = "noise"
-    given = {"episodes": args.episodes, "start_noise": args.start_noise, "seed": args.seed,
-             "starts_from": starts, "seconds": args.seconds, "push_every": args.push_every,
-             "push_size": args.push_size, "perturb": args.perturb}  # fmt: skip
-    protocol = {k: v for k, v in given.items() if v is not None}
-    record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
-    path = Path(args.run_dir) / EVAL_FILE
-    wrote = f"wrote {path}" if os.access(args.run_dir, os.W_OK) else f"{args.run_dir} is read-only"
-    print(f"{evaluation_words(record)}; {wrote}")
-    return record
-
-
-def balance_words(record: dict[str, Any]) -> str:
-    """One line on a balance-task evaluation: catches, falls, recoveries from pushes."""
-    summary, rest, protocol = record["summary"], record["rest"], record["protocol"]
-    noise = protocol["start_noise"]
-    starts = "uniform" if protocol.get("starts_from") == "uniform" else f"U(-{noise:g}, {noise:g})"
-    caught, pushes = summary["first_balance_seconds"], summary["pushes"]
-    when = "" if caught["median"] is None else (
-        f" (median {caught['median']:.4g} s, at most {caught['max']:.4g} s)")  # fmt: skip
-    words = (f"{summary['episodes']} held-out starts ({starts}): "
-             f"{summary['episodes'] - summary['never_balanced']} caught their balance{when}, "
-             f"{summary['balanced']} ended balanced, {summary['falls']} falls")  # fmt: skip
-    if pushes["total"]:
-        words += (f"; {pushes['recovered']} of {pushes['total']} pushes recovered from; "
-                  f"{pushes['without_fall']} of the {pushes['while_balanced']} pushed while "
-                  "balanced held without a fall")  # fmt: skip
-    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
-    return f"{words}; from rest: {held}"
-
-
-def evaluation_words(record: dict[str, Any]) -> str:
-    """One line on an evaluation record: held-out scores, against the minima, and from rest."""
-    summary, rest = record["summary"], record["rest"]
-    if "balanced" in summary:  # the balance task's measures
-        return balance_words(record)
-    task = get_task(record["config"]["task"])
-    quantity, unit = task.score.quantity, task.score.unit
-    values = summary[quantity]
-    words = (f"{summary['episodes']} held-out starts: {summary['successes']} {task.success_text}, "
-             f"{quantity} median {values['median']:g} {unit} (IQR {values['q25']:g}-"
-             f"{values['q75']:g})")  # fmt: skip
-    if "minima" in record:
-        ratio = record["minima"]["ratio"]
-        words += (f", {ratio['median']:.3g} x the per-start minima (IQR {ratio['q25']:.3g}-"
-                  f"{ratio['q75']:.3g})")  # fmt: skip
-    words += f"; from rest {rest[quantity]:g} {unit}"
-    return words + ("" if rest["success"] else " (no goal)")
-
-
 def add_sweep(commands: tools.Commands) -> None:
-    p = add_command(commands, "sweep", sweep_command,
-                    "seeds x a grid of hyperparameters from a TOML file, resumable",
-                    "Run every trial (grid point x seed) of SWEEP_FILE without a run.json, then "
-                    "summarise. Local: lockstep for tabular SARSA, processes otherwise. Ray: one "
-                    "task per trial on ray.init(address=...) (a local Ray without "
-                    "--address).")  # fmt: skip
+    p = add_command(
+        commands,
+        "sweep",
+        sweep_command,
+        "seeds x a grid of hyperparameters from a TOML file, resumable",
+        "Run every trial (grid point x seed) of SWEEP_FILE without a run.json, then "
+        "summarise. Local: lockstep for tabular SARSA, processes otherwise. Ray: one "
+        "task per trial on ray.init(address=...) (a local Ray without "
+        "--address).",
+    )
     p.add_argument("sweep_file", help="the sweep's TOML file")
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help="where trials run: local processes, or Ray (the ray extra)")  # fmt: skip
-    p.add_argument("--address", type=tools.path_text,
-                   help="Ray cluster address (e.g. auto or ray://host:10001)")  # fmt: skip
-    p.add_argument("--out", type=tools.path_text,
-                   help="sweep directory (default runs/sweep__NAME)")  # fmt: skip
+    p.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help="where trials run: local processes, or Ray (the ray extra)",
+    )
+    p.add_argument(
+        "--address",
+        type=tools.path_text,
+        help="Ray cluster address (e.g. auto or ray://host:10001)",
+    )
+    p.add_argument("--out", type=tools.path_text, help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
     p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
-    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction,
-                   help="local: each grid point's seeds together on one vector env (tabular "
-                   "SARSA, the same records); default: points with 25+ seeds left")  # fmt: skip
+    p.add_argument(
+        "--lockstep",
+        action=argparse.BooleanOptionalAction,
+        help="local: each grid point's seeds together on one vector env (tabular "
+        "SARSA, the same records); default: points with 25+ seeds left",
+    )
     add_progress(p)
 
 
 def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
     spec = load_sweep(args.sweep_file)
     out = Path(args.out or f"runs/sweep__{Path(args.sweep_file).stem}")
-    summary = run_sweep(spec, out, backend=args.backend, address=args.address, jobs=args.jobs,
-                        ray_num_cpus=args.num_cpus, progress=show_progress(args),
-                        lockstep=args.lockstep)  # fmt: skip
+    summary = run_sweep(
+        spec,
+        out,
+        backend=args.backend,
+        address=args.address,
+        jobs=args.jobs,
+        ray_num_cpus=args.num_cpus,
+        progress=show_progress(args),
+        lockstep=args.lockstep,
+    )
     print(summary_table(summary), end="")
-    print(f"{summary['trials']} trials -> {out}/trials; wrote summary.json, summary.md, "
-          "summary.png")  # fmt: skip
+    print(
+        f"{summary['trials']} trials -> {out}/trials; wrote summary.json, summary.md, summary.png"
+    )
     return summary
-
-
-def add_curves(commands: tools.Commands) -> None:
-    p = add_command(commands, "curves", curves_command, "learning curves of runs, one figure")
-    p.add_argument("run_dirs", nargs="+",
-                   help="directories written by train: of --seeds (their median and band) or "
-                   "one run's (a population's learner_K among them)")  # fmt: skip
-    p.add_argument("--out", required=True, type=tools.output_file,
-                   help="the figure: .png, .svg or .pdf (by its suffix)")  # fmt: skip
-    p.add_argument("--title", default="Learning curves", help="the figure's title")
-    p.add_argument("--minimum", action="store_true", help="draw the task's best known minimum")
-
-
-def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
-    """The config and run records of a ``--seeds`` directory (its runs) or of one run."""
-    summary_file, run_file = folder / SUMMARY_FILE, folder / RUN_FILE
-    if summary_file.is_file():
-        summary = _record(summary_file)
-        if not isinstance(summary.get("runs"), list) or not summary["runs"]:
-            raise ValueError(f"{summary_file} lists no runs: nothing to draw")
-        runs = [_record(folder / str(run) / RUN_FILE) for run in summary["runs"]]
-        return _config(summary_file, summary), runs
-    if run_file.is_file():
-        record = _record(run_file)
-        return _config(run_file, record), [record]
-    raise FileNotFoundError(f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give "
-                            "directories written by acrobot-mj train")  # fmt: skip
-
-
-def _record(path: Path) -> dict[str, Any]:
-    """A JSON record, or one line naming the file and what is wrong with it."""
-    try:
-        record = read_json(path)
-    except (OSError, ValueError) as error:
-        raise ValueError(f"{path} is not a readable record: {error}") from None
-    if not isinstance(record, dict):
-        raise ValueError(f"{path} is not a record: a JSON object was expected")
-    return record
-
-
-def _config(path: Path, record: dict[str, Any]) -> TrainConfig:
-    try:
-        return TrainConfig.from_dict(record["config"])
-    except (KeyError, ValueError, TypeError) as error:
-        raise ValueError(f"{path} holds no readable config: {error}") from None
-
-
-def curves_command(args: argparse.Namespace) -> None:
-    figure_format(args.out)  # a bad suffix is refused before any run is read
-    groups: dict[str, list[list[float]]] = {}
-    for folder in args.run_dirs:  # at least one (argparse)
-        config, records = _curve_records(Path(folder))
-        score = get_task(config.task).score
-        try:
-            groups[Path(folder).name] = [score.values(record) for record in records]
-        except KeyError as error:
-            raise ValueError(f"{folder}: a run record lacks {error}: not a training run") from None
-    task = get_task(config.task)
-    reference = task.reference(config.frame_skip) if args.minimum else None
-    with output_into(args.out, "curves"):
-        compare_curves(args.out, groups, args.title, [reference] if reference else [],
-                       task.score.label, task.score.log_scale)  # fmt: skip
-    print(f"wrote {args.out}")

@@ -35,8 +35,11 @@ class HelpFormatter(argparse.HelpFormatter):
     def _get_help_string(self, action: argparse.Action) -> str | None:
         text = action.help or ""
         default = action.default
-        if (action.option_strings and default not in (None, False, argparse.SUPPRESS)
-                and "default" not in text):  # fmt: skip
+        if (
+            action.option_strings
+            and default not in (None, False, argparse.SUPPRESS)
+            and "default" not in text
+        ):
             text += f" (default: {default})"
         return text
 
@@ -46,8 +49,12 @@ def add_command(
 ) -> argparse.ArgumentParser:
     """Command ``name`` (``text``: its help, and its description unless one is given) that runs
     ``func(args)``."""
-    p = commands.add_parser(name, help=text, description=description or text[0].upper() + text[1:]
-                            + ".", formatter_class=HelpFormatter)  # fmt: skip
+    p = commands.add_parser(
+        name,
+        help=text,
+        description=description or text[0].upper() + text[1:] + ".",
+        formatter_class=HelpFormatter,
+    )
     p.set_defaults(func=func)
     return p
 
@@ -69,8 +76,11 @@ def seed(text: str) -> int:
 
 
 def add_progress(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--progress", action=argparse.BooleanOptionalAction,
-                   help="progress bar on stderr (default: when stderr is a terminal)")  # fmt: skip
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
 
 
 def show_progress(args: argparse.Namespace) -> bool:
@@ -112,26 +122,40 @@ def write_record(path: str | None, data: dict[str, Any]) -> None:
 
 
 def add_render(commands: Commands) -> None:
-    p = add_command(commands, "render", render_command,
-                    "MP4 of a trained run's greedy policy, or of a fixed policy",
-                    "Render an episode from rest to MP4 at real time (EGL or OSMesa, "
-                    "headless).")  # fmt: skip
+    p = add_command(
+        commands,
+        "render",
+        render_command,
+        "MP4 of a trained run's greedy policy, or of a fixed policy",
+        "Render an episode from rest to MP4 at real time (EGL or OSMesa, headless).",
+    )
     p.add_argument("run_dir", nargs="?", help="a directory written by acrobot-mj train")
     p.add_argument("--policy", choices=POLICY_NAMES, help="a fixed policy instead of a run")
     p.add_argument("--out", type=output_file, help="the .mp4 file (a .json record goes beside it)")
-    p.add_argument("--live", action="store_true", help="show the episode in MuJoCo's viewer "
-                   "window at real time instead (needs a display)")  # fmt: skip
+    p.add_argument(
+        "--live",
+        action="store_true",
+        help="show the episode in MuJoCo's viewer window at real time instead (needs a display)",
+    )
     p.add_argument("--steps", type=positive_int, help="most steps (default: the whole episode)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env, ties and --policy random")
-    p.add_argument("--frame-skip", type=positive_int, help="with --policy only (default: 1; a "
-                   "run renders at its own)")  # fmt: skip
+    p.add_argument(
+        "--frame-skip",
+        type=positive_int,
+        help="with --policy only (default: 1; a run renders at its own)",
+    )
     p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
     p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
     p.add_argument("--camera", default="side", help="a camera of the model: side or wide")
-    p.add_argument("--strip", metavar="PNG", type=output_file,
-                   help="also write a strip of 6 frames")  # fmt: skip
-    p.add_argument("--captions", action=argparse.BooleanOptionalAction, default=True,
-                   help="time, torque and tip height on each frame")  # fmt: skip
+    p.add_argument(
+        "--strip", metavar="PNG", type=output_file, help="also write a strip of 6 frames"
+    )
+    p.add_argument(
+        "--captions",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="time, torque and tip height on each frame",
+    )
     add_progress(p)
 
 
@@ -141,12 +165,21 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
     if args.run_dir is not None and args.frame_skip is not None:
         raise ValueError("--frame-skip is for --policy: a run renders at its own frame skip")
     frame_skip = args.frame_skip or 1
-    settings = RenderSettings(args.width, args.height, args.camera, args.captions, args.strip,
-                              args.steps, args.seed, show_progress(args))  # fmt: skip
+    settings = RenderSettings(
+        args.width,
+        args.height,
+        args.camera,
+        args.captions,
+        args.strip,
+        args.steps,
+        args.seed,
+        show_progress(args),
+    )
     if args.live:
         if args.out is not None or args.strip is not None:
-            raise ValueError("--live shows the episode in a window and writes nothing: give no "
-                             "--out or --strip")  # fmt: skip
+            raise ValueError(
+                "--live shows the episode in a window and writes nothing: give no --out or --strip"
+            )
         if args.run_dir is not None:
             record = watch_run(args.run_dir, settings)
         else:
@@ -166,14 +199,20 @@ def render_command(args: argparse.Namespace) -> dict[str, Any]:
     outcome = "reaches the goal" if record["success"] else "does not reach the goal"
     if "balanced" in record:  # the balance task
         outcome = "stays balanced" if record["balanced"] else "does not stay balanced"
-    print(f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
-          f"{outcome} in {record['length']} actions")  # fmt: skip
+    print(
+        f"wrote {args.out}: {record['frames']} frames at {record['fps']:g} fps; the policy "
+        f"{outcome} in {record['length']} actions"
+    )
     return record
 
 
 def add_validate(commands: Commands) -> None:
-    p = add_command(commands, "validate", validate_command, "check the dynamics against "
-                    "MuJoCo; controllers, bounds, minimum time")  # fmt: skip
+    p = add_command(
+        commands,
+        "validate",
+        validate_command,
+        "check the dynamics against MuJoCo; controllers, bounds, minimum time",
+    )
     p.add_argument("--out", default="runs/validation", help="folder for the JSON, report, PNGs")
     p.add_argument("--quick", action="store_true", help="narrower searches, fewer samples (CI)")
     add_progress(p)
@@ -187,28 +226,40 @@ def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     width = max(len(what) for what, _ in rows)
     for what, value in rows:
         print(f"{what:<{width}}  {value}")
-    print(f"wrote {Path(args.out) / 'validation.json'}, validation.md and "
-          f"{len(report['figures'])} figures ({report['wall_seconds']:.0f} s)")  # fmt: skip
+    print(
+        f"wrote {Path(args.out) / 'validation.json'}, validation.md and "
+        f"{len(report['figures'])} figures ({report['wall_seconds']:.0f} s)"
+    )
     return report
 
 
 def add_bench(commands: Commands) -> None:
-    p = add_command(commands, "bench", bench_command, "steps per second against "
-                    "Gymnasium's Acrobot-v1 and MuJoCo's ceiling")  # fmt: skip
+    p = add_command(
+        commands,
+        "bench",
+        bench_command,
+        "steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling",
+    )
     p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
-    p.add_argument("--json", metavar="FILE", type=output_file,
-                   help="also write the results as JSON")  # fmt: skip
-    p.add_argument("--peer-python", metavar="PATH",
-                   help="a Python with gymnax and jax (docs/guide/benchmarks.md) for the "
-                   "peers' rows; default $ACROBOT_MJ_PEER_PYTHON, else those rows are "
-                   "skipped")  # fmt: skip
+    p.add_argument(
+        "--json", metavar="FILE", type=output_file, help="also write the results as JSON"
+    )
+    p.add_argument(
+        "--peer-python",
+        metavar="PATH",
+        help="a Python with gymnax and jax (docs/guide/benchmarks.md) for the "
+        "peers' rows; default $ACROBOT_MJ_PEER_PYTHON, else those rows are "
+        "skipped",
+    )
 
 
 def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     suite_path = Path(__file__).resolve().parents[2] / "benchmarks" / "suite.py"
     if not suite_path.is_file():
-        raise FileNotFoundError(f"acrobot-mj bench runs the benchmarks of a source checkout; "
-                                f"{suite_path} is not there (clone the repository)")  # fmt: skip
+        raise FileNotFoundError(
+            f"acrobot-mj bench runs the benchmarks of a source checkout; "
+            f"{suite_path} is not there (clone the repository)"
+        )
     check_output(args.json, "bench")
     spec = importlib.util.spec_from_file_location("acrobot_mj_benchmarks", suite_path)
     if spec is None or spec.loader is None:  # a .py file always has both
@@ -224,16 +275,25 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
 
 def add_demo(commands: Commands) -> None:
     p = add_command(commands, "demo", demo, "roll out a fixed policy from rest, print the states")
-    p.add_argument("--policy", choices=POLICY_NAMES, default="pump", help="pump: tau = "
-                   "-sign(dq1); zero: no torque; random: uniform (seeded)")  # fmt: skip
+    p.add_argument(
+        "--policy",
+        choices=POLICY_NAMES,
+        default="pump",
+        help="pump: tau = -sign(dq1); zero: no torque; random: uniform (seeded)",
+    )
     p.add_argument("--steps", type=positive_int, default=1000, help="most actions to take")
     p.add_argument("--seed", type=seed, default=0, help="seed of the env and the random policy")
     p.add_argument("--frame-skip", type=positive_int, default=1, help="physics steps per action")
-    p.add_argument("--integrator", choices=("euler", "rk4"), default="euler",
-                   help="semi-implicit Euler (the report's) or RK4")  # fmt: skip
+    p.add_argument(
+        "--integrator",
+        choices=("euler", "rk4"),
+        default="euler",
+        help="semi-implicit Euler (the report's) or RK4",
+    )
     p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")
-    p.add_argument("--json", metavar="FILE", type=output_file,
-                   help="also write the run record as JSON")  # fmt: skip
+    p.add_argument(
+        "--json", metavar="FILE", type=output_file, help="also write the run record as JSON"
+    )
 
 
 def demo(args: argparse.Namespace) -> dict[str, Any]:
@@ -246,58 +306,100 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
         states.append(obs.tolist())
         tips.append(info["tip_height"])
 
-    episode = run_episode(env, PolicyActor(make_policy(args.policy, args.seed)), args.seed,
-                          max_steps=args.steps, on_reset=keep,
-                          on_step=lambda action, obs, *rest: keep(obs, rest[-1]))  # fmt: skip
+    episode = run_episode(
+        env,
+        PolicyActor(make_policy(args.policy, args.seed)),
+        args.seed,
+        max_steps=args.steps,
+        on_reset=keep,
+        on_step=lambda action, obs, *rest: keep(obs, rest[-1]),
+    )
     dt = acrobot_of(env).dt
-    print(f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
-          f"integrator {args.integrator}")  # fmt: skip
+    print(
+        f"policy {args.policy}, frame_skip {args.frame_skip} ({dt:g} s per action), "
+        f"integrator {args.integrator}"
+    )
     print(f"{'step':>5} {'t [s]':>7} {'q1':>8} {'q2':>8} {'dq1':>8} {'dq2':>8} {'tip [m]':>8}")
     for k, (state, tip) in enumerate(zip(states, tips, strict=True)):
         if k % args.every == 0 or k == episode.length:
             print(f"{k:5d} {k * dt:7.2f} " + " ".join(f"{v:8.3f}" for v in state) + f" {tip:8.3f}")
     outcome = "reached the goal" if episode.success else "did not reach the goal"
-    print(f"{outcome} after {episode.length} actions ({episode.length * dt:.2f} s), "
-          f"return {episode.episode_return:g}")  # fmt: skip
+    print(
+        f"{outcome} after {episode.length} actions ({episode.length * dt:.2f} s), "
+        f"return {episode.episode_return:g}"
+    )
     history = History()
     history.add_episode(episode)
     config = {k: v for k, v in vars(args).items() if k not in ("func", "json")}
     results = {k: getattr(episode, k) for k in ("length", "episode_return", "success", "truncated")}
-    record = {"command": "demo", "config": config, "seed": args.seed, "versions": versions(),
-              **history.to_dict(),
-              "episodes": [{**results, "states": states, "tip_heights": tips}]}  # fmt: skip
+    record = {
+        "command": "demo",
+        "config": config,
+        "seed": args.seed,
+        "versions": versions(),
+        **history.to_dict(),
+        "episodes": [{**results, "states": states, "tip_heights": tips}],
+    }
     write_record(args.json, record)
     return record
 
 
 def add_params(commands: Commands) -> None:
-    add_command(commands, "params", lambda args: print(describe()),
-                "print the physical parameters, units and sources")  # fmt: skip
+    add_command(
+        commands,
+        "params",
+        lambda args: print(describe()),
+        "print the physical parameters, units and sources",
+    )
 
 
 def add_balance(commands: Commands) -> None:
-    p = add_command(commands, "balance", balance_command,
-                    "swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
-                    "Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
-                    "optimised with CasADi otherwise) with TVLQR, then balance with the "
-                    "constrained LQR; write balance.json (every step's torque and state) and a "
-                    "video.")  # fmt: skip
-    p.add_argument("--feedback", action="store_true", help="build the state-feedback controller "
-                   "(no clock: swings up from any start, again after a push) into a run "
-                   "directory for evaluate and render")  # fmt: skip
-    p.add_argument("--adaptive", action="store_true", help="with --feedback: identify the "
-                   "model from the first 3 s of each episode and replan the swing-up on it "
-                   "(CasADi)")  # fmt: skip
+    p = add_command(
+        commands,
+        "balance",
+        balance_command,
+        "swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
+        "Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
+        "optimised with CasADi otherwise) with TVLQR, then balance with the "
+        "constrained LQR; write balance.json (every step's torque and state) and a "
+        "video.",
+    )
+    p.add_argument(
+        "--feedback",
+        action="store_true",
+        help="build the state-feedback controller "
+        "(no clock: swings up from any start, again after a push) into a run "
+        "directory for evaluate and render",
+    )
+    p.add_argument(
+        "--adaptive",
+        action="store_true",
+        help="with --feedback: identify the "
+        "model from the first 3 s of each episode and replan the swing-up on it "
+        "(CasADi)",
+    )
     p.add_argument("--discrete", action="store_true", help="torques {-1, 0, +1} (sigma-delta)")
-    p.add_argument("--reserve", type=float, default=0.8, metavar="U",
-                   help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest "
-                   "is the feedback's (default 0.8; 1: minimum time, no reserve)")  # fmt: skip
+    p.add_argument(
+        "--reserve",
+        type=float,
+        default=0.8,
+        metavar="U",
+        help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest "
+        "is the feedback's (default 0.8; 1: minimum time, no reserve)",
+    )
     p.add_argument("--hold", type=float, default=60.0, help="seconds to balance after it")
-    p.add_argument("--out", help="folder for balance.json and the video (default runs/balance; "
-                   "with --feedback the run directory, default runs/feedback)")  # fmt: skip
+    p.add_argument(
+        "--out",
+        help="folder for balance.json and the video (default runs/balance; "
+        "with --feedback the run directory, default runs/feedback)",
+    )
     p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
-    p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
-                   help="render an MP4 of the closed loop")  # fmt: skip
+    p.add_argument(
+        "--video",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="render an MP4 of the closed loop",
+    )
     p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
     p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
     add_progress(p)
@@ -305,22 +407,29 @@ def add_balance(commands: Commands) -> None:
 
 def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
     """``balance --feedback``: the state-feedback run, and a video of it from rest."""
-    from acrobot_mj.train.feedback import FeedbackConfig
+    from acrobot_mj.train.feedback_run import FeedbackConfig
     from acrobot_mj.train.trainer import train
 
     if args.optimise or args.hold != 60.0:
-        raise ValueError("--feedback follows a shipped swing-up for as long as an episode "
-                         "lasts: give no --optimise or --hold")  # fmt: skip
+        raise ValueError(
+            "--feedback follows a shipped swing-up for as long as an episode "
+            "lasts: give no --optimise or --hold"
+        )
     out = Path(args.out or "runs/feedback")
     config = FeedbackConfig(discrete=args.discrete, reserve=args.reserve, adaptive=args.adaptive)
     record = train(config, seed=0, out_dir=out)
     rest = record["greedy_from_rest"]
     kind = ("{-1, 0, +1}" if args.discrete else "continuous") + " torques"
     kind += ", adaptive" if args.adaptive else ""
-    held = (f"balanced after {rest['first_balance_seconds']:g} s" if rest["balanced_at_end"]
-            else "NOT balanced at the end")  # fmt: skip
-    words = (f"state feedback built in {record['build_seconds']:.2f} s ({kind}, funnel "
-             f"of the {record['swing_up']} swing-up); from rest: {held} -> {out}")  # fmt: skip
+    held = (
+        f"balanced after {rest['first_balance_seconds']:g} s"
+        if rest["balanced_at_end"]
+        else "NOT balanced at the end"
+    )
+    words = (
+        f"state feedback built in {record['build_seconds']:.2f} s ({kind}, funnel "
+        f"of the {record['swing_up']} swing-up); from rest: {held} -> {out}"
+    )
     if args.video:
         settings = RenderSettings(args.width, args.height, strip=out / "swing_up.png")
         words += f", {render_run(out, out / 'swing_up.mp4', settings)['video']}"
@@ -329,23 +438,35 @@ def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def balance_command(args: argparse.Namespace) -> dict[str, Any]:
-    from acrobot_mj.report.balance import run_balance  # MuJoCo and maybe CasADi: on demand
+    from acrobot_mj.report.balance_run import run_balance
 
     if args.feedback:
         return feedback_command(args)
     if args.adaptive:
         raise ValueError("--adaptive is an option of --feedback")
     out = Path(args.out or "runs/balance")
-    record = run_balance(out, discrete=args.discrete, reserve=args.reserve, hold=args.hold,
-                         optimise=args.optimise, video=args.video, size=(args.width, args.height),
-                         progress=show_progress(args))  # fmt: skip
+    record = run_balance(
+        out,
+        discrete=args.discrete,
+        reserve=args.reserve,
+        hold=args.hold,
+        optimise=args.optimise,
+        video=args.video,
+        size=(args.width, args.height),
+        progress=show_progress(args),
+    )
     trajectory = record["trajectory"]
     kind = "{-1, 0, +1}" if args.discrete else "continuous"
-    held = (f"balanced for {record['hold_seconds']:.1f} s (largest error "
-            f"{record['max_error_during_hold']:.2g} rad)" if record["balanced"]
-            else f"NOT balanced: held {record['hold_seconds']:.1f} s of {args.hold:g}")  # fmt: skip
-    print(f"swing-up in {record['swing_up_seconds']:.2f} s along the {trajectory['source']} "
-          f"trajectory ({trajectory['steps']} steps, |u| <= {trajectory['u_max']:g} N m), "
-          f"{kind} torques; {held} -> {out / 'balance.json'}"
-          + (f", {record['video']}" if record["video"] else ""))  # fmt: skip
+    held = (
+        f"balanced for {record['hold_seconds']:.1f} s (largest error "
+        f"{record['max_error_during_hold']:.2g} rad)"
+        if record["balanced"]
+        else f"NOT balanced: held {record['hold_seconds']:.1f} s of {args.hold:g}"
+    )
+    print(
+        f"swing-up in {record['swing_up_seconds']:.2f} s along the {trajectory['source']} "
+        f"trajectory ({trajectory['steps']} steps, |u| <= {trajectory['u_max']:g} N m), "
+        f"{kind} torques; {held} -> {out / 'balance.json'}"
+        + (f", {record['video']}" if record["video"] else "")
+    )
     return record

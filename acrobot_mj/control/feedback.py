@@ -224,8 +224,9 @@ class AdaptiveFunnel:
                 break
         else:
             return "kept: no swing-up found on the identified model"
-        self.funnel = FunnelController(optimiser.trajectory(found), self.nominal.settings,
-                                       check=self.nominal.check)  # fmt: skip
+        self.funnel = FunnelController(
+            optimiser.trajectory(found), self.nominal.settings, check=self.nominal.check
+        )
         return "replanned"
 
 

@@ -64,8 +64,9 @@ def increments(states: np.ndarray, next_states: np.ndarray) -> np.ndarray:
     return delta
 
 
-def thresholded_least_squares(a: np.ndarray, b: np.ndarray, threshold: float,
-                              rounds: int = 5) -> np.ndarray:  # fmt: skip
+def thresholded_least_squares(
+    a: np.ndarray, b: np.ndarray, threshold: float, rounds: int = 5
+) -> np.ndarray:
     """``W`` minimising ``|a W - b|`` column by column, the terms with ``|W| rms(a) <
     threshold`` dropped and the rest refitted, ``rounds`` times."""
     scale = np.sqrt(np.mean(a * a, axis=0))
@@ -77,8 +78,9 @@ def thresholded_least_squares(a: np.ndarray, b: np.ndarray, threshold: float,
         weights = np.zeros_like(weights)
         for j in range(b.shape[1]):
             if keep[:, j].any():
-                weights[keep[:, j], j] = np.linalg.lstsq(scaled[:, keep[:, j]], b[:, j],
-                                                         rcond=None)[0]  # fmt: skip
+                weights[keep[:, j], j] = np.linalg.lstsq(
+                    scaled[:, keep[:, j]], b[:, j], rcond=None
+                )[0]
     return weights / scale[:, None]
 
 
@@ -93,13 +95,21 @@ class LibraryModel:
     def __post_init__(self) -> None:
         size = len(features(np.zeros(4), 0.0, self.harmonics))
         if np.shape(self.weights) != (size, 4) or not np.isfinite(self.weights).all():
-            raise ValueError(f"a library model of {self.harmonics} harmonics needs finite "
-                             f"weights of shape ({size}, 4), got "
-                             f"{np.shape(self.weights)}")  # fmt: skip
+            raise ValueError(
+                f"a library model of {self.harmonics} harmonics needs finite "
+                f"weights of shape ({size}, 4), got "
+                f"{np.shape(self.weights)}"
+            )
 
     @classmethod
-    def fit(cls, states: np.ndarray, actions: np.ndarray, next_states: np.ndarray,
-            harmonics: int = HARMONICS, threshold: float = THRESHOLD) -> LibraryModel:  # fmt: skip
+    def fit(
+        cls,
+        states: np.ndarray,
+        actions: np.ndarray,
+        next_states: np.ndarray,
+        harmonics: int = HARMONICS,
+        threshold: float = THRESHOLD,
+    ) -> LibraryModel:
         """The model of the transitions ``(states[i], actions[i], next_states[i])``."""
         a = design(states, actions, harmonics)
         if len(a) < a.shape[1]:
@@ -127,8 +137,10 @@ class LibraryModel:
     def errors(self, states: np.ndarray, actions: np.ndarray, next_states: np.ndarray) -> dict:
         """RMS and largest prediction errors [rad, rad/s] per state variable on transitions."""
         miss = self.step(states, actions) - states - increments(states, next_states)
-        return {"rms": np.sqrt(np.mean(miss**2, axis=0)).tolist(),
-                "max": np.abs(miss).max(axis=0).tolist()}  # fmt: skip
+        return {
+            "rms": np.sqrt(np.mean(miss**2, axis=0)).tolist(),
+            "max": np.abs(miss).max(axis=0).tolist(),
+        }
 
     @functools.cached_property
     def function(self) -> Any:
@@ -171,8 +183,11 @@ class LibraryModel:
         return x
 
     def to_dict(self) -> dict[str, Any]:
-        return {"harmonics": self.harmonics, "terms": self.used.tolist(),
-                "weights": self.weights[self.used].tolist()}  # fmt: skip
+        return {
+            "harmonics": self.harmonics,
+            "terms": self.used.tolist(),
+            "weights": self.weights[self.used].tolist(),
+        }
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> LibraryModel:
@@ -189,8 +204,9 @@ def reward_terms(states: np.ndarray, harmonics: int) -> np.ndarray:
     return np.stack(np.broadcast_arrays(*terms), axis=1)
 
 
-def best_angles(states: np.ndarray, rewards: np.ndarray, harmonics: int = HARMONICS,
-                grid: int = 721) -> tuple[np.ndarray, float]:  # fmt: skip
+def best_angles(
+    states: np.ndarray, rewards: np.ndarray, harmonics: int = HARMONICS, grid: int = 721
+) -> tuple[np.ndarray, float]:
     """The angles where a reward fitted on the states' angles (least squares on the angle
     harmonics) is highest, searched on a ``grid`` x ``grid`` lattice, and the fit's RMS error."""
     a = reward_terms(states, harmonics)

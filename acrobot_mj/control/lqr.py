@@ -142,8 +142,9 @@ def unstable_mode_bound(p: AcrobotParams = REPORT) -> dict[str, float]:
     return bounds
 
 
-def null_controllable(offsets: np.ndarray, p: AcrobotParams = REPORT,
-                      directions: int = 720) -> np.ndarray:  # fmt: skip
+def null_controllable(
+    offsets: np.ndarray, p: AcrobotParams = REPORT, directions: int = 720
+) -> np.ndarray:
     """For each state offset from upright ``(n, 4)`` [rad, rad/s]: can any torque sequence with
     ``|tau| <= max_torque``, held for each step of the env's discrete map, bring the unstable
     modes of the linearisation back to zero? (:class:`NullRegion` of the env's step.)"""
@@ -232,8 +233,7 @@ class MPC:
             for j in range(k + 1):
                 gamma[k, :, j] = (powers[k - j] @ b)[:, 0]
         weights = np.stack([q] * (horizon - 1) + [lqr.cost])
-        self.hessian = lqr.r * np.eye(horizon) + np.einsum("kim,kij,kjn->mn", gamma, weights,
-                                                           gamma)  # fmt: skip
+        self.hessian = lqr.r * np.eye(horizon) + np.einsum("kim,kij,kjn->mn", gamma, weights, gamma)
         self.linear_term = np.einsum("kim,kij,kjn->mn", gamma, weights, phi)  # f = F e_0
         self.free = -np.linalg.solve(self.hessian, self.linear_term)  # the plan with no bound
 
@@ -266,8 +266,13 @@ def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
     return int(np.linalg.matrix_rank(np.hstack(blocks)))
 
 
-def tvlqr(trajectory: Trajectory, lqr: LQR, q: tuple[float, ...], r: float,
-          linear: Jacobians | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def tvlqr(
+    trajectory: Trajectory,
+    lqr: LQR,
+    q: tuple[float, ...],
+    r: float,
+    linear: Jacobians | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """TVLQR along ``trajectory`` ending in ``lqr``'s cost: the costs-to-go ``S_k`` (N + 1, 4, 4)
     of the error and the gains ``K_k`` (N, 4), ``u_k = u*_k - K_k (x - x*_k)``; ``linear``: the
     Jacobians of a learnt model (default: the trajectory's equations)."""
@@ -292,8 +297,9 @@ class SwingUpController:
     constrained LQR at upright (:class:`MPC`), both on the trajectory's model; ``q`` and ``r``
     weight state error and torque."""
 
-    def __init__(self, trajectory: Trajectory, q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0),
-                 r: float = 1.0) -> None:  # fmt: skip
+    def __init__(
+        self, trajectory: Trajectory, q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0), r: float = 1.0
+    ) -> None:
         self.trajectory = trajectory
         self.lqr = LQR(q, r, trajectory.params)
         self.balancer = MPC(self.lqr)

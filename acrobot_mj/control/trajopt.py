@@ -60,8 +60,10 @@ class Trajectory:
     def check(self, tolerance: float = TOLERANCE) -> Trajectory:
         """Raise ValueError naming the first property that fails; returns the trajectory."""
         if self.states.shape != (self.steps + 1, 4) or self.steps < 1:
-            raise ValueError(f"a trajectory needs N + 1 states of 4 and N torques, got "
-                             f"{self.states.shape} and {self.torques.shape}")  # fmt: skip
+            raise ValueError(
+                f"a trajectory needs N + 1 states of 4 and N torques, got "
+                f"{self.states.shape} and {self.torques.shape}"
+            )
         if not (np.isfinite(self.states).all() and np.isfinite(self.torques).all()):
             raise ValueError("the trajectory holds non-finite numbers")
         p = self.params
@@ -82,9 +84,16 @@ class Trajectory:
 
     def to_dict(self) -> dict[str, Any]:
         model = {} if self.params == REPORT else {"params": asdict(self.params)}
-        return {"format": FORMAT, **model, "dt": self.dt, "method": self.method,
-                "u_max": self.u_max, "steps": self.steps, "states": self.states.tolist(),
-                "torques": self.torques.tolist()}  # fmt: skip
+        return {
+            "format": FORMAT,
+            **model,
+            "dt": self.dt,
+            "method": self.method,
+            "u_max": self.u_max,
+            "steps": self.steps,
+            "states": self.states.tolist(),
+            "torques": self.torques.tolist(),
+        }
 
     def save(self, path: str | Path) -> Path:
         """Write the trajectory, checked, as JSON."""
@@ -117,8 +126,11 @@ def shipped(name: str) -> Trajectory:
 
 
 #: The six upright-at-rest targets (q1, q2, dq1, dq2).
-TARGETS = tuple(np.array([q1, q2, 0.0, 0.0]) for q1 in (np.pi / 2, -3 * np.pi / 2)
-                for q2 in (0.0, 2 * np.pi, -2 * np.pi))  # fmt: skip
+TARGETS = tuple(
+    np.array([q1, q2, 0.0, 0.0])
+    for q1 in (np.pi / 2, -3 * np.pi / 2)
+    for q2 in (0.0, 2 * np.pi, -2 * np.pi)
+)
 _IPOPT = {"print_level": 0, "max_iter": 3000, "tol": 1e-10, "constr_viol_tol": 1e-12}
 #: A trajectory as arrays: states ``(N + 1, 4)`` and torques ``(N,)``.
 Arrays = tuple[np.ndarray, np.ndarray]
@@ -175,8 +187,9 @@ def symbolic_step(x: Any, u: Any, h: Any, method: str, p: AcrobotParams = REPORT
     import casadi
 
     code = integrators.method_code(method)
-    new = integrators.step(*(x[i] for i in range(4)), u, p.lumped, h, integrators.UNLIMITED,
-                           1, code, symbolic())  # fmt: skip
+    new = integrators.step(
+        *(x[i] for i in range(4)), u, p.lumped, h, integrators.UNLIMITED, 1, code, symbolic()
+    )
     return casadi.vertcat(*new)
 
 
@@ -334,10 +347,17 @@ def _candidates(job: tuple[Optimiser, int, np.ndarray, str]) -> list[Arrays]:
     return optimiser.candidates(horizon, target, starts)
 
 
-def min_time(u_max: float = 1.0, method: str = "semi_implicit_euler", *,
-             horizons: range | None = None, targets: tuple[np.ndarray, ...] | None = None,
-             p: AcrobotParams = REPORT, progress: bool = False, starts: str = "rest",
-             jobs: int = 2) -> Trajectory:  # fmt: skip
+def min_time(
+    u_max: float = 1.0,
+    method: str = "semi_implicit_euler",
+    *,
+    horizons: range | None = None,
+    targets: tuple[np.ndarray, ...] | None = None,
+    p: AcrobotParams = REPORT,
+    progress: bool = False,
+    starts: str = "rest",
+    jobs: int = 2,
+) -> Trajectory:
     """The shortest swing-up found from every start horizon and target (ties: the least effort),
     an upper bound on the minimum, over ``jobs`` processes; ``progress``: a bar on stderr.
     ``starts``: the warm starts (:data:`STARTS`). From rest it tries the three targets with
@@ -391,9 +411,13 @@ def _cost(path: Arrays) -> tuple[int, float]:
     return len(path[1]), float(np.sum(path[1] ** 2))
 
 
-def optimise(horizon: int, u_max: float = 1.0, method: str = "semi_implicit_euler",
-             objective: str = "feasible",
-             warm: Trajectory | None = None) -> Trajectory:  # fmt: skip
+def optimise(
+    horizon: int,
+    u_max: float = 1.0,
+    method: str = "semi_implicit_euler",
+    objective: str = "feasible",
+    warm: Trajectory | None = None,
+) -> Trajectory:
     """A swing-up of exactly ``horizon`` steps with ``|u| <= u_max`` (``objective``
     ``"feasible"`` or ``"effort"``), warm-started from ``warm`` or the pumping law."""
     if not isinstance(horizon, int) or isinstance(horizon, bool) or horizon < 1:

@@ -147,20 +147,29 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
     integrator = mujoco.mjtIntegrator(model.opt.integrator)
     if integrator != mujoco.mjtIntegrator.mjINT_EULER:
         name = integrator.name.removeprefix("mjINT_").lower()
-        raise ValueError(f"the analytic backend steps MuJoCo's semi-implicit Euler only, not "
-                         f"integrator {name!r}; use backend='mujoco'")  # fmt: skip
-    for field, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
-                          ("frictionloss", model.dof_frictionloss),
-                          ("stiffness", model.jnt_stiffness)):  # fmt: skip
+        raise ValueError(
+            f"the analytic backend steps MuJoCo's semi-implicit Euler only, not "
+            f"integrator {name!r}; use backend='mujoco'"
+        )
+    for field, values in (
+        ("damping", model.dof_damping),
+        ("armature", model.dof_armature),
+        ("frictionloss", model.dof_frictionloss),
+        ("stiffness", model.jnt_stiffness),
+    ):
         if np.any(values != 0):
-            raise ValueError(f"the model's joints have {field} {values.tolist()}, which the "
-                             "analytic backend does not model; use backend='mujoco'")  # fmt: skip
+            raise ValueError(
+                f"the model's joints have {field} {values.tolist()}, which the "
+                "analytic backend does not model; use backend='mujoco'"
+            )
     flags, bits = model.opt.disableflags, mujoco.mjtDisableBit
     colliding = model.geom_contype | model.geom_conaffinity
     contacts = not flags & bits.mjDSBL_CONTACT and np.any(colliding)
     if not flags & bits.mjDSBL_CONSTRAINT and (np.any(model.jnt_limited) or model.neq or contacts):
-        raise ValueError("the model has joint limits, equality constraints or contacts, which "
-                         "the analytic backend does not model; use backend='mujoco'")  # fmt: skip
+        raise ValueError(
+            "the model has joint limits, equality constraints or contacts, which "
+            "the analytic backend does not model; use backend='mujoco'"
+        )
     params = physical_parameters(model)
     rng, data, worst = np.random.default_rng(0), MjData(model), 0.0
     for _ in range(32):
@@ -172,9 +181,11 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
         gap = np.max(np.abs(analytic - data.qacc)) / max(1.0, np.max(np.abs(data.qacc)))
         worst = max(worst, float(gap))
     if not worst <= DYNAMICS_TOLERANCE:
-        raise ValueError(f"the model's dynamics differ from the lumped acrobot's (relative gap "
-                         f"{worst:.3g} in the accelerations): the analytic backend cannot "
-                         "represent it; use backend='mujoco'")  # fmt: skip
+        raise ValueError(
+            f"the model's dynamics differ from the lumped acrobot's (relative gap "
+            f"{worst:.3g} in the accelerations): the analytic backend cannot "
+            "represent it; use backend='mujoco'"
+        )
     return params.lumped
 
 
@@ -185,8 +196,9 @@ def physical_parameters(model: MjModel) -> AcrobotParams:
     mujoco.mj_kinematics(model, data)
     shoulder, elbow = model.joint("shoulder").id, model.joint("elbow").id
     values = {"l1": float(np.linalg.norm(data.xanchor[elbow] - data.xanchor[shoulder]))}
-    for k, (body, joint) in enumerate(((model.body("link1").id, shoulder),
-                                       (model.body("link2").id, elbow)), 1):  # fmt: skip
+    for k, (body, joint) in enumerate(
+        ((model.body("link1").id, shoulder), (model.body("link2").id, elbow)), 1
+    ):
         frame = data.ximat[body].reshape(3, 3)  # principal axes of inertia, in the world
         axis = data.xaxis[joint]
         values[f"m{k}"] = float(model.body_mass[body])

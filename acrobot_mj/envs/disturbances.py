@@ -140,12 +140,19 @@ def add_velocity(env: gym.Env, kick: Any) -> None:
     """Add ``kick`` [rad/s] to ``env``'s joint velocities, clipped to the velocity limits as
     every physics step is."""
     qvel = env.unwrapped.data.qvel  # type: ignore[attr-defined]
-    qvel[:] = np.clip(qvel + np.asarray(kick, dtype=np.float64), [-MAX_VEL1, -MAX_VEL2],
-                      [MAX_VEL1, MAX_VEL2])  # fmt: skip
+    qvel[:] = np.clip(
+        qvel + np.asarray(kick, dtype=np.float64), [-MAX_VEL1, -MAX_VEL2], [MAX_VEL1, MAX_VEL2]
+    )
 
 
-def recoveries(error: np.ndarray, tolerance: float, dt: float, pushes: list[int],
-               settle: float = SETTLE, fall: float = FALL) -> dict[str, Any]:  # fmt: skip
+def recoveries(
+    error: np.ndarray,
+    tolerance: float,
+    dt: float,
+    pushes: list[int],
+    settle: float = SETTLE,
+    fall: float = FALL,
+) -> dict[str, Any]:
     """How an episode of upright errors ``error[j]`` [rad] (decisions ``dt`` [s] apart;
     ``pushes``: the decisions before which a push landed) caught and kept its balance. A catch
     is ``settle`` [s] within ``tolerance`` (or to the end); a fall is an error past ``fall``
@@ -171,8 +178,13 @@ def recoveries(error: np.ndarray, tolerance: float, dt: float, pushes: list[int]
         fell = None if not held else falls_between(k)
         later = [a for a, _ in catches if k < a < end]
         recovered = 0.0 if held and held[0] >= end else (later[0] - k) * dt if later else None
-        after.append({"recovered_seconds": recovered, "fell": fell,
-                      "balanced_seconds": float(balanced[k:end].sum() * dt)})  # fmt: skip
+        after.append(
+            {
+                "recovered_seconds": recovered,
+                "fell": fell,
+                "balanced_seconds": float(balanced[k:end].sum() * dt),
+            }
+        )
     return {
         "first_balance_seconds": catches[0][0] * dt if catches else None,
         "falls": sum(falls_between(b) for _, b in catches if b < n),
@@ -181,8 +193,13 @@ def recoveries(error: np.ndarray, tolerance: float, dt: float, pushes: list[int]
     }
 
 
-def replay(env: gym.Env, start: list[float], torques: list[float], pushes: list[list[float]],
-           parameters: dict[str, float] | None = None) -> np.ndarray:  # fmt: skip
+def replay(
+    env: gym.Env,
+    start: list[float],
+    torques: list[float],
+    pushes: list[list[float]],
+    parameters: dict[str, float] | None = None,
+) -> np.ndarray:
     """The state after ``torques`` (one per physics step) and ``pushes`` from ``start`` on
     ``env`` (continuous torques, one physics step a decision, no time limit shorter than the
     torques), with its model's ``parameters`` set first."""

@@ -48,8 +48,11 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         self.observation_space, self.action_space = observation_space(), action_space(False)
         self._rule, self._info = task.rule(), task.info()
         self._x, self._t = tuple(HANGING.tolist()), 0
-        self._constants = (*stepping.constants(self.theta).tolist(), stepping.substeps,
-                           method_code(stepping.method))  # fmt: skip
+        self._constants = (
+            *stepping.constants(self.theta).tolist(),
+            stepping.substeps,
+            method_code(stepping.method),
+        )
         self._step = compiled(step_one)
 
     @property

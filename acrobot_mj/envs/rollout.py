@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, Protocol, cast
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_stop
+from acrobot_mj.stops import check_stop
 
 if TYPE_CHECKING:  # not at run time: MuJoCo loads with the env
     from acrobot_mj.envs.acrobot import AcrobotEnv

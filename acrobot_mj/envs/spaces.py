@@ -98,12 +98,14 @@ def write_torques(actions: Any, continuous: bool, ctrl: np.ndarray) -> None:
     n, a = len(ctrl), np.asarray(actions)
     if continuous:
         if a.dtype.kind not in "fiu" or a.shape != (n, 1):
-            raise ValueError(f"actions must be a float array of shape ({n}, 1), got {a.dtype} "
-                             f"{a.shape}")  # fmt: skip
+            raise ValueError(
+                f"actions must be a float array of shape ({n}, 1), got {a.dtype} {a.shape}"
+            )
         inside = (a[:, 0] >= -1.0) & (a[:, 0] <= 1.0)  # False for NaN too
         if not inside.all():
-            raise ValueError(f"torques outside [-1, 1] N m at sub-envs "
-                             f"{np.flatnonzero(~inside).tolist()}")  # fmt: skip
+            raise ValueError(
+                f"torques outside [-1, 1] N m at sub-envs {np.flatnonzero(~inside).tolist()}"
+            )
         ctrl[:, 0] = a[:, 0]
         return
     if a.dtype.kind not in "iu" or a.shape != (n,):

@@ -108,8 +108,9 @@ class Task(ABC):
     def caption(self, info: dict[str, Any]) -> str:
         """A few words on a frame's state for video captions, e.g. ``tip +0.53 m``."""
 
-    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None,
-               pushes: Sequence[int] = ()) -> dict:  # fmt: skip
+    def assess(
+        self, states: np.ndarray, dt: float, swing_up: int | None = None, pushes: Sequence[int] = ()
+    ) -> dict:
         """Task-specific measures of an episode's states ``(T + 1, 4)``, ``dt`` [s] apart
         (``pushes``: the decisions before which a push landed)."""
         return {}
@@ -290,8 +291,9 @@ class Balance(Task):
 
         return rule
 
-    def assess(self, states: np.ndarray, dt: float, swing_up: int | None = None,
-               pushes: Sequence[int] = ()) -> dict:  # fmt: skip
+    def assess(
+        self, states: np.ndarray, dt: float, swing_up: int | None = None, pushes: Sequence[int] = ()
+    ) -> dict:
         """How long ``states`` stayed balanced after ``swing_up`` steps (default: where the last
         balanced stretch begins): times [s], errors [rad], and whether it held to the end; and
         when it first caught its balance, its falls and its recoveries from ``pushes``

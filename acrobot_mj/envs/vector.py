@@ -34,9 +34,23 @@ PER_ENV = ("state", "np_random", "np_random_seed")
 #: The sub-env attributes set_attr sets.
 SETTABLE = ("np_random",)
 #: Sub-env attributes the batch shares (get_attr repeats the one value; set_attr refuses them).
-SHARED = ("frame_skip", "integrator", "continuous", "observation", "start_noise", "dt", "task",
-          "model", "metadata", "render_mode", "width", "height", "camera", "action_space",
-          "observation_space")  # fmt: skip
+SHARED = (
+    "frame_skip",
+    "integrator",
+    "continuous",
+    "observation",
+    "start_noise",
+    "dt",
+    "task",
+    "model",
+    "metadata",
+    "render_mode",
+    "width",
+    "height",
+    "camera",
+    "action_space",
+    "observation_space",
+)
 #: The sub-env methods call runs on every sub-env.
 METHODS = ("set_state", "render")
 
@@ -232,8 +246,13 @@ class AcrobotVectorEnv(VectorEnv):
         info = self._masked(
             {key: np.where(ended, fresh[key], value) for key, value in info.items()}
         )
-        return {**info, "final_obs": final_obs, "_final_obs": ended.copy(),
-                "final_info": final_info, "_final_info": ended.copy()}  # fmt: skip
+        return {
+            **info,
+            "final_obs": final_obs,
+            "_final_obs": ended.copy(),
+            "final_info": final_info,
+            "_final_info": ended.copy(),
+        }
 
     def _observe(self) -> np.ndarray:
         obs = self.physics.observe()

@@ -63,8 +63,18 @@ def step_rows(state, tau, constants, substeps, method):
     theta = (constants[0], constants[1], constants[2], constants[3], constants[4])
     dt, max_vel = constants[5], (constants[6], constants[7])
     for i in prange(state.shape[0]):
-        new = step(state[i, 0], state[i, 1], state[i, 2], state[i, 3], tau[i], theta, dt,
-                   max_vel, substeps, method)  # fmt: skip
+        new = step(
+            state[i, 0],
+            state[i, 1],
+            state[i, 2],
+            state[i, 3],
+            tau[i],
+            theta,
+            dt,
+            max_vel,
+            substeps,
+            method,
+        )
         state[i, 0], state[i, 1], state[i, 2], state[i, 3] = new
 
 

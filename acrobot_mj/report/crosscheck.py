@@ -39,13 +39,20 @@ def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> 
         mujoco.mj_forward(model, data)
         mujoco.mj_fullM(model, data, full_m)
         q, dq = x[:2], x[2:]
-        pairs = [(dynamics.mass_matrix(q), full_m), (dynamics.bias_forces(q, dq), data.qfrc_bias),
-                 (dynamics.forward_dynamics(q, dq, tau), data.qacc),
-                 (errata.forward_dynamics_as_printed(q, dq, tau), data.qacc)]  # fmt: skip
+        pairs = [
+            (dynamics.mass_matrix(q), full_m),
+            (dynamics.bias_forces(q, dq), data.qfrc_bias),
+            (dynamics.forward_dynamics(q, dq, tau), data.qacc),
+            (errata.forward_dynamics_as_printed(q, dq, tau), data.qacc),
+        ]
         for key, (value, reference) in zip(keys, pairs, strict=True):
             worst[key] = max(worst[key], _rel(value, reference))
-    result: dict[str, Any] = {"n_states": n_states, "relative": worst, "one_step": {},
-                              "trajectory_1000": {}}  # fmt: skip
+    result: dict[str, Any] = {
+        "n_states": n_states,
+        "relative": worst,
+        "one_step": {},
+        "trajectory_1000": {},
+    }
     for name, integrator, method in [
         ("euler", mujoco.mjtIntegrator.mjINT_EULER, "semi_implicit_euler"),
         ("rk4", mujoco.mjtIntegrator.mjINT_RK4, "rk4"),
@@ -72,8 +79,9 @@ def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> 
     return result
 
 
-def integrator_study(seconds: float = 100.0, reference_substeps: int = 50,
-                     out: Path | None = None) -> dict[str, Any]:  # fmt: skip
+def integrator_study(
+    seconds: float = 100.0, reference_substeps: int = 50, out: Path | None = None
+) -> dict[str, Any]:
     """Energy drift [J] with zero torque of each integrator, and of RK4 at dt / substeps."""
     # A 0.5 rad swing, kicked from hanging, and released horizontal (chaotic).
     starts = np.array([[-np.pi / 2 + 0.5, 0, 0, 0], [-np.pi / 2, 0, 1, -1], [0.0, 0, 0, 0]])
@@ -94,8 +102,13 @@ def integrator_study(seconds: float = 100.0, reference_substeps: int = 50,
         error = np.maximum(error, gap)
         ref_curve.append(float(gap[0]))
     drift[f"rk4_reference_dt_{h:g}"] = {"max_abs_J": error.tolist()}
-    result = {"seconds": seconds, "dt": P.dt, "starts": starts.tolist(),
-              "initial_energy_J": e0.tolist(), "energy_drift": drift}  # fmt: skip
+    result = {
+        "seconds": seconds,
+        "dt": P.dt,
+        "starts": starts.tolist(),
+        "initial_energy_J": e0.tolist(),
+        "energy_drift": drift,
+    }
     if out is not None:
         t = np.arange(steps + 1) * P.dt
         series = [Series(m.replace("_", " "), t, np.maximum(curves[m], 1e-16)) for m in METHODS]

@@ -39,8 +39,10 @@ def figure_format(path: str | Path) -> str:
     """The format a figure at ``path`` is written in, from its suffix; ValueError for others."""
     suffix = Path(path).suffix.lower()
     if suffix not in FORMATS:
-        raise ValueError(f"cannot write a figure to {str(path)!r}: the file name must end in "
-                         f"{', '.join(FORMATS)} (got {suffix or 'no suffix'!r})")  # fmt: skip
+        raise ValueError(
+            f"cannot write a figure to {str(path)!r}: the file name must end in "
+            f"{', '.join(FORMATS)} (got {suffix or 'no suffix'!r})"
+        )
     return FORMATS[suffix]
 
 
@@ -60,10 +62,17 @@ def save_figure(figure: Figure, path: str | Path) -> Path:
     return write_atomic(path, write)
 
 
-def line_figure(series: Sequence[Series], title: str, xlabel: str, ylabel: str, *,
-                log_y: bool = False, size: tuple[int, int] = (800, 500),
-                hlines: Sequence[tuple[float, str]] = (),
-                arrows: np.ndarray | None = None) -> Figure:  # fmt: skip
+def line_figure(
+    series: Sequence[Series],
+    title: str,
+    xlabel: str,
+    ylabel: str,
+    *,
+    log_y: bool = False,
+    size: tuple[int, int] = (800, 500),
+    hlines: Sequence[tuple[float, str]] = (),
+    arrows: np.ndarray | None = None,
+) -> Figure:
     """Lines with optional bands, dashed reference ``hlines`` and ``arrows`` (rows x, y, dx, dy)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -73,8 +82,18 @@ def line_figure(series: Sequence[Series], title: str, xlabel: str, ylabel: str, 
     ax = figure.add_subplot()
     if arrows is not None:
         x, y, dx, dy = np.asarray(arrows, dtype=float).T
-        ax.quiver(x, y, dx, dy, angles="xy", scale_units="xy", scale=1, color="0.65",
-                  width=0.0025, zorder=1)  # fmt: skip
+        ax.quiver(
+            x,
+            y,
+            dx,
+            dy,
+            angles="xy",
+            scale_units="xy",
+            scale=1,
+            color="0.65",
+            width=0.0025,
+            zorder=1,
+        )
     for value, text in hlines:
         ax.axhline(value, color="0.35", linestyle="--", linewidth=1, label=text)
     for k, s in enumerate(series):
@@ -100,9 +119,13 @@ def line_plot(path: str | Path, series: Sequence[Series], *args: Any, **kwargs: 
     return save_figure(line_figure(series, *args, **kwargs), path)
 
 
-def curves_figure(groups: Mapping[str, Sequence[Sequence[float]]], title: str,
-                  reference: Sequence[tuple[float, str]] = (),
-                  ylabel: str = "decisions per episode", log_y: bool = True) -> Figure:  # fmt: skip
+def curves_figure(
+    groups: Mapping[str, Sequence[Sequence[float]]],
+    title: str,
+    reference: Sequence[tuple[float, str]] = (),
+    ylabel: str = "decisions per episode",
+    log_y: bool = True,
+) -> Figure:
     """Each group's runs per episode (label ``""``: unnamed): one as a line, more as a median."""
     series = []
     for label, runs in groups.items():
@@ -122,16 +145,26 @@ def curves_figure(groups: Mapping[str, Sequence[Sequence[float]]], title: str,
     return line_figure(series, title, "episode", ylabel, log_y=log_y, hlines=reference)
 
 
-def learning_curve(path: str | Path, runs: Sequence[Sequence[float]], title: str,
-                   reference: Sequence[tuple[float, str]] = (),
-                   ylabel: str = "decisions per episode", log_y: bool = True) -> Path:  # fmt: skip
+def learning_curve(
+    path: str | Path,
+    runs: Sequence[Sequence[float]],
+    title: str,
+    reference: Sequence[tuple[float, str]] = (),
+    ylabel: str = "decisions per episode",
+    log_y: bool = True,
+) -> Path:
     """Save the curve of ``runs`` (one run: a line; several: median and 25-75 % band)."""
     return compare_curves(path, {"": runs}, title, reference, ylabel, log_y)
 
 
-def compare_curves(path: str | Path, groups: Mapping[str, Sequence[Sequence[float]]], title: str,
-                   reference: Sequence[tuple[float, str]] = (),
-                   ylabel: str = "decisions per episode", log_y: bool = True) -> Path:  # fmt: skip
+def compare_curves(
+    path: str | Path,
+    groups: Mapping[str, Sequence[Sequence[float]]],
+    title: str,
+    reference: Sequence[tuple[float, str]] = (),
+    ylabel: str = "decisions per episode",
+    log_y: bool = True,
+) -> Path:
     """Save :func:`curves_figure` of ``groups`` to ``path`` (.png, .svg or .pdf)."""
     figure_format(path)
     return save_figure(curves_figure(groups, title, reference, ylabel, log_y), path)

@@ -42,8 +42,15 @@ def controllers(quick: bool = False) -> dict[str, Any]:
     def pump(obs: np.ndarray) -> np.ndarray:  # the law needs the state, not the observation
         return np.array([float(energy_pumping_torque(acrobot_of(env).state))], dtype=np.float32)
 
-    episode = run_episode(env, PolicyActor(pump), 0, None, max_steps=1000,
-                          on_reset=record_energy, on_step=record_energy)  # fmt: skip
+    episode = run_episode(
+        env,
+        PolicyActor(pump),
+        0,
+        None,
+        max_steps=1000,
+        on_reset=record_energy,
+        on_step=record_energy,
+    )
     fine = {dt: np.diff(pumping_energies(dt)).min() for dt in (1e-2, 1e-3)}
     lqr = LQR()
     low, high = q1_basin(lqr, upper=0.2, resolution=1e-3 if quick else 1e-4)
@@ -60,8 +67,10 @@ def controllers(quick: bool = False) -> dict[str, Any]:
             "reference": "the energy approach of Spong, 'The swing up control problem for the "
             "acrobot', IEEE Control Systems 1995; the same law shape as Fantoni, Lozano and "
             "Spong's for the Pendubot (IEEE TAC 2000)",
-            "reached_goal": episode.success, "steps_to_goal": episode.length,
-            "seconds": episode.length * P.dt, "energy_start_J": energies[0],
+            "reached_goal": episode.success,
+            "steps_to_goal": episode.length,
+            "seconds": episode.length * P.dt,
+            "energy_start_J": energies[0],
             "energy_end_J": energies[-1],
             "env_steps_losing_energy": int(np.sum(np.diff(energies) < 0)),
             "monotone_check": "RK4 with the torque held over dt: the largest energy drop of a "
@@ -71,14 +80,19 @@ def controllers(quick: bool = False) -> dict[str, Any]:
             "largest_drop_J_rk4_dt_0.001": float(-min(fine[1e-3], 0.0)),
         },
         "lqr": {
-            "gain": lqr.gain[0].tolist(), "q": list(lqr.q), "r": lqr.r, "q1_basin_rad": [low, high],
-            "sampled_box": scale.tolist(), "sampled": n,
+            "gain": lqr.gain[0].tolist(),
+            "q": list(lqr.q),
+            "r": lqr.r,
+            "q1_basin_rad": [low, high],
+            "sampled_box": scale.tolist(),
+            "sampled": n,
             "sampled_fraction_balanced": float(np.mean(balances(lqr, starts))),
         },
         "constrained_lqr": {"horizon": mpc.horizon, "q1_basin_rad": list(mpc_basin)},
-        "bound_any_controller_q1_rad": joint, "bound_one_mode_q1_rad": min(bound.values()),
+        "bound_any_controller_q1_rad": joint,
+        "bound_one_mode_q1_rad": min(bound.values()),
         "bound_per_unstable_mode": bound,
-    }  # fmt: skip
+    }
 
 
 def minimum_time(quick: bool = False) -> dict[str, Any]:
@@ -101,10 +115,13 @@ def minimum_time(quick: bool = False) -> dict[str, Any]:
         "continuous_torque": None if quick else continuous_torque_height(fs1_actions),
         "min_time_decisions_frame_skip_4": best4.decisions,
         "min_time_steps_frame_skip_1": len(fs1_actions),
-        "actions_frame_skip_4": best4.actions, "actions_frame_skip_1": fs1_actions,
-        "frame_skip_1_steps_by_hold": per_hold, "beam_width": width, "replayed_in_env": replay,
+        "actions_frame_skip_4": best4.actions,
+        "actions_frame_skip_1": fs1_actions,
+        "frame_skip_1_steps_by_hold": per_hold,
+        "beam_width": width,
+        "replayed_in_env": replay,
         "decisions_frame_skip_4_by_integrator": by_integrator,
-    }  # fmt: skip
+    }
 
 
 def continuous_torque_height(actions: list[int]) -> dict[str, Any] | None:
@@ -116,8 +133,12 @@ def continuous_torque_height(actions: list[int]) -> dict[str, Any] | None:
     env = gym.make(HeightGoal.env_id, continuous=True)
     torques = [np.array([u], dtype=np.float32) for u in trajectory.torques]
     episode = run_episode(env, SequenceActor(torques), seed=0, max_steps=len(torques))
-    return {"steps": trajectory.steps, "residual": trajectory.residual(),
-            "replayed_steps": episode.length, "reached_goal": episode.success}  # fmt: skip
+    return {
+        "steps": trajectory.steps,
+        "residual": trajectory.residual(),
+        "replayed_steps": episode.length,
+        "reached_goal": episode.success,
+    }
 
 
 def _replay(actions: list[int], frame_skip: int) -> dict[str, Any]:
@@ -126,6 +147,9 @@ def _replay(actions: list[int], frame_skip: int) -> dict[str, Any]:
     episode = run_episode(env, SequenceActor(actions), seed=0, max_steps=len(actions))
     if not (episode.success or episode.truncated):  # it ran out of actions
         return {"steps": len(actions), "reached_goal": False, "at_last_action": True}
-    return {"steps": episode.length, "reached_goal": episode.success,
-            "at_last_action": episode.length == len(actions),
-            "tip_height": episode.info["tip_height"]}  # fmt: skip
+    return {
+        "steps": episode.length,
+        "reached_goal": episode.success,
+        "at_last_action": episode.length == len(actions),
+        "tip_height": episode.info["tip_height"],
+    }

@@ -13,13 +13,15 @@ import numpy as np
 
 from acrobot_mj.bars import Steps
 from acrobot_mj.control.trajopt import shipped
-from acrobot_mj.files import __version__, write_json, write_text
+from acrobot_mj.envs.control_loop import closed_loop
+from acrobot_mj.files import write_json, write_text
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.params import REPORT
-from acrobot_mj.report.balance import CASES, closed_loop, robustness, table
+from acrobot_mj.report.balance_run import CASES, robustness, table
 from acrobot_mj.report.crosscheck import METHODS, cross_check, integrator_study, linearisation
 from acrobot_mj.report.plots import Series, line_plot
 from acrobot_mj.report.references import controllers, minimum_time
+from acrobot_mj.version import __version__
 
 SCHEMA_VERSION = 1
 FIGURE_TITLES = {
@@ -52,15 +54,18 @@ def phase_figures(actions_fs4: list[int], out: Path) -> list[str]:
     for u in np.repeat(np.array([-1.0, 0.0, 1.0])[actions_fs4], 4):
         path.append(integrators.step_states(path[-1], u))
     xs = np.array(path)
-    series = [Series("shoulder (q1, dq1)", xs[:, 0], xs[:, 2]),
-              Series("elbow (q2, dq2)", xs[:, 1], xs[:, 3])]  # fmt: skip
+    series = [
+        Series("shoulder (q1, dq1)", xs[:, 0], xs[:, 2]),
+        Series("elbow (q2, dq2)", xs[:, 1], xs[:, 3]),
+    ]
     title = f"Minimum-time swing-up ({len(actions_fs4)} decisions of 0.2 s) in phase space"
     line_plot(out / "swing_up_phase.png", series, title, "angle [rad]", "angular velocity [rad/s]")
     return ["phase_portrait.png", "swing_up_phase.png"]
 
 
-def validate(out: str | Path = "runs/validation", quick: bool = False,
-             progress: bool = False) -> dict[str, Any]:  # fmt: skip
+def validate(
+    out: str | Path = "runs/validation", quick: bool = False, progress: bool = False
+) -> dict[str, Any]:
     """Run every check and write ``validation.json``, the figures and ``validation.md``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -106,21 +111,25 @@ def balance_section(report: dict[str, Any], quick: bool) -> dict[str, Any]:
     bound = report["controllers"]["bound_any_controller_q1_rad"]
     return {
         "trajectories": {
-            name: {"steps": t.steps, "seconds": t.seconds, "u_max": t.u_max,
-                   "full_torque_fraction": float(np.mean(np.abs(t.torques) > 0.999 * t.u_max)),
-                   "residual": t.residual()}
+            name: {
+                "steps": t.steps,
+                "seconds": t.seconds,
+                "u_max": t.u_max,
+                "full_torque_fraction": float(np.mean(np.abs(t.torques) > 0.999 * t.u_max)),
+                "residual": t.residual(),
+            }
             for name, t in trajectories.items()
         },
         "min_time_note": "found by acrobot_mj.control.trajopt.min_time's multi-start search: "
-                         "an upper bound on the minimum time to upright at rest",
+        "an upper bound on the minimum time to upright at rest",
         "closed_loop": loops,
         "robustness": robustness(trajectories, cases=cases),
         "bounds_mean": f"the {bound:.4f} rad bound and the {basin:.4f} rad LQR basin are pure "
-                       "q1 offsets of a state at rest from upright, not the states a swing-up "
-                       "reaches: following a trajectory to upright at rest with TVLQR, the "
-                       "acrobot arrives with errors of 1e-9 rad (continuous torques) or 1e-2 rad "
-                       "({-1, 0, +1}), well inside both",
-    }  # fmt: skip
+        "q1 offsets of a state at rest from upright, not the states a swing-up "
+        "reaches: following a trajectory to upright at rest with TVLQR, the "
+        "acrobot arrives with errors of 1e-9 rad (continuous torques) or 1e-2 rad "
+        "({-1, 0, +1}), well inside both",
+    }
 
 
 def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
@@ -140,33 +149,53 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ("bias forces vs qfrc_bias", f"{rel['bias_forces']:.1e}"),
         ("accelerations vs qacc", f"{rel['accelerations']:.1e}"),
         ("accelerations, report's eq. (2) as printed", f"{eq2:.2f}"),
-        ("one step, Euler / RK4 (max abs. error)",
-         joined(f"{cc['one_step'][m]:.1e}" for m in ("euler", "rk4"))),
-        ("1000-step trajectories, Euler / RK4",
-         joined(f"{cc['trajectory_1000'][m]:.1e}" for m in ("euler", "rk4"))),
-        (f"energy drift over {report['integrators']['seconds']:g} s (0.5 rad swing): "
-         "explicit / semi-implicit Euler / RK4 [J]",
-         joined(f"{drift[m]['max_abs_J'][0]:.2g}" for m in METHODS)),
+        (
+            "one step, Euler / RK4 (max abs. error)",
+            joined(f"{cc['one_step'][m]:.1e}" for m in ("euler", "rk4")),
+        ),
+        (
+            "1000-step trajectories, Euler / RK4",
+            joined(f"{cc['trajectory_1000'][m]:.1e}" for m in ("euler", "rk4")),
+        ),
+        (
+            f"energy drift over {report['integrators']['seconds']:g} s (0.5 rad swing): "
+            "explicit / semi-implicit Euler / RK4 [J]",
+            joined(f"{drift[m]['max_abs_J'][0]:.2g}" for m in METHODS),
+        ),
         ("eigenvalues, analytic vs mjd_transitionFD (max gap)", f"{gap:.1e}"),
         ("controllability rank at upright", str(lin["controllability_rank_upright"])),
-        ("energy pumping from rest: steps to the goal",
-         f"{pumping['steps_to_goal']} ({pumping['seconds']:g} s)"),
+        (
+            "energy pumping from rest: steps to the goal",
+            f"{pumping['steps_to_goal']} ({pumping['seconds']:g} s)",
+        ),
         ("saturated LQR: q1 offsets it recovers from [rad]", f"{basin[0]:.4f} .. {basin[1]:.4f}"),
-        ("constrained LQR (MPC): q1 offsets it recovers from [rad]",
-         "{:.4f} .. {:.4f}".format(*ctl["constrained_lqr"]["q1_basin_rad"])),
-        ("bound for any |tau| <= 1 controller, pure q1 offset: both unstable modes / one [rad]",
-         f"{bound:.4f} / {ctl['bound_one_mode_q1_rad']:.3f}"),
+        (
+            "constrained LQR (MPC): q1 offsets it recovers from [rad]",
+            "{:.4f} .. {:.4f}".format(*ctl["constrained_lqr"]["q1_basin_rad"]),
+        ),
+        (
+            "bound for any |tau| <= 1 controller, pure q1 offset: both unstable modes / one [rad]",
+            f"{bound:.4f} / {ctl['bound_one_mode_q1_rad']:.3f}",
+        ),
         ("minimum-time swing-up, frame_skip 4 [decisions]", str(fs4)),
         ("minimum-time swing-up, frame_skip 1 [steps]", str(mt["min_time_steps_frame_skip_1"])),
-        ("the same with continuous torques (the optimiser, from that sequence) [steps]",
-         str(continuous["steps"]) if continuous else "-"),
-        ("swing-up to upright AT REST, |u| <= 1 / with a 0.8 N m reserve [steps]",
-         joined(t["steps"] for t in balance["trajectories"].values())),
-        ("balanced for 60 s in MuJoCo: min time / reserve / reserve with {-1, 0, +1}",
-         joined("yes" if r["balanced"] else "no" for r in balance["closed_loop"].values())),
-        ("minimum time, explicit Euler / semi-implicit / RK4 [decisions at 0.2 s]",
-         joined(mt["decisions_frame_skip_4_by_integrator"][m] for m in METHODS)),
-    ]  # fmt: skip
+        (
+            "the same with continuous torques (the optimiser, from that sequence) [steps]",
+            str(continuous["steps"]) if continuous else "-",
+        ),
+        (
+            "swing-up to upright AT REST, |u| <= 1 / with a 0.8 N m reserve [steps]",
+            joined(t["steps"] for t in balance["trajectories"].values()),
+        ),
+        (
+            "balanced for 60 s in MuJoCo: min time / reserve / reserve with {-1, 0, +1}",
+            joined("yes" if r["balanced"] else "no" for r in balance["closed_loop"].values()),
+        ),
+        (
+            "minimum time, explicit Euler / semi-implicit / RK4 [decisions at 0.2 s]",
+            joined(mt["decisions_frame_skip_4_by_integrator"][m] for m in METHODS),
+        ),
+    ]
 
 
 def markdown(report: dict[str, Any]) -> str:

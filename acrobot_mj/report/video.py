@@ -38,9 +38,14 @@ class VideoWriter:
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.tmp.mp4")
         try:  # ffmpeg quiet: _failure reports in one line
-            self._writer = imageio.get_writer(self._tmp, fps=fps, codec="libx264",
-                                              macro_block_size=2, ffmpeg_params=FFMPEG_PARAMS,
-                                              ffmpeg_log_level="quiet")  # fmt: skip
+            self._writer = imageio.get_writer(
+                self._tmp,
+                fps=fps,
+                codec="libx264",
+                macro_block_size=2,
+                ffmpeg_params=FFMPEG_PARAMS,
+                ffmpeg_log_level="quiet",
+            )
         except OSError as error:
             raise self._failure(error) from None
         self._queue: queue.Queue[np.ndarray | None] = queue.Queue(maxsize=queue_size)
@@ -139,8 +144,10 @@ def check_outputs(path: Path, strip: str | Path | None) -> None:
         raise ValueError(f"the video file must end in .mp4, got {path}")
     record = path.with_suffix(".json")
     if record.exists() and "video" not in _json_object(record):
-        raise FileExistsError(f"{record} exists and is not a video record: the video's record "
-                              "would replace it; choose another --out")  # fmt: skip
+        raise FileExistsError(
+            f"{record} exists and is not a video record: the video's record "
+            "would replace it; choose another --out"
+        )
     strip = None if strip is None else Path(strip)
     if strip is not None and strip.suffix.lower() != ".png":
         raise ValueError(f"the strip must be a .png file, got {strip}")
@@ -177,11 +184,16 @@ class RenderSettings:
         return {"width": self.width, "height": self.height, "camera": self.camera}
 
 
-def record_episode(env: Any, actor: Actor, path: str | Path,
-                   settings: RenderSettings = RenderSettings(), *,
-                   reset_options: dict[str, Any] | None = None,
-                   states: list[np.ndarray] | None = None,
-                   on_reset: Any = None) -> dict[str, Any]:  # fmt: skip
+def record_episode(
+    env: Any,
+    actor: Actor,
+    path: str | Path,
+    settings: RenderSettings = RenderSettings(),
+    *,
+    reset_options: dict[str, Any] | None = None,
+    states: list[np.ndarray] | None = None,
+    on_reset: Any = None,
+) -> dict[str, Any]:
     """Write an episode of ``actor`` on ``env`` (``rgb_array``) as MP4, and its record as JSON
     beside it (returned); ``states`` collects each frame's state."""
     if env.render_mode != "rgb_array":
@@ -223,14 +235,26 @@ def record_episode(env: Any, actor: Actor, path: str | Path,
             note = f"   {task.success_label}" if success else "   truncated" if truncated else ""
             frame(next(steps), torque, info, note)
 
-        episode = run_episode(env, actor, settings.seed, reset_options,
-                              max_steps=settings.max_steps, on_reset=reset_hook,
-                              on_step=step_hook)  # fmt: skip
+        episode = run_episode(
+            env,
+            actor,
+            settings.seed,
+            reset_options,
+            max_steps=settings.max_steps,
+            on_reset=reset_hook,
+            on_step=step_hook,
+        )
     record = {
-        "video": str(path), "fps": fps, "frames": episode.length + 1, "length": episode.length,
-        "return": episode.episode_return, "success": episode.success, "seed": settings.seed,
-        "size": [env.unwrapped.width, env.unwrapped.height], "camera": env.unwrapped.camera,
-    }  # fmt: skip
+        "video": str(path),
+        "fps": fps,
+        "frames": episode.length + 1,
+        "length": episode.length,
+        "return": episode.episode_return,
+        "success": episode.success,
+        "seed": settings.seed,
+        "size": [env.unwrapped.width, env.unwrapped.height],
+        "camera": env.unwrapped.camera,
+    }
     if strip is not None:
         picks = np.linspace(0, len(kept) - 1, 6).round().astype(int)
         image = Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1))
@@ -240,8 +264,12 @@ def record_episode(env: Any, actor: Actor, path: str | Path,
     return record
 
 
-def watch(env: gym.Env, actor: Actor, settings: RenderSettings = RenderSettings(),
-          reset_options: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
+def watch(
+    env: gym.Env,
+    actor: Actor,
+    settings: RenderSettings = RenderSettings(),
+    reset_options: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     """An episode of ``actor`` on ``env`` (``render_mode="human"``) in MuJoCo's viewer window
     at real time, closed at the end; its length and outcome."""
     try:
@@ -253,19 +281,23 @@ def watch(env: gym.Env, actor: Actor, settings: RenderSettings = RenderSettings(
     return {"length": episode.length, "success": episode.success}
 
 
-def watch_policy(name: str, settings: RenderSettings = RenderSettings(),
-                 frame_skip: int = 1) -> dict[str, Any]:  # fmt: skip
+def watch_policy(
+    name: str, settings: RenderSettings = RenderSettings(), frame_skip: int = 1
+) -> dict[str, Any]:
     """A fixed policy from rest, live in a window (see :func:`watch`)."""
-    env = gym.make(HeightGoal.env_id, frame_skip=frame_skip, render_mode="human",
-                   camera=settings.camera)  # fmt: skip
+    env = gym.make(
+        HeightGoal.env_id, frame_skip=frame_skip, render_mode="human", camera=settings.camera
+    )
     return watch(env, PolicyActor(make_policy(name, settings.seed)), settings)
 
 
-def render_policy(name: str, out: str | Path, settings: RenderSettings = RenderSettings(),
-                  frame_skip: int = 1) -> dict[str, Any]:  # fmt: skip
+def render_policy(
+    name: str, out: str | Path, settings: RenderSettings = RenderSettings(), frame_skip: int = 1
+) -> dict[str, Any]:
     """A video of a fixed policy (``pump``, ``zero`` or ``random``) from rest."""
-    env = gym.make(HeightGoal.env_id, frame_skip=frame_skip, render_mode="rgb_array",
-                   **settings.env_kwargs())  # fmt: skip
+    env = gym.make(
+        HeightGoal.env_id, frame_skip=frame_skip, render_mode="rgb_array", **settings.env_kwargs()
+    )
     try:
         record = record_episode(env, PolicyActor(make_policy(name, settings.seed)), out, settings)
     finally:

@@ -21,11 +21,11 @@ from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
+from acrobot_mj.envs.control_loop import BalanceActor
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, versions, write_json
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.report.balance import BalanceActor
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.records import MODEL_FILE, RUN_FILE, read_kind
 
@@ -120,17 +120,27 @@ def limits_of(env: gym.Env) -> AcrobotParams:
     """The bounds the env's spaces declare: the action's and the velocities' [rad/s], and the
     decision's seconds; the planner's ``p`` (its masses and lengths are never read)."""
     box, seen = cast(gym.spaces.Box, env.action_space), cast(gym.spaces.Box, env.observation_space)
-    return AcrobotParams(max_torque=float(box.high[0]), max_vel1=float(seen.high[2]),
-                         max_vel2=float(seen.high[3]), dt=decision_seconds(env))  # fmt: skip
+    return AcrobotParams(
+        max_torque=float(box.high[0]),
+        max_vel1=float(seen.high[2]),
+        max_vel2=float(seen.high[3]),
+        dt=decision_seconds(env),
+    )
 
 
-def swing_up(model: LibraryModel, start: np.ndarray, goal: np.ndarray, config: BlackBoxConfig,
-             limits: AcrobotParams) -> Trajectory:  # fmt: skip
+def swing_up(
+    model: LibraryModel,
+    start: np.ndarray,
+    goal: np.ndarray,
+    config: BlackBoxConfig,
+    limits: AcrobotParams,
+) -> Trajectory:
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
     from ``start``, over the config's horizons, each warm-started from the model's rollout of
     tiny random actions (:meth:`~acrobot_mj.control.trajopt.Optimiser.rest`)."""
-    optimiser = Optimiser(config.reserve * limits.max_torque, "learned", limits, model,
-                          tuple(float(v) for v in start))  # fmt: skip
+    optimiser = Optimiser(
+        config.reserve * limits.max_torque, "learned", limits, model, tuple(float(v) for v in start)
+    )
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
     for horizon in range(*config.horizons):
         warm = optimiser.rest(horizon)
@@ -149,8 +159,13 @@ class BlackBoxLearner(Learner):
     describes = "black box: learnt model, planned funnel, constrained LQR"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
 
-    def __init__(self, config: BlackBoxConfig, seed: int, env: gym.Env | None = None,
-                 built: tuple[LibraryModel, Trajectory] | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        config: BlackBoxConfig,
+        seed: int,
+        env: gym.Env | None = None,
+        built: tuple[LibraryModel, Trajectory] | None = None,
+    ) -> None:
         super().__init__(config, seed)
         self.given_env = env
         self.model: LibraryModel | None = None
@@ -175,8 +190,13 @@ class BlackBoxLearner(Learner):
         cut = int(0.9 * len(data["actions"]))
         train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
         fields = ("states", "actions", "next_states")
-        self.model = LibraryModel.fit(train["states"], train["actions"], train["next_states"],
-                                      config.harmonics, config.threshold)  # fmt: skip
+        self.model = LibraryModel.fit(
+            train["states"],
+            train["actions"],
+            train["next_states"],
+            config.harmonics,
+            config.threshold,
+        )
         angles, reward_rms = best_angles(train["next_states"], train["rewards"], config.harmonics)
         goal = self.model.equilibrium(angles)
         start = env.reset(seed=self.seed)[0]
@@ -187,18 +207,29 @@ class BlackBoxLearner(Learner):
         rest = self.greedy(env)
         simulated = len(data["actions"]) * decision_seconds(env)
         record = {
-            "kind": KIND, "config": config.to_dict(), "seed": self.seed, "task": Balance.name,
+            "kind": KIND,
+            "config": config.to_dict(),
+            "seed": self.seed,
+            "task": Balance.name,
             "told": list(TOLD),
-            "data": {"decisions": len(data["actions"]), "simulated_seconds": simulated,
-                     "held_out": len(held["actions"])},
-            "model": {"terms": self.model.terms,
-                      "held_out_errors": self.model.errors(*(held[k] for k in fields)),
-                      "reward_rms": reward_rms, "goal": goal.tolist()},
+            "data": {
+                "decisions": len(data["actions"]),
+                "simulated_seconds": simulated,
+                "held_out": len(held["actions"]),
+            },
+            "model": {
+                "terms": self.model.terms,
+                "held_out_errors": self.model.errors(*(held[k] for k in fields)),
+                "reward_rms": reward_rms,
+                "goal": goal.tolist(),
+            },
             "swing_up": {"decisions": self.trajectory.steps, "seconds": self.trajectory.seconds},
             "greedy_from_rest": rest,
-            "fit_seconds": fitted - clock, "plan_seconds": planned - fitted,
-            "wall_seconds": time.perf_counter() - clock, "versions": versions(),
-        }  # fmt: skip
+            "fit_seconds": fitted - clock,
+            "plan_seconds": planned - fitted,
+            "wall_seconds": time.perf_counter() - clock,
+            "versions": versions(),
+        }
         if run.out is not None:
             write_json(run.out / MODEL_FILE, self.model_record())
             write_json(run.out / RUN_FILE, record)
@@ -216,9 +247,14 @@ class BlackBoxLearner(Learner):
     def model_record(self) -> dict[str, Any]:
         assert self.model is not None and self.trajectory is not None
         t = self.trajectory
-        return {"format": FORMAT, "library": self.model.to_dict(),
-                "limits": dataclasses.asdict(t.params), "u_max": t.u_max,
-                "states": t.states.tolist(), "actions": t.torques.tolist()}  # fmt: skip
+        return {
+            "format": FORMAT,
+            "library": self.model.to_dict(),
+            "limits": dataclasses.asdict(t.params),
+            "u_max": t.u_max,
+            "states": t.states.tolist(),
+            "actions": t.torques.tolist(),
+        }
 
     def env(self, **kwargs: Any) -> gym.Env:
         assert self.trajectory is not None
@@ -239,9 +275,14 @@ class BlackBoxLearner(Learner):
                 raise ValueError(f"not a black-box model (format {data.get('format')!r})")
             model = LibraryModel.from_dict(data["library"])
             limits = AcrobotParams(**data["limits"])
-            trajectory = Trajectory(np.asarray(data["states"], dtype=float),
-                                    np.asarray(data["actions"], dtype=float), limits.dt,
-                                    "learned", float(data["u_max"]), limits)  # fmt: skip
+            trajectory = Trajectory(
+                np.asarray(data["states"], dtype=float),
+                np.asarray(data["actions"], dtype=float),
+                limits.dt,
+                "learned",
+                float(data["u_max"]),
+                limits,
+            )
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
             raise ValueError(f"{path} is not a usable black-box model: {error}") from None
         config = BlackBoxConfig.from_dict(record["config"])

@@ -73,8 +73,10 @@ class TrainConfig:
         if self.start_noise > 0 and self.noise_until is None:
             object.__setattr__(self, "noise_until", 0.0)
         elif self.start_noise == 0 and self.noise_until is not None:
-            raise ValueError(f"config noise_until has no effect with start_noise="
-                             f"{self.start_noise!r} (it applies when start_noise > 0)")  # fmt: skip
+            raise ValueError(
+                f"config noise_until has no effect with start_noise="
+                f"{self.start_noise!r} (it applies when start_noise > 0)"
+            )
         _check_ranges(self)
 
     def __getattr__(self, name: str) -> Any:
@@ -141,8 +143,12 @@ class TrainConfig:
     def env_kwargs(self) -> dict[str, Any]:
         """Keyword arguments for ``gymnasium.make(config.env_id, ...)``."""
         options = {k: getattr(self, k) for k in TASK_OPTIONS if getattr(self, k) is not None}
-        return {"frame_skip": self.frame_skip, "integrator": self.integrator,
-                "max_episode_steps": self.max_episode_steps, **options}  # fmt: skip
+        return {
+            "frame_skip": self.frame_skip,
+            "integrator": self.integrator,
+            "max_episode_steps": self.max_episode_steps,
+            **options,
+        }
 
     def start_noise_at(self, episode: int) -> float:
         """Start noise [rad, rad/s] of training episode ``episode`` (0-based)."""
@@ -194,14 +200,19 @@ def field_names() -> tuple[str, ...]:
 
 
 def _check_names(task: str, algorithm: str, features: str) -> None:
-    for name, value, known in (("task", task, TASKS), ("algorithm", algorithm, AGENTS),
-                               ("features", features, FEATURES)):  # fmt: skip
+    for name, value, known in (
+        ("task", task, TASKS),
+        ("algorithm", algorithm, AGENTS),
+        ("features", features, FEATURES),
+    ):
         if value not in known:
             raise ValueError(f"config {name} must be one of {sorted(known)}, got {value!r}")
     spec = agent_spec(algorithm)
     if features not in spec.features:
-        raise ValueError(f"algorithm {spec.name} ({spec.doc}) needs features in "
-                         f"{list(spec.features)}, got {features!r}")  # fmt: skip
+        raise ValueError(
+            f"algorithm {spec.name} ({spec.doc}) needs features in "
+            f"{list(spec.features)}, got {features!r}"
+        )
 
 
 def field_type(name: str) -> type:
@@ -231,8 +242,10 @@ def _check_ranges(c: TrainConfig) -> None:
         if getattr(c, name) < 1:
             raise ValueError(f"config {name} must be >= 1, got {getattr(c, name)}")
     if not 1 <= c.frame_skip <= MAX_FRAME_SKIP:
-        raise ValueError(f"config frame_skip must be in [1, {MAX_FRAME_SKIP}] (0.05 s physics "
-                         f"steps per decision), got {c.frame_skip}")  # fmt: skip
+        raise ValueError(
+            f"config frame_skip must be in [1, {MAX_FRAME_SKIP}] (0.05 s physics "
+            f"steps per decision), got {c.frame_skip}"
+        )
     for name in ("noise_until", "start_noise"):
         value = getattr(c, name)
         if value is not None and not 0.0 <= value <= 1.0:
@@ -240,8 +253,10 @@ def _check_ranges(c: TrainConfig) -> None:
     if c.integrator not in ("euler", "rk4"):
         raise ValueError(f"config integrator must be one of ('euler', 'rk4'), got {c.integrator!r}")
     if c.max_decisions < 0 or 0 < c.max_decisions < c.population:
-        raise ValueError(f"config max_decisions must be 0 (no cap) or >= population "
-                         f"({c.population}), got {c.max_decisions}")  # fmt: skip
+        raise ValueError(
+            f"config max_decisions must be 0 (no cap) or >= population "
+            f"({c.population}), got {c.max_decisions}"
+        )
     for name in ("identify_decisions", "energy_shaping"):
         if getattr(c, name) < 0:
             raise ValueError(f"config {name} must be >= 0, got {getattr(c, name)}")

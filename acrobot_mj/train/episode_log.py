@@ -62,8 +62,10 @@ class EpisodeLog:
         if len(kept) != count:  # no log, or an older run's: the history is all there is
             lists = history.episode_lengths, history.episode_returns, history.episode_successes
             own = {} if self.learner is None else {"learner": self.learner}
-            kept = [{"episode": k, "length": n, "return": r, "success": s, **own}
-                    for k, (n, r, s) in enumerate(zip(*lists, strict=True))]  # fmt: skip
+            kept = [
+                {"episode": k, "length": n, "return": r, "success": s, **own}
+                for k, (n, r, s) in enumerate(zip(*lists, strict=True))
+            ]
         _write(self.path, kept)
         last = kept[-1].get("wall_seconds") if kept else None
         self._offset = float(last) if isinstance(last, (int, float)) else 0.0

@@ -31,8 +31,13 @@ METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 _RENDER = RenderSettings()
 #: What eval.json lists per held-out episode besides the results (pushes and parameters where
 #: the protocol pushes or perturbs).
-PER_EPISODE = {"actions": "actions", "torques": "torques", "final_states": "final_state",
-               "pushes": "pushes", "parameters": "parameters"}  # fmt: skip
+PER_EPISODE = {
+    "actions": "actions",
+    "torques": "torques",
+    "final_states": "final_state",
+    "pushes": "pushes",
+    "parameters": "parameters",
+}
 
 
 def run_lock(run_dir: str | Path, command: str) -> RunLock:
@@ -41,9 +46,11 @@ def run_lock(run_dir: str | Path, command: str) -> RunLock:
     if not str(run_dir).strip() or not any(
         (path / n).exists() for n in (RUN_FILE, CHECKPOINT_FILE)
     ):
-        raise FileNotFoundError(f"{str(run_dir)!r} holds no run (no {RUN_FILE} or "
-                                f"{CHECKPOINT_FILE}): give a directory written by acrobot-mj "
-                                "train")  # fmt: skip
+        raise FileNotFoundError(
+            f"{str(run_dir)!r} holds no run (no {RUN_FILE} or "
+            f"{CHECKPOINT_FILE}): give a directory written by acrobot-mj "
+            "train"
+        )
     return RunLock(path, command, create=False)
 
 
@@ -59,8 +66,12 @@ def evaluate(
         return evaluate_run(run_dir, protocol, minima, write=not lock.read_only)
 
 
-def evaluate_run(run_dir: str | Path, protocol: Protocol | dict | None = None,
-                 minima: str = "stored", write: bool = True) -> dict[str, Any]:  # fmt: skip
+def evaluate_run(
+    run_dir: str | Path,
+    protocol: Protocol | dict | None = None,
+    minima: str = "stored",
+    write: bool = True,
+) -> dict[str, Any]:
     """:func:`evaluate` for a caller that holds the lock (of the run or of one above it);
     ``write``: ``eval.json`` too."""
     if minima not in MINIMA:
@@ -68,10 +79,14 @@ def evaluate_run(run_dir: str | Path, protocol: Protocol | dict | None = None,
     learner = load_learner(run_dir)
     if protocol is None or isinstance(protocol, dict):
         protocol = dataclasses.replace(learner.protocol, **(protocol or {}))
-    record = {"run": str(run_dir), "run_seed": learner.seed,
-              **({"kind": learner.kind} if learner.kind else {}),
-              "config": learner.config.to_dict(), "versions": versions(),
-              **evaluate_learner(learner, protocol, minima)}  # fmt: skip
+    record = {
+        "run": str(run_dir),
+        "run_seed": learner.seed,
+        **({"kind": learner.kind} if learner.kind else {}),
+        "config": learner.config.to_dict(),
+        "versions": versions(),
+        **evaluate_learner(learner, protocol, minima),
+    }
     record = sealed(record)  # a sweep tells an edited copy
     if write:
         write_json(Path(run_dir) / EVAL_FILE, record)
@@ -106,18 +121,24 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
             "physics": {"frame_skip": env.frame_skip, "integrator": acrobot_of(env).integrator},
             "summary": {
                 task.score.quantity: spread(task.score.values(history.to_dict())),
-                "successes": sum(history.episode_successes), "episodes": len(history),
+                "successes": sum(history.episode_successes),
+                "episodes": len(history),
                 **task.summarise([e["assessment"] for e in episodes], spread),
             },
-            "rest": {**{k: v for k, v in rest.items() if k not in ("assessment", "pushes")},
-                     **rest["assessment"]},
+            "rest": {
+                **{k: v for k, v in rest.items() if k not in ("assessment", "pushes")},
+                **rest["assessment"],
+            },
             "start_states": starts.tolist(),
             **{name: [e[key] for e in episodes] for name, key in per_episode.items()},
             **history.to_dict(),
             **{key: [e["assessment"][key] for e in episodes] for key in rest["assessment"]},
-        }  # fmt: skip
-        references = None if protocol.starts_from != "noise" else (
-            references_for(env, protocol, starts, minima))  # fmt: skip
+        }
+        references = (
+            None
+            if protocol.starts_from != "noise"
+            else (references_for(env, protocol, starts, minima))
+        )
     finally:
         env.close()
     if references is not None:
@@ -146,23 +167,37 @@ def play(env: Pushed, learner: Learner, episode: int, options: dict, seed: int |
         torques.extend([float(acrobot.data.ctrl[0])] * acrobot.frame_skip)
         states.append(acrobot.state)
 
-    result = run_episode(env, learner.actor(env, episode), seed, options, on_step=on_step,
-                         on_reset=lambda *_: states.append(acrobot.state))  # fmt: skip
+    result = run_episode(
+        env,
+        learner.actor(env, episode),
+        seed,
+        options,
+        on_step=on_step,
+        on_reset=lambda *_: states.append(acrobot.state),
+    )
     kicks = [int(k) // acrobot.frame_skip for k, *_ in env.pushes]
     assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up, kicks)
-    return {"start_state": states[0].tolist(), "length": result.length,
-            "return": result.episode_return, "success": result.success, "actions": actions,
-            "torques": torques, "final_state": states[-1].tolist(),
-            "pushes": env.pushes,
-            "assessment": assessment}  # fmt: skip
+    return {
+        "start_state": states[0].tolist(),
+        "length": result.length,
+        "return": result.episode_return,
+        "success": result.success,
+        "actions": actions,
+        "torques": torques,
+        "final_state": states[-1].tolist(),
+        "pushes": env.pushes,
+        "assessment": assessment,
+    }
 
 
 def distinct_outcomes(evaluations: list[dict[str, Any]]) -> dict[str, int]:
     """How many distinct greedy behaviours several runs' evaluations show: runs that take the
     same actions from rest (``from_rest``), or from every held-out start (``held_out``), count
     once."""
-    return {"from_rest": len({tuple(e["rest"]["actions"]) for e in evaluations}),
-            "held_out": len({tuple(map(tuple, e["actions"])) for e in evaluations})}  # fmt: skip
+    return {
+        "from_rest": len({tuple(e["rest"]["actions"]) for e in evaluations}),
+        "held_out": len({tuple(map(tuple, e["actions"])) for e in evaluations}),
+    }
 
 
 def render_run(
@@ -174,10 +209,17 @@ def render_run(
     env = learner.env(render_mode="rgb_array", **settings.env_kwargs())
     try:
         states: list[np.ndarray] = []
-        record = record_episode(env, learner.actor(env, 0), out, settings,
-                                reset_options={"start_noise": 0.0}, states=states)  # fmt: skip
-        record.update(acrobot_of(env).task.assess(np.array(states), acrobot_of(env).dt,
-                                                learner.swing_up))  # fmt: skip
+        record = record_episode(
+            env,
+            learner.actor(env, 0),
+            out,
+            settings,
+            reset_options={"start_noise": 0.0},
+            states=states,
+        )
+        record.update(
+            acrobot_of(env).task.assess(np.array(states), acrobot_of(env).dt, learner.swing_up)
+        )
     finally:
         env.close()
     record.update(run=str(run_dir), run_seed=learner.seed, policy=learner.describes)
@@ -199,8 +241,11 @@ def env_settings(env: gym.Env) -> dict[str, Any] | None:
     if acrobot.task.name != "height_goal":
         return None
     task = cast(HeightGoal, acrobot.task)
-    return {"frame_skip": acrobot.frame_skip, "integrator": acrobot.integrator,
-            "goal_height": task.goal_height}  # fmt: skip
+    return {
+        "frame_skip": acrobot.frame_skip,
+        "integrator": acrobot.integrator,
+        "goal_height": task.goal_height,
+    }
 
 
 def compute_minima(
@@ -210,12 +255,20 @@ def compute_minima(
     not reached within ``max_decisions``) and actions."""
     settings = env_settings(env)
     if settings is None:
-        raise ValueError(f"per-start minima exist for the height goal only, not "
-                         f"{acrobot_of(env).task.name!r}")  # fmt: skip
-    results = [min_time_search(frame_skip=settings["frame_skip"], width=width,
-                               method=METHODS[settings["integrator"]], max_decisions=max_decisions,
-                               goal_height=settings["goal_height"], start=start)
-               for start in np.asarray(starts, dtype=np.float64)]  # fmt: skip
+        raise ValueError(
+            f"per-start minima exist for the height goal only, not {acrobot_of(env).task.name!r}"
+        )
+    results = [
+        min_time_search(
+            frame_skip=settings["frame_skip"],
+            width=width,
+            method=METHODS[settings["integrator"]],
+            max_decisions=max_decisions,
+            goal_height=settings["goal_height"],
+            start=start,
+        )
+        for start in np.asarray(starts, dtype=np.float64)
+    ]
     return [{"decisions": r.decisions, "actions": r.actions} for r in results]
 
 
@@ -243,6 +296,9 @@ def compare(lengths: list[int], minima: list[int | None]) -> dict[str, Any]:
     if len(lengths) != len(minima):
         raise ValueError(f"{len(lengths)} episodes but {len(minima)} per-start minima")
     pairs = [(n, m) for n, m in zip(lengths, minima, strict=True) if m]
-    return {"per_start": minima, "minimum": spread([m for _, m in pairs]),
-            "ratio": spread([n / m for n, m in pairs]),
-            "without_reference": len(lengths) - len(pairs)}  # fmt: skip
+    return {
+        "per_start": minima,
+        "minimum": spread([m for _, m in pairs]),
+        "ratio": spread([n / m for n, m in pairs]),
+        "without_reference": len(lengths) - len(pairs),
+    }

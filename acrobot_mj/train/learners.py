@@ -18,11 +18,24 @@ import numpy as np
 
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
-from acrobot_mj.checks import SafePoints, check_float, check_int
+from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.envs.disturbances import Disturbances
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
+from acrobot_mj.stops import SafePoints
+from acrobot_mj.train.checkpoint import (
+    RESUME_MAY_DIFFER,
+    Checkpoints,
+    check_record_agrees,
+    check_same_run,
+    checkpoint_meta,
+    load_checkpoint,
+    load_into,
+    read_checkpoint,
+    read_for_resume,
+    save_checkpoint,
+)
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import RunLog
 from acrobot_mj.train.progress import Monitor, run_total, watching
@@ -30,22 +43,12 @@ from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     EPISODE_LOG,
     RECENT,
-    RESUME_MAY_DIFFER,
     RUN_FILE,
     SUMMARY_FILE,
-    Checkpoints,
     History,
-    check_record_agrees,
-    check_same_run,
-    checkpoint_meta,
     learner_dir,
-    load_checkpoint,
-    load_into,
-    read_checkpoint,
-    read_for_resume,
     recent_median,
     run_record,
-    save_checkpoint,
     write_run,
 )
 
@@ -208,8 +211,10 @@ def check_spaces(env: gym.Env) -> None:
     if not (isinstance(env.action_space, gym.spaces.Discrete) and env.action_space.n == 3):
         raise ValueError(f"the agents need a Discrete(3) action space, got {env.action_space}")
     if not isinstance(env.observation_space, gym.spaces.Box) or env.observation_space.shape != (4,):
-        raise ValueError("the agents need observations (q1, q2, dq1, dq2) in a Box of shape "
-                         f"(4,), got {env.observation_space}")  # fmt: skip
+        raise ValueError(
+            "the agents need observations (q1, q2, dq1, dq2) in a Box of shape "
+            f"(4,), got {env.observation_space}"
+        )
 
 
 def greedy_from_rest(env: gym.Env, agent: Agent, run_seed: int) -> Episode:
@@ -250,8 +255,10 @@ class AgentLearner(Learner):
     def load(cls, run_dir: Path) -> AgentLearner:
         path = Path(run_dir) / CHECKPOINT_FILE
         if not path.exists() and (Path(run_dir) / SUMMARY_FILE).exists():
-            raise FileNotFoundError(f"{run_dir} holds several seeds ({SUMMARY_FILE}): give one "
-                                    "of its seed_S directories")  # fmt: skip
+            raise FileNotFoundError(
+                f"{run_dir} holds several seeds ({SUMMARY_FILE}): give one "
+                "of its seed_S directories"
+            )
         meta, arrays, config = read_checkpoint(path)
         check_record_agrees(Path(run_dir), config, meta["seed"])
         learner = cls(config, meta["seed"])
@@ -311,8 +318,13 @@ def train_one(
                     options = {"start_noise": noise} if noise > 0 else None
                     try:
                         with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
-                            result = run_episode(env, Learning(agent), episode_seed(seed, episode),
-                                                 options, max_steps=left)  # fmt: skip
+                            result = run_episode(
+                                env,
+                                Learning(agent),
+                                episode_seed(seed, episode),
+                                options,
+                                max_steps=left,
+                            )
                         if not math.isfinite(result.episode_return):
                             total = result.episode_return
                             raise DivergenceError(f"the episode's return is {total}", rewards=True)
@@ -333,8 +345,9 @@ def train_one(
         checkpoints.save()
         checkpoints.close()
         rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
-        record = run_record(config, seed, history, elapsed, interrupted=bool(stop), env=env_name,
-                            greedy=rest)  # fmt: skip
+        record = run_record(
+            config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
+        )
         if run.out is not None:
             write_run(run.out, record, f"seed {seed}", curve=greedy)
         if stop:
@@ -342,13 +355,21 @@ def train_one(
         return record, agent
 
 
-def diverged(config: TrainConfig, seed: int, episode: int, kept: int, error: DivergenceError,
-             checkpoint: Path | None = None) -> DivergenceError:  # fmt: skip
+def diverged(
+    config: TrainConfig,
+    seed: int,
+    episode: int,
+    kept: int,
+    error: DivergenceError,
+    checkpoint: Path | None = None,
+) -> DivergenceError:
     """The error a run stops with when its learner diverges: where, the likely cause, and what
     ``checkpoint`` keeps."""
     if error.rewards:
-        cause = (f"the rewards (step_reward {config.step_reward}, goal_reward "
-                 f"{config.goal_reward}) overflow a float")  # fmt: skip
+        cause = (
+            f"the rewards (step_reward {config.step_reward}, goal_reward "
+            f"{config.goal_reward}) overflow a float"
+        )
     else:
         n = config.encoding.build(gym.spaces.Box(-1.0, 1.0, (4,))).num_active
         cause = (
@@ -390,14 +411,16 @@ def train_population(
             logs = [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)]
             tee = RunLog(out / EPISODE_LOG, logs, [r["episodes_done"] for r in records] + [done])
         try:
-            record, learner = train_one(single, learner_seed(seed, k), run.learner(k, tee), env,
-                                        greedy=False)  # fmt: skip
+            record, learner = train_one(
+                single, learner_seed(seed, k), run.learner(k, tee), env, greedy=False
+            )
         except KeyboardInterrupt as error:  # the command says how to continue
             why = f" ({error})" if str(error) else ""
             raise type(error)(f"interrupted in learner {k} of {config.population}{why}") from error
         except DivergenceError as error:  # its seed is the learner's, drawn from the run's
-            raise DivergenceError(f"learner {k} of {config.population} of run seed {seed}: "
-                                  f"{error}", error.rewards) from None  # fmt: skip
+            raise DivergenceError(
+                f"learner {k} of {config.population} of run seed {seed}: {error}", error.rewards
+            ) from None
         finally:
             if tee is not None:
                 tee.close()
@@ -411,14 +434,23 @@ def train_population(
         history.extend(r)
     real = make_env(config) if env is None else shape_rewards(env, config)
     record = run_record(
-        config, seed, history, sum(r["wall_seconds"] for r in records),
-        interrupted=records[best]["interrupted"], env=records[best].get("env"),
+        config,
+        seed,
+        history,
+        sum(r["wall_seconds"] for r in records),
+        interrupted=records[best]["interrupted"],
+        env=records[best].get("env"),
         greedy=greedy_from_rest(real, kept, seed),
-        population={"learners": config.population, "seeds": [r["seed"] for r in records],
-                    "scores": scores, "kept": best,
-                    "rule": getattr(judge, "rule", f"{score.best_word} median of the last "
-                                                   f"{RECENT} training episodes")},
-    )  # fmt: skip
+        population={
+            "learners": config.population,
+            "seeds": [r["seed"] for r in records],
+            "scores": scores,
+            "kept": best,
+            "rule": getattr(
+                judge, "rule", f"{score.best_word} median of the last {RECENT} training episodes"
+            ),
+        },
+    )
     if out is not None:
         meta = checkpoint_meta(config, seed, len(history), history.steps)
         save_checkpoint(out / CHECKPOINT_FILE, kept.state_dict(), meta)

@@ -46,8 +46,10 @@ def _owners() -> set[int]:
 
 def _describe(owner: dict[str, Any]) -> str:
     started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(owner.get("started", 0)))
-    return (f"pid {owner.get('pid')} on {owner.get('host')} ({owner.get('command', '?')}, "
-            f"since {started})")  # fmt: skip
+    return (
+        f"pid {owner.get('pid')} on {owner.get('host')} ({owner.get('command', '?')}, "
+        f"since {started})"
+    )
 
 
 def _read_owner(path: Path) -> dict[str, Any] | None:
@@ -118,8 +120,9 @@ class RunLock:
     def _acquire(self) -> int:
         path = self.directory / LOCK_FILE
         if path.exists() and not path.is_file():
-            raise FileExistsError(f"{path} is not a lock file: remove it, or choose another "
-                                  "directory")  # fmt: skip
+            raise FileExistsError(
+                f"{path} is not a lock file: remove it, or choose another directory"
+            )
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             if fcntl is not None:
@@ -135,11 +138,17 @@ class RunLock:
             ) from None
         previous = _read_owner(path)
         if previous is not None and previous["pid"] not in _owners():
-            sys.stderr.write(f"acrobot-mj: taking over {self.directory} from "
-                             f"{_describe(previous)}, which no longer holds it\n")  # fmt: skip
+            sys.stderr.write(
+                f"acrobot-mj: taking over {self.directory} from "
+                f"{_describe(previous)}, which no longer holds it\n"
+            )
             _remove_temporaries(self.directory)
-        record = {"pid": os.getpid(), "host": socket.gethostname(), "command": self.command,
-                  "started": time.time()}  # fmt: skip
+        record = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "command": self.command,
+            "started": time.time(),
+        }
         try:
             os.ftruncate(fd, 0)
             os.pwrite(fd, json.dumps(record).encode(), 0)

@@ -14,22 +14,15 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
-from acrobot_mj.checks import SafePoints, check_open_files
+from acrobot_mj.checks import check_open_files
 from acrobot_mj.envs.vector import AcrobotVectorEnv
+from acrobot_mj.stops import SafePoints
+from acrobot_mj.train.checkpoint import Checkpoints, load_into, read_for_resume
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.progress import Monitor, watching
-from acrobot_mj.train.records import (
-    CHECKPOINT_FILE,
-    Checkpoints,
-    History,
-    load_into,
-    read_for_resume,
-    run_record,
-    seed_dir,
-    write_run,
-)
+from acrobot_mj.train.records import CHECKPOINT_FILE, History, run_record, seed_dir, write_run
 
 #: Seeds of one process from which they go in lockstep unless told otherwise: in smaller groups
 #: one process per seed is faster (docs/guide/train.md).
@@ -38,9 +31,13 @@ LOCKSTEP_GROUP_FROM = 25
 
 def can_lockstep(config: TrainConfig) -> bool:
     """Whether seeds of ``config`` can train together on one vector env."""
-    return (agent_spec(config.algorithm).group is not None and config.energy_shaping == 0.0
-            and config.population == 1 and config.max_decisions == 0
-            and config.identify_decisions == 0)  # fmt: skip
+    return (
+        agent_spec(config.algorithm).group is not None
+        and config.energy_shaping == 0.0
+        and config.population == 1
+        and config.max_decisions == 0
+        and config.identify_decisions == 0
+    )
 
 
 def lockstep_pays(config: TrainConfig, group: int) -> bool:
@@ -60,10 +57,17 @@ def check_lockstep(config: TrainConfig) -> None:
         )
 
 
-def train_lockstep(config: TrainConfig, seeds: list[int], out_dir: str | Path | None = None, *,
-                   progress: bool | Monitor = False, greedy: bool = True, resume: bool = False,
-                   run_dirs: list[Path] | None = None,
-                   tensorboard: str | Path | None = None) -> list[dict[str, Any]]:  # fmt: skip
+def train_lockstep(
+    config: TrainConfig,
+    seeds: list[int],
+    out_dir: str | Path | None = None,
+    *,
+    progress: bool | Monitor = False,
+    greedy: bool = True,
+    resume: bool = False,
+    run_dirs: list[Path] | None = None,
+    tensorboard: str | Path | None = None,
+) -> list[dict[str, Any]]:
     """Train one learner per seed together; the run records. Writes ``out_dir/seed_S/`` (or
     ``run_dirs[k]``) as ``train`` does; ``greedy=False`` skips the greedy runs from rest;
     ``progress``: one bar over every learner's episodes (or a bigger run's monitor)."""
@@ -94,8 +98,9 @@ class _Lockstep:
     def __init__(self, config: TrainConfig, seeds: list[int], dirs: list[Path] | None) -> None:
         self.config, self.seeds, self.dirs = config, list(seeds), dirs
         k = self.k = len(self.seeds)
-        self.vec = AcrobotVectorEnv(num_envs=k, autoreset_mode="disabled", task=config.task,
-                                    **config.env_kwargs())  # fmt: skip
+        self.vec = AcrobotVectorEnv(
+            num_envs=k, autoreset_mode="disabled", task=config.task, **config.env_kwargs()
+        )
         features = config.encoding.build(self.vec.single_observation_space)
         group = agent_spec(config.algorithm).group
         if group is None:
@@ -128,8 +133,10 @@ class _Lockstep:
         noise_of = np.array([config.start_noise_at(int(e)) for e in self.episode])
         for noise in sorted(set(noise_of[mask].tolist())):  # one reset per start-noise level
             group = mask & (noise_of == noise)
-            seeds_now = [episode_seed(self.seeds[i], int(self.episode[i])) if group[i] else None
-                         for i in range(k)]  # fmt: skip
+            seeds_now = [
+                episode_seed(self.seeds[i], int(self.episode[i])) if group[i] else None
+                for i in range(k)
+            ]
             options = {"reset_mask": group, "start_noise": noise}
             reset_obs, _ = self.vec.reset(seed=seeds_now, options=options)
             obs[group] = reset_obs[group]
@@ -157,8 +164,9 @@ class _Lockstep:
                     ids = np.flatnonzero(active)
                     length[ids] += 1
                     total[ids] += reward[ids]
-                    learned = self.learners.learn(ids, reward[ids], obs[ids], terminated[ids],
-                                                  truncated[ids])  # fmt: skip
+                    learned = self.learners.learn(
+                        ids, reward[ids], obs[ids], terminated[ids], truncated[ids]
+                    )
                     actions[ids] = np.where(learned >= 0, learned, 1)
                     done = np.zeros(k, dtype=bool)
                     done[ids] = terminated[ids] | truncated[ids]
@@ -173,14 +181,16 @@ class _Lockstep:
                 checkpoint.save()
             if isinstance(stop, DivergenceError):
                 raise
-            raise type(stop)("interrupted; each learner's checkpoint holds its last completed "
-                             "episode") from None  # fmt: skip
+            raise type(stop)(
+                "interrupted; each learner's checkpoint holds its last completed episode"
+            ) from None
         for checkpoint in self.checkpoints:
             checkpoint.save()
             checkpoint.close()
 
-    def _finish_episodes(self, done: np.ndarray, length: np.ndarray, total: np.ndarray,
-                         success: np.ndarray) -> None:  # fmt: skip
+    def _finish_episodes(
+        self, done: np.ndarray, length: np.ndarray, total: np.ndarray, success: np.ndarray
+    ) -> None:
         """Record the episodes that just ended, and checkpoint where one is due."""
         self.episode[done] += 1
         for i in np.flatnonzero(done):
@@ -188,8 +198,9 @@ class _Lockstep:
             if not math.isfinite(total[i]):
                 error = DivergenceError(f"the episode's return is {total[i]}", rewards=True)
                 path = None if self.dirs is None else self.dirs[i] / CHECKPOINT_FILE
-                raise diverged(self.config, self.seeds[i], episode, len(self.histories[i]), error,
-                               path)  # fmt: skip
+                raise diverged(
+                    self.config, self.seeds[i], episode, len(self.histories[i]), error, path
+                )
             self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
             self.checkpoints[i].snapshot(partial(self.learners.state_dict, i), self.histories[i])
             self.monitors[i].episode(episode, int(length[i]), float(total[i]), bool(success[i]))
@@ -204,8 +215,9 @@ class _Lockstep:
             agent: Agent = config.make_agent(seed, self.vec.single_observation_space)
             agent.load_state_dict(self.learners.state_dict(i))
             rest = greedy_from_rest(env, agent, seed) if env is not None else None  # greedy
-            record = run_record(config, seed, self.histories[i], elapsed / self.k,
-                                lockstep=self.k, greedy=rest)  # fmt: skip
+            record = run_record(
+                config, seed, self.histories[i], elapsed / self.k, lockstep=self.k, greedy=rest
+            )
             if self.dirs is not None:
                 write_run(self.dirs[i], record, f"seed {seed}")
             records.append(record)

@@ -86,9 +86,11 @@ FIT_TOLERANCE = 1e-6
 def check_fit(rms: float) -> None:
     """Refuse a model whose predictions miss the data: the structure does not fit the env."""
     if not rms <= FIT_TOLERANCE:
-        raise ValueError(f"the identified model does not fit its data (RMS error {rms:.3g} > "
-                         f"{FIT_TOLERANCE:g}): the acrobot's structure does not describe "
-                         "this env")  # fmt: skip
+        raise ValueError(
+            f"the identified model does not fit its data (RMS error {rms:.3g} > "
+            f"{FIT_TOLERANCE:g}): the acrobot's structure does not describe "
+            "this env"
+        )
 
 
 def stepping(env: gym.Env) -> Stepping:
@@ -97,8 +99,9 @@ def stepping(env: gym.Env) -> Stepping:
     return Stepping(acrobot.model.opt.timestep, acrobot.frame_skip, (MAX_VEL1, MAX_VEL2))
 
 
-def identified_model(env: gym.Env, decisions: int, seed: int,
-                     noise: float) -> tuple[int, np.ndarray, float, Stepping]:  # fmt: skip
+def identified_model(
+    env: gym.Env, decisions: int, seed: int, noise: float
+) -> tuple[int, np.ndarray, float, Stepping]:
     """The lumped parameters fitted to ``decisions`` random-action transitions in ``env``: the
     transitions' count, the parameters, the fit's RMS error and what the learner was told."""
     data = collect(env, decisions, seed, noise)
@@ -117,16 +120,20 @@ class ModelBasedLearner(AgentLearner):
         if self.given_env is not None:
             raise ValueError("model-based training identifies the package's own env; give no env")
         real = make_env(config)
-        decisions, theta, rms, told = identified_model(real, config.identify_decisions, seed,
-                                                       config.start_noise)  # fmt: skip
+        decisions, theta, rms, told = identified_model(
+            real, config.identify_decisions, seed, config.start_noise
+        )
         model = IdentifiedEnv(theta, acrobot_of(real).task, told, config.max_episode_steps)
         # The model as it is: each learner's training env adds the config's shaping (once).
         record, agent = train_learners(config, seed, run, model, ModelJudge(model, config, seed))
         greedy = greedy_from_rest(real, agent, seed)
         fit = {"data_decisions": decisions, "theta": theta.tolist(), "rms": rms}
-        record.update(env="the identified model (IdentifiedEnv)",
-                      greedy_from_rest=greedy_result(greedy),
-                      decisions_total=decisions + greedy.length, model=fit)  # fmt: skip
+        record.update(
+            env="the identified model (IdentifiedEnv)",
+            greedy_from_rest=greedy_result(greedy),
+            decisions_total=decisions + greedy.length,
+            model=fit,
+        )
         if run.out is not None:
             write_run(run.out, record, f"seed {seed}, learnt in an identified model")
         return record, agent

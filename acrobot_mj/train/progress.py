@@ -191,8 +191,10 @@ def summary_writer() -> Any:
         try:
             from torch.utils.tensorboard import SummaryWriter
         except ImportError:
-            raise ImportError("--tensorboard needs tensorboardX (or torch with tensorboard): "
-                              "pip install acrobot-mj[tensorboard]") from None  # fmt: skip
+            raise ImportError(
+                "--tensorboard needs tensorboardX (or torch with tensorboard): "
+                "pip install acrobot-mj[tensorboard]"
+            ) from None
     return SummaryWriter
 
 

@@ -1,24 +1,17 @@
 """Several seeds of one config: a run directory per seed, a summary across them and their
-learning curves; seeds in lockstep (:mod:`.lockstep`) where the algorithm allows, and
-:class:`WorkerPool`, whose workers ignore SIGINT (a Ctrl-C reaches the whole process group: the
-driver decides) and are interrupted, saving their checkpoints, when the driver stops or dies."""
+learning curves; seeds in lockstep (:mod:`.lockstep`) where the algorithm allows, or in a
+:class:`~acrobot_mj.pool.WorkerPool`."""
 
 from __future__ import annotations
 
-import multiprocessing
-import os
-import signal
-import threading
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from acrobot_mj.checks import raise_stop
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import versions, write_json
+from acrobot_mj.pool import WorkerPool
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT, Protocol
@@ -37,87 +30,6 @@ from acrobot_mj.train.records import (
     spread,
 )
 from acrobot_mj.train.trainer import train
-
-#: In a worker: the driver's stop event and pid, and whether a call is running.
-_STOP: Any = None
-_PARENT = 0
-_RUNNING = False
-
-
-def _interrupt(signum: int, frame: Any) -> None:
-    # Only a running call is interrupted: an idle worker waits on the pool's queue, and an
-    # exception there can leave the queue's lock held, which hangs the pool's shutdown.
-    if _RUNNING:
-        raise_stop(KeyboardInterrupt("stopped by the driver"))
-
-
-def _watch(stop: Any, parent: int) -> None:
-    """In a worker: wait for the driver's stop, or its death, then interrupt the running call;
-    an idle worker leaves with the pool (or at once, if the driver is gone)."""
-    while not stop.wait(0.2) and os.getppid() == parent:
-        pass
-    if _RUNNING:
-        os.kill(os.getpid(), signal.SIGUSR1)
-    elif os.getppid() != parent:
-        os._exit(1)
-
-
-def _start_worker(stop: Any, parent: int) -> None:
-    global _STOP, _PARENT
-    _STOP, _PARENT = stop, parent
-    if not hasattr(signal, "SIGUSR1"):  # pragma: no cover
-        return
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGUSR1, _interrupt)
-    signal.signal(signal.SIGTERM, _interrupt)  # a group's SIGTERM: as the driver's stop
-    threading.Thread(target=_watch, args=(stop, parent), daemon=True).start()
-
-
-def _unless_stopped(function: Callable[..., Any], *args: Any) -> Any:
-    """In a worker: ``function(*args)``, unless the driver has stopped the pool (a pool hands
-    workers a call or two ahead, which cancelling the queue does not reach)."""
-    global _RUNNING
-    _RUNNING = True  # before the stop is read: a stop after this interrupts the call
-    try:
-        if _STOP is not None and _STOP.is_set():
-            return None
-        return function(*args)
-    finally:
-        _RUNNING = False
-        if _PARENT and os.getppid() != _PARENT:  # the driver is gone: so is this worker,
-            os._exit(1)  # once its run has saved what it had
-
-
-class WorkerPool:
-    """A process pool whose workers stop with the driver (see the module docstring)."""
-
-    def __init__(self, jobs: int | None) -> None:
-        context = multiprocessing.get_context()
-        self._stop = context.Event()
-        self._pool = ProcessPoolExecutor(jobs, context, _start_worker, (self._stop, os.getpid()))
-
-    def run(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Future]:
-        """Submit ``function(*args)`` for each of ``calls``; yield the futures as they finish
-        (after a stop, calls a worker had already taken return None without running)."""
-        return as_completed([self._pool.submit(_unless_stopped, function, *a) for a in calls])
-
-    def stop(self) -> None:
-        """Cancel what has not started, interrupt what runs, and wait for it to save."""
-        self._stop.set()
-        try:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-        except BrokenProcessPool:  # a worker interrupted while idle: nothing of it to save
-            pass
-
-    def __enter__(self) -> WorkerPool:
-        return self
-
-    def __exit__(self, kind: type | None, *exc: object) -> None:
-        if kind is None:
-            self._pool.shutdown(wait=True)
-        else:
-            self.stop()
-
 
 #: A seed's run record and its held-out evaluation (None: not evaluated where it trained).
 Run = tuple[dict[str, Any], dict[str, Any] | None]
@@ -138,23 +50,42 @@ class SeedRuns:
         a seed that never reached a checkpoint starts from its first episode."""
         run_dir = seed_dir(self.out, seed)
         resume = self.resume and resumable(run_dir)
-        record = train(self.config, seed, run_dir, resume=resume, progress=progress,
-                       overwrite=True, tensorboard=board)  # fmt: skip
+        record = train(
+            self.config,
+            seed,
+            run_dir,
+            resume=resume,
+            progress=progress,
+            overwrite=True,
+            tensorboard=board,
+        )
         return record, None if self.protocol is None else evaluate_run(run_dir, self.protocol)
 
     def group(self, seeds: list[int], board: str | None = None) -> list[Run]:
         """One lockstep group of seeds, then each one's held-out evaluation, where it trained."""
         dirs = [seed_dir(self.out, s) for s in seeds]
-        records = train_lockstep(self.config, seeds, run_dirs=dirs, resume=self.resume,
-                                 tensorboard=board)  # fmt: skip
-        return [(r, None if self.protocol is None else evaluate_run(d, self.protocol))
-                for r, d in zip(records, dirs, strict=True)]  # fmt: skip
+        records = train_lockstep(
+            self.config, seeds, run_dirs=dirs, resume=self.resume, tensorboard=board
+        )
+        return [
+            (r, None if self.protocol is None else evaluate_run(d, self.protocol))
+            for r, d in zip(records, dirs, strict=True)
+        ]
 
 
-def train_seeds(config: TrainConfig, seeds: list[int], out_dir: str | Path, *, jobs: int = 1,
-                resume: bool = False, progress: bool = False, overwrite: bool = False,
-                protocol: Protocol | None = DEFAULT, tensorboard: str | Path | None = None,
-                lockstep: bool | None = None) -> dict[str, Any]:  # fmt: skip
+def train_seeds(
+    config: TrainConfig,
+    seeds: list[int],
+    out_dir: str | Path,
+    *,
+    jobs: int = 1,
+    resume: bool = False,
+    progress: bool = False,
+    overwrite: bool = False,
+    protocol: Protocol | None = DEFAULT,
+    tensorboard: str | Path | None = None,
+    lockstep: bool | None = None,
+) -> dict[str, Any]:
     """Train one run per seed into ``out_dir/seed_S`` (``jobs`` processes), evaluate each on
     ``protocol`` (None: not), then write ``out_dir/summary.json`` and the learning curve across
     seeds. ``progress``: one bar over all the seeds' episodes; ``tensorboard``: each seed's
@@ -175,8 +106,9 @@ def train_seeds(config: TrainConfig, seeds: list[int], out_dir: str | Path, *, j
             check_lockstep(config)
         runs = SeedRuns(config, out, resume, protocol, tensorboard)
         if together and jobs == 1:
-            records = train_lockstep(config, seeds, out, progress=progress, resume=resume,
-                                     tensorboard=tensorboard)  # fmt: skip
+            records = train_lockstep(
+                config, seeds, out, progress=progress, resume=resume, tensorboard=tensorboard
+            )
             finished: list[tuple[dict[str, Any], dict[str, Any] | None]]
             finished = [(record, None) for record in records]
         elif jobs == 1:
@@ -213,8 +145,9 @@ def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, pro
                 finished = [future.result() for future in pool.run(function, calls)]
             except KeyboardInterrupt as stop:
                 pool.stop()
-                raise type(stop)("interrupted; each seed's checkpoint holds its last completed "
-                                 "episode") from None  # fmt: skip
+                raise type(stop)(
+                    "interrupted; each seed's checkpoint holds its last completed episode"
+                ) from None
     finally:
         bar.close()
     if together:

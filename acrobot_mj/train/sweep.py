@@ -4,28 +4,25 @@ writing ``error.json``, and a summary (``summary.json``, ``.md``, ``.png``) at t
 
 from __future__ import annotations
 
-import itertools
-import json
 import os
 import socket
 import sys
 import tempfile
 import traceback
 from collections import Counter
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.bars import Steps
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import is_sealed, read_json, sealed, write_json, write_text
+from acrobot_mj.pool import WorkerPool
 from acrobot_mj.report.plots import Series, line_plot
-from acrobot_mj.train.config import TrainConfig, field_names
+from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT
 from acrobot_mj.train.lock import RunDirectoryBusy, RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
-from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     EVAL_FILE,
@@ -34,115 +31,15 @@ from acrobot_mj.train.records import (
     recent_score,
     spread,
 )
-from acrobot_mj.train.seeds import WorkerPool
+from acrobot_mj.train.sweep_file import SweepSpec, Trial
 from acrobot_mj.train.trainer import train
 
 if sys.version_info >= (3, 11):
-    import tomllib
+    pass
 else:  # pragma: no cover
-    import tomli as tomllib
+    pass
 
 BACKENDS, ERROR_FILE = ("local", "ray"), "error.json"
-_TOP_LEVEL = ("preset", "seeds", "episodes", "grid", "overrides")
-SWEEPABLE = {name: config for name, config in PRESETS.items() if isinstance(config, TrainConfig)}
-
-
-@dataclass(frozen=True)
-class Trial:
-    """A grid point and a seed; ``name`` (``KEY=VALUE__...__seed=S``) is its directory's."""
-
-    name: str
-    point: dict[str, Any]
-    seed: int
-    config: TrainConfig
-
-    @property
-    def point_name(self) -> str:
-        return self.name.rsplit("__seed=", 1)[0]
-
-
-@dataclass
-class SweepSpec:
-    preset: str
-    seeds: list[int]
-    grid: dict[str, list[Any]]
-    overrides: dict[str, Any] = field(default_factory=dict)
-
-    def base(self) -> TrainConfig:
-        return SWEEPABLE[self.preset].replace(**self.overrides)
-
-    def trials(self) -> list[Trial]:
-        """The cartesian product of the grid (keys in file order) times the seeds."""
-        trials, keys = [], list(self.grid)
-        for values in itertools.product(*(self.grid[k] for k in keys)):
-            point = dict(zip(keys, values, strict=True))
-            config = self.base().replace(**point)
-            label = "__".join(f"{k}={v}" for k, v in point.items())
-            trials += [Trial(f"{label or 'base'}__seed={s}", point, s, config) for s in self.seeds]
-        return trials
-
-
-def parse_sweep(text: str, source: str = "sweep file") -> SweepSpec:
-    """Read and check a sweep's TOML, every trial's config included; errors name the key."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise ValueError(f"{source} is not valid TOML: {error}") from error
-    names = field_names()
-    unknown = sorted(set(data) - set(_TOP_LEVEL) - set(names))
-    if unknown:
-        raise ValueError(f"{source}: unknown keys {unknown}; use {list(_TOP_LEVEL)} or config "
-                         f"keys {sorted(names)}")  # fmt: skip
-    preset, seeds = data.get("preset", "report"), data.get("seeds", [0])
-    if preset not in SWEEPABLE:
-        raise ValueError(f"{source}: preset must be one of {sorted(SWEEPABLE)}, got {preset!r}")
-    distinct = isinstance(seeds, list) and seeds and len(set(seeds)) == len(seeds)
-    if not (distinct and all(type(s) is int and s >= 0 for s in seeds)):
-        raise ValueError(f"{source}: seeds must be a non-empty list of distinct integers >= 0, "
-                         f"got {seeds!r}")  # fmt: skip
-    extra, grid = data.get("overrides", {}), data.get("grid", {})
-    if not isinstance(extra, dict):
-        raise ValueError(f"{source}: [overrides] must be a table of config keys")
-    if not isinstance(grid, dict):
-        raise ValueError(f"{source}: [grid] must be a table of lists")
-    top = {k: v for k, v in data.items() if k in names}
-    values = [("", k, v) for k, v in {**top, **extra}.items()]
-    values += [("grid ", k, v) for k, vs in grid.items() if isinstance(vs, list) for v in vs]
-    for where, key, value in values:
-        if not isinstance(value, (bool, int, float, str)):
-            raise ValueError(f"{source}: {where}{key} value {value!r} is not a number, string "
-                             "or boolean")  # fmt: skip
-    if set(top) & set(extra):
-        raise ValueError(f"{source}: {sorted(set(top) & set(extra))[0]} is set at the top level "
-                         "and in [overrides]")  # fmt: skip
-    for key, values in grid.items():
-        if key in top or key in extra:
-            where = "at the top level" if key in top else "in [overrides]"
-            raise ValueError(f"{source}: {key} is set {where} and swept in [grid]; keep one")
-        if key not in names:
-            raise ValueError(f"{source}: grid key {key!r} is not a config key")
-        if not isinstance(values, list) or not values:
-            raise ValueError(f"{source}: grid {key} must be a non-empty list")
-        if min(len({json.dumps(v) for v in values}), len(set(map(str, values)))) < len(values):
-            raise ValueError(f"{source}: grid {key} repeats a value: {values!r}")
-    spec = SweepSpec(preset, seeds, grid, {**top, **extra})
-    trials = spec.trials()  # building them checks every config
-    # Tuples compare numbers by value (1 == 1.0): equal configs collapse.
-    if len({(tuple(sorted(t.config.to_dict().items())), t.seed) for t in trials}) < len(trials):
-        raise ValueError(f"{source}: two grid points give the same config (e.g. 1 and 1.0)")
-    return spec
-
-
-def load_sweep(path: str | Path) -> SweepSpec:
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"sweep file not found: {path}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as error:
-        raise ValueError(f"{path} is not a TOML file (not UTF-8 text: {error.reason} at byte "
-                         f"{error.start})") from None  # fmt: skip
-    return parse_sweep(text, str(path))
 
 
 def trial_dir(out: Path, trial: Trial) -> Path:
@@ -172,8 +69,10 @@ def trial_state(out: Path, trial: Trial) -> tuple[dict[str, Any] | None, str]:
     except (TypeError, ValueError) as error:
         return None, f"its record {path} holds no valid config ({error})"
     if config != trial.config or record.get("seed") != trial.seed:
-        raise ValueError(f"{path} holds another sweep's trial (a different config or seed): "
-                         "give this sweep its own --out")  # fmt: skip
+        raise ValueError(
+            f"{path} holds another sweep's trial (a different config or seed): "
+            "give this sweep its own --out"
+        )
     if not complete(record, trial.config):
         done = record.get("episodes_done")
         return None, f"its record says it stopped after {done} of {trial.config.episodes} episodes"
@@ -240,11 +139,16 @@ def trial_evaluation(out: Path, trial: Trial) -> dict[str, Any] | None:
             saved = read_json(path)
         except (OSError, ValueError):
             saved = None
-        mine = {"protocol": DEFAULT.to_dict(), "run_seed": trial.seed,
-                "config": trial.config.to_dict()}  # fmt: skip
+        mine = {
+            "protocol": DEFAULT.to_dict(),
+            "run_seed": trial.seed,
+            "config": trial.config.to_dict(),
+        }
         if not is_sealed(saved):  # its checksum fails: unreadable, cut short or edited
-            sys.stderr.write(f"sweep: evaluating {trial.name} again: {path} is not as it was "
-                             "written (unreadable, edited, or older than checksums)\n")  # fmt: skip
+            sys.stderr.write(
+                f"sweep: evaluating {trial.name} again: {path} is not as it was "
+                "written (unreadable, edited, or older than checksums)\n"
+            )
         elif all(saved.get(k) == v for k, v in mine.items()):
             return saved
     return evaluate_run(run_dir) if (run_dir / CHECKPOINT_FILE).exists() else None
@@ -256,9 +160,13 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
     out, score = Path(out), get_task(spec.base().task).score
     points: dict[str, dict[str, Any]] = {}
     for trial in spec.trials():
-        entry = points.setdefault(trial.point_name, {"point": trial.point, "runs": 0} | {
-            key: [] for key in ("failed", "unfinished", "greedy", "successes", "recent", "held")
-        })  # fmt: skip
+        entry = points.setdefault(
+            trial.point_name,
+            {"point": trial.point, "runs": 0}
+            | {
+                key: [] for key in ("failed", "unfinished", "greedy", "successes", "recent", "held")
+            },
+        )
         record, _ = trial_state(out, trial)
         if record is not None:
             entry["runs"] += 1
@@ -272,19 +180,33 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
             entry["failed" if failed else "unfinished"].append(trial.seed)
     rows = [_point_row(key, entry, score.quantity) for key, entry in points.items()]
     unfinished = sum(len(r["unfinished_seeds"]) for r in rows)
-    summary = {"protocol": DEFAULT.to_dict(), "preset": spec.preset, "seeds": spec.seeds,
-               "grid": spec.grid, "overrides": spec.overrides, "trials": len(spec.trials()),
-               "points": rows, "unfinished": unfinished}  # fmt: skip
+    summary = {
+        "protocol": DEFAULT.to_dict(),
+        "preset": spec.preset,
+        "seeds": spec.seeds,
+        "grid": spec.grid,
+        "overrides": spec.overrides,
+        "trials": len(spec.trials()),
+        "points": rows,
+        "unfinished": unfinished,
+    }
     write_json(out / SUMMARY_FILE, summary)
     write_text(out / "summary.md", summary_table(summary))
     finished = [r for r in rows if r["runs"]]
     if finished:
         band = ([r[f"greedy_{k}"] for r in finished] for k in ("median", "q25", "q75"))
-        series = Series(f"greedy {score.unit} from rest: median, 25-75 % band over seeds",
-                        list(range(len(finished))), *band)  # fmt: skip
-        line_plot(out / "summary.png", [series], f"Sweep of the {spec.preset} preset over "
-                  f"{list(spec.grid)}", "grid point (rows of summary.md, in order)",
-                  f"{score.unit} from rest")  # fmt: skip
+        series = Series(
+            f"greedy {score.unit} from rest: median, 25-75 % band over seeds",
+            list(range(len(finished))),
+            *band,
+        )
+        line_plot(
+            out / "summary.png",
+            [series],
+            f"Sweep of the {spec.preset} preset over {list(spec.grid)}",
+            "grid point (rows of summary.md, in order)",
+            f"{score.unit} from rest",
+        )
     return summary
 
 
@@ -292,14 +214,18 @@ def _point_row(key: str, entry: dict[str, Any], quantity: str) -> dict[str, Any]
     greedy, successes = spread(entry["greedy"]), entry["successes"]
     held = spread([e["summary"][quantity]["median"] for e in entry["held"]])
     return {
-        "name": key, "point": entry["point"], "runs": entry["runs"],
-        "failed_seeds": entry["failed"], "unfinished_seeds": entry["unfinished"],
+        "name": key,
+        "point": entry["point"],
+        "runs": entry["runs"],
+        "failed_seeds": entry["failed"],
+        "unfinished_seeds": entry["unfinished"],
         **{f"greedy_{k}": greedy[k] for k in ("median", "q25", "q75")},
         "greedy_success_fraction": sum(successes) / len(successes) if successes else None,
         "last20_median": spread(entry["recent"])["median"],
         **{f"held_out_{k}": held[k] for k in ("median", "q25", "q75")},
-        "held_out_runs": len(entry["held"]), "distinct_outcomes": distinct_outcomes(entry["held"]),
-    }  # fmt: skip
+        "held_out_runs": len(entry["held"]),
+        "distinct_outcomes": distinct_outcomes(entry["held"]),
+    }
 
 
 def summary_table(summary: dict[str, Any]) -> str:
@@ -318,8 +244,9 @@ def summary_table(summary: dict[str, Any]) -> str:
                 "-" if r["held_out_median"] is None else held,
                 r["distinct_outcomes"]["held_out"],
                 f"{r['greedy_median']:g} ({r['greedy_q25']:g}-{r['greedy_q75']:g})",
-                f"{r['greedy_success_fraction']:.0%}", f"{r['last20_median']:g}",
-            ]  # fmt: skip
+                f"{r['greedy_success_fraction']:.0%}",
+                f"{r['last20_median']:g}",
+            ]
         counts = [r["runs"], len(r["failed_seeds"]), len(r["unfinished_seeds"])]
         lines.append("| " + " | ".join(map(str, [r["name"], *counts, *cells])) + " |")
     return "\n".join(lines) + "\n"
@@ -375,9 +302,11 @@ def run_sweep(
             stop = interrupt
         summary = summarize_sweep(spec, out)
     if stop:
-        raise type(stop)(f"sweep interrupted: {summary['unfinished']} of {summary['trials']} "
-                         "trials unfinished (running ones saved their checkpoints); run it "
-                         "again to continue")  # fmt: skip
+        raise type(stop)(
+            f"sweep interrupted: {summary['unfinished']} of {summary['trials']} "
+            "trials unfinished (running ones saved their checkpoints); run it "
+            "again to continue"
+        )
     return summary
 
 
@@ -403,8 +332,9 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Steps, locks
         for path in dirs:  # train_lockstep wrote each run.json; an earlier failure is over
             (path / ERROR_FILE).unlink(missing_ok=True)
         bar.done(count=len(group))
-    calls = [(t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in todo
-             if id(t) not in together]  # fmt: skip
+    calls = [
+        (t.config.to_dict(), t.seed, str(trial_dir(out, t))) for t in todo if id(t) not in together
+    ]
     if jobs == 1:  # in this process, one after the other
         for call in calls:
             run_trial(*call)
@@ -450,8 +380,11 @@ def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Steps) ->
             try:
                 record, evaluation = ray.get(done[0])
             except Exception as error:  # the worker itself died (crash, out of memory)
-                record = {"error": f"{type(error).__name__}: {error}", "seed": trial.seed,
-                          "config": trial.config.to_dict()}  # fmt: skip
+                record = {
+                    "error": f"{type(error).__name__}: {error}",
+                    "seed": trial.seed,
+                    "config": trial.config.to_dict(),
+                }
                 evaluation = None
             write_trial(trial_dir(out, trial), record, evaluation)
             bar.done()

@@ -9,19 +9,22 @@ from typing import Any
 import gymnasium as gym
 
 from acrobot_mj.files import read_json
+from acrobot_mj.train.balance_preset import PlanConfig, PlanLearner
 from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.feedback import FeedbackConfig, FeedbackLearner
+from acrobot_mj.train.feedback_run import FeedbackConfig, FeedbackLearner
 from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import ModelBasedLearner
-from acrobot_mj.train.plan import PlanConfig, PlanLearner
 from acrobot_mj.train.progress import run_total, watching
 from acrobot_mj.train.records import CURVE_FILE, EVAL_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
 
 #: The learners that are not trained by episodes, by their config's type and ``run.json`` kind.
-BUILT: dict[type, type[Learner]] = {PlanConfig: PlanLearner, FeedbackConfig: FeedbackLearner,
-                                    BlackBoxConfig: BlackBoxLearner}  # fmt: skip
+BUILT: dict[type, type[Learner]] = {
+    PlanConfig: PlanLearner,
+    FeedbackConfig: FeedbackLearner,
+    BlackBoxConfig: BlackBoxLearner,
+}
 KINDS: dict[str | None, type[Learner]] = {cls.kind: cls for cls in BUILT.values()}
 Config = TrainConfig | PlanConfig | FeedbackConfig | BlackBoxConfig
 
@@ -33,21 +36,33 @@ def learner_for(config: Config, seed: int, env: gym.Env | None = None) -> Learne
         return BlackBoxLearner(config, seed, env)
     if type(config) in BUILT:
         if env is not None:
-            raise ValueError("the balance preset and the state-feedback controller run on the "
-                             "package's own env; give no env")  # fmt: skip
+            raise ValueError(
+                "the balance preset and the state-feedback controller run on the "
+                "package's own env; give no env"
+            )
         return BUILT[type(config)](config, seed)
     if not isinstance(config, TrainConfig):
-        raise TypeError(f"config must be a TrainConfig, PlanConfig, FeedbackConfig or "
-                        f"BlackBoxConfig, got "
-                        f"{config!r}")  # fmt: skip
+        raise TypeError(
+            f"config must be a TrainConfig, PlanConfig, FeedbackConfig or "
+            f"BlackBoxConfig, got "
+            f"{config!r}"
+        )
     kind = ModelBasedLearner if config.identify_decisions > 0 else AgentLearner
     return kind(config, seed, env)
 
 
-def train(config: Config, seed: int, out_dir: str | Path | None = None, *,
-          env: gym.Env | None = None, resume: bool = False, progress: bool = False,
-          on_episode: OnEpisode | None = None, overwrite: bool = False,
-          tensorboard: str | Path | None = None) -> dict[str, Any]:  # fmt: skip
+def train(
+    config: Config,
+    seed: int,
+    out_dir: str | Path | None = None,
+    *,
+    env: gym.Env | None = None,
+    resume: bool = False,
+    progress: bool = False,
+    on_episode: OnEpisode | None = None,
+    overwrite: bool = False,
+    tensorboard: str | Path | None = None,
+) -> dict[str, Any]:
     """Train ``config``'s learner with ``seed``; the run record. ``out_dir``: the run directory
     (one holding another run is refused unless ``overwrite``; ``resume`` continues from its
     checkpoints exactly). ``env``: any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)``
@@ -55,8 +70,9 @@ def train(config: Config, seed: int, out_dir: str | Path | None = None, *,
     episode's scalars there; ``on_episode(index, history)`` after every training episode."""
     learner = learner_for(config, seed, env)
     if type(config) in BUILT and resume:
-        raise ValueError("the balance preset and the state-feedback controller have nothing to "
-                         "resume")  # fmt: skip
+        raise ValueError(
+            "the balance preset and the state-feedback controller have nothing to resume"
+        )
     out = None if out_dir is None else Path(out_dir)
     with RunLock(out, "train", create=not resume) if out is not None else nullcontext():
         if out is not None and not resume and not overwrite:

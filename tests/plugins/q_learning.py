@@ -24,8 +24,15 @@ class QLearningConfig:
 class QLearning:
     """Q(s, a) += alpha [r + gamma max_a' Q(s', a') - Q(s, a)], epsilon-greedy behaviour."""
 
-    def __init__(self, grid: StateGrid, n_actions: int, alpha: float, gamma: float,
-                 epsilon: float, seed: Any = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        grid: StateGrid,
+        n_actions: int,
+        alpha: float,
+        gamma: float,
+        epsilon: float,
+        seed: Any = None,
+    ) -> None:
         self.grid, self.n_actions = grid, n_actions
         self.alpha, self.gamma, self.epsilon = alpha, gamma, epsilon
         self.stream = RandomStream(seed)

@@ -18,11 +18,11 @@ from acrobot_mj.checks import check_float, check_int, check_settings
 from acrobot_mj.control.identification import realise
 from acrobot_mj.control.lqr import SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.envs.control_loop import BalanceActor, balance_env, closed_loop
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.report.balance import BalanceActor, balance_env, closed_loop
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
@@ -108,8 +108,14 @@ class PlanLearner(Learner):
         targets = None if config.targets is None else tuple(TARGETS[i] for i in config.targets)
         horizons = None if config.horizons is None else range(*config.horizons)
         p = AcrobotParams(**model["params"])
-        self.trajectory = min_time(config.reserve, horizons=horizons, targets=targets, p=p,
-                                   progress=run.progress, starts=config.starts)  # fmt: skip
+        self.trajectory = min_time(
+            config.reserve,
+            horizons=horizons,
+            targets=targets,
+            p=p,
+            progress=run.progress,
+            starts=config.starts,
+        )
         trained = time.perf_counter() - start
         with self.env() as env:
             result = closed_loop(self.trajectory, config.discrete, config.hold, env=env)
@@ -117,11 +123,17 @@ class PlanLearner(Learner):
         result.pop("states")
         rest = result | {"steps": len(torques), "mean_abs_torque": float(np.abs(torques).mean())}
         record = {
-            "kind": KIND, "config": config.to_dict(), "seed": self.seed, "task": Balance.name,
-            "model": model, "plan": plan_summary(self.trajectory), "greedy_from_rest": rest,
+            "kind": KIND,
+            "config": config.to_dict(),
+            "seed": self.seed,
+            "task": Balance.name,
+            "model": model,
+            "plan": plan_summary(self.trajectory),
+            "greedy_from_rest": rest,
             "decisions_total": model["data_decisions"] + len(torques),
-            "wall_seconds": trained, "versions": versions(),
-        }  # fmt: skip
+            "wall_seconds": trained,
+            "versions": versions(),
+        }
         if run.out is not None:
             self.trajectory.save(run.out / TRAJECTORY_FILE)
             write_json(run.out / RUN_FILE, record)
@@ -143,18 +155,24 @@ class PlanLearner(Learner):
         record = read_kind(run_dir, KIND, "balance-preset")
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if dataclasses.asdict(trajectory.params) != record["model"]["params"]:
-            raise ValueError(f"{Path(run_dir) / TRAJECTORY_FILE} was planned on another model "
-                             "than the run's")  # fmt: skip
+            raise ValueError(
+                f"{Path(run_dir) / TRAJECTORY_FILE} was planned on another model than the run's"
+            )
         return cls(PlanConfig.from_dict(record["config"]), int(record["seed"]), trajectory)
 
 
 def learn_model(config: PlanConfig, seed: int) -> dict[str, Any]:
     """The data and the identified model, with its realisation."""
     with data_env(config) as env:
-        decisions, theta, rms, told = identified_model(env, config.identify_decisions, seed,
-                                                       config.data_noise)  # fmt: skip
-    return {"data_decisions": decisions, "theta": theta.tolist(), "rms": rms,
-            "params": dataclasses.asdict(realise(theta, told))}  # fmt: skip
+        decisions, theta, rms, told = identified_model(
+            env, config.identify_decisions, seed, config.data_noise
+        )
+    return {
+        "data_decisions": decisions,
+        "theta": theta.tolist(),
+        "rms": rms,
+        "params": dataclasses.asdict(realise(theta, told)),
+    }
 
 
 def data_env(config: PlanConfig, **kwargs: Any) -> gym.Env:
@@ -164,8 +182,10 @@ def data_env(config: PlanConfig, **kwargs: Any) -> gym.Env:
 def plan_summary(trajectory: Trajectory) -> dict[str, Any]:
     torques = trajectory.torques
     return {
-        "steps": trajectory.steps, "seconds": trajectory.seconds, "u_max": trajectory.u_max,
+        "steps": trajectory.steps,
+        "seconds": trajectory.seconds,
+        "u_max": trajectory.u_max,
         "mean_abs_torque": float(np.abs(torques).mean()),
         "full_torque_fraction": float(np.mean(np.abs(torques) >= trajectory.u_max - 1e-6)),
         "residual": trajectory.residual(),
-    }  # fmt: skip
+    }

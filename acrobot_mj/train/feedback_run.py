@@ -19,10 +19,10 @@ import numpy as np
 from acrobot_mj.checks import check_float, check_settings
 from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
+from acrobot_mj.envs.control_loop import BalanceActor, balance_env
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import versions, write_json
-from acrobot_mj.report.balance import BalanceActor, balance_env
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
 
@@ -51,8 +51,10 @@ class FeedbackConfig:
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         if self.reserve not in SWING_UPS:
-            raise ValueError(f"reserve must be one of the shipped swing-ups' {sorted(SWING_UPS)} "
-                             f"N m, got {self.reserve!r}")  # fmt: skip
+            raise ValueError(
+                f"reserve must be one of the shipped swing-ups' {sorted(SWING_UPS)} "
+                f"N m, got {self.reserve!r}"
+            )
         if isinstance(self.funnel, dict):
             object.__setattr__(self, "funnel", FunnelSettings(**self.funnel))
         if check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
@@ -72,16 +74,18 @@ class FeedbackLearner(Learner):
 
     kind = KIND
     describes = "state feedback: TVLQR funnel, constrained LQR, energy removal"
-    protocol = Protocol(episodes=100, start_noise=0.01, seed=0, starts_from="uniform",
-                        seconds=120.0)  # fmt: skip
+    protocol = Protocol(
+        episodes=100, start_noise=0.01, seed=0, starts_from="uniform", seconds=120.0
+    )
 
     def __init__(self, config: FeedbackConfig, seed: int, trajectory: Trajectory | None = None):
         super().__init__(config, seed)
         self.trajectory = trajectory or shipped(SWING_UPS[config.reserve])
         start = time.perf_counter()
         # The entry check rolls out continuous torques: with {-1, 0, +1} it made catches later.
-        self.controller = FunnelController(self.trajectory, config.funnel,
-                                           check=not config.discrete)  # fmt: skip
+        self.controller = FunnelController(
+            self.trajectory, config.funnel, check=not config.discrete
+        )
         self.build_seconds = time.perf_counter() - start
 
     def learn(self, run: Run) -> dict[str, Any]:
@@ -90,10 +94,15 @@ class FeedbackLearner(Learner):
             run_episode(env, actor, self.seed, {"start_noise": 0.0})
             rest = acrobot_of(env).task.assess(np.array(actor.states), self.trajectory.dt)
         record = {
-            "kind": KIND, "config": self.config.to_dict(), "seed": self.seed,
-            "task": Balance.name, "swing_up": SWING_UPS[self.config.reserve],
-            "greedy_from_rest": rest, "build_seconds": self.build_seconds, "versions": versions(),
-        }  # fmt: skip
+            "kind": KIND,
+            "config": self.config.to_dict(),
+            "seed": self.seed,
+            "task": Balance.name,
+            "swing_up": SWING_UPS[self.config.reserve],
+            "greedy_from_rest": rest,
+            "build_seconds": self.build_seconds,
+            "versions": versions(),
+        }
         if run.out is not None:
             self.trajectory.save(run.out / TRAJECTORY_FILE)
             write_json(run.out / RUN_FILE, record)
@@ -117,6 +126,8 @@ class FeedbackLearner(Learner):
         config = FeedbackConfig.from_dict(record["config"])
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if trajectory.u_max != config.reserve:
-            raise ValueError(f"{Path(run_dir) / TRAJECTORY_FILE} is not the swing-up of "
-                             f"reserve {config.reserve} N m")  # fmt: skip
+            raise ValueError(
+                f"{Path(run_dir) / TRAJECTORY_FILE} is not the swing-up of "
+                f"reserve {config.reserve} N m"
+            )
         return cls(config, int(record["seed"]), trajectory)

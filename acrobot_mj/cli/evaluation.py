@@ -1,0 +1,231 @@
+"""``acrobot-mj evaluate | curves``: parsers and handlers."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+from typing import Any
+
+from acrobot_mj.cli import tools
+from acrobot_mj.cli.tools import add_command, positive_int, seed
+from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.files import read_json
+from acrobot_mj.report.plots import compare_curves, figure_format
+from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.learners import DEFAULT, STARTS
+from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into
+
+
+def add_evaluate(commands: tools.Commands) -> None:
+    p = add_command(
+        commands,
+        "evaluate",
+        evaluate_command,
+        "greedy episodes of a trained run from held-out starts -> eval.json",
+        "Greedy episodes from held-out starts (rest plus U(-S, S) on each angle and "
+        "velocity, drawn with a seed no training uses), and apart from rest. "
+        "eval.json holds every episode's start state and actions, to replay "
+        "anywhere.",
+    )
+    p.add_argument("run_dir", help="a directory written by acrobot-mj train")
+    p.add_argument("--episodes", type=positive_int, help=f"default {DEFAULT.episodes}")
+    p.add_argument(
+        "--start-noise",
+        type=float,
+        metavar="S",
+        help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a "
+        "balance-preset run 0.01)",
+    )
+    p.add_argument(
+        "--seed",
+        type=seed,
+        help="seed of the held-out starts, pushes and perturbations (default 0)",
+    )
+    p.add_argument(
+        "--starts",
+        choices=STARTS,
+        help="noise: rest plus U(-S, S) (the default); "
+        "uniform: both angles uniform on the circle, at rest",
+    )
+    p.add_argument(
+        "--seconds",
+        type=float,
+        metavar="T",
+        help="simulated seconds per episode (default: the run's own)",
+    )
+    p.add_argument(
+        "--push-every", type=float, metavar="P", help="push every P seconds (default: no pushes)"
+    )
+    p.add_argument(
+        "--push-size",
+        type=float,
+        metavar="V",
+        help="each push adds U(-V, V) rad/s to each joint velocity",
+    )
+    p.add_argument(
+        "--perturb",
+        type=float,
+        metavar="F",
+        help="scale each link's mass and "
+        "inertia by U(1-F, 1+F) per episode; the controller keeps its model "
+        "(default 0)",
+    )
+    p.add_argument(
+        "--minima",
+        action="store_true",
+        help="compute per-start minimum-time "
+        "references (beam search, ~4 s a start) where none are stored",
+    )
+
+
+def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
+    starts = args.starts
+    if args.start_noise is not None:  # noise starts, whatever the run's own protocol starts
+        if starts == "uniform":
+            raise ValueError("--start-noise is for --starts noise, not uniform")
+        starts = "noise"
+    given = {
+        "episodes": args.episodes,
+        "start_noise": args.start_noise,
+        "seed": args.seed,
+        "starts_from": starts,
+        "seconds": args.seconds,
+        "push_every": args.push_every,
+        "push_size": args.push_size,
+        "perturb": args.perturb,
+    }
+    protocol = {k: v for k, v in given.items() if v is not None}
+    record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
+    path = Path(args.run_dir) / EVAL_FILE
+    wrote = f"wrote {path}" if os.access(args.run_dir, os.W_OK) else f"{args.run_dir} is read-only"
+    print(f"{evaluation_words(record)}; {wrote}")
+    return record
+
+
+def balance_words(record: dict[str, Any]) -> str:
+    """One line on a balance-task evaluation: catches, falls, recoveries from pushes."""
+    summary, rest, protocol = record["summary"], record["rest"], record["protocol"]
+    noise = protocol["start_noise"]
+    starts = "uniform" if protocol.get("starts_from") == "uniform" else f"U(-{noise:g}, {noise:g})"
+    caught, pushes = summary["first_balance_seconds"], summary["pushes"]
+    when = (
+        ""
+        if caught["median"] is None
+        else (f" (median {caught['median']:.4g} s, at most {caught['max']:.4g} s)")
+    )
+    words = (
+        f"{summary['episodes']} held-out starts ({starts}): "
+        f"{summary['episodes'] - summary['never_balanced']} caught their balance{when}, "
+        f"{summary['balanced']} ended balanced, {summary['falls']} falls"
+    )
+    if pushes["total"]:
+        words += (
+            f"; {pushes['recovered']} of {pushes['total']} pushes recovered from; "
+            f"{pushes['without_fall']} of the {pushes['while_balanced']} pushed while "
+            "balanced held without a fall"
+        )
+    held = "balanced" if rest["balanced"] else f"held {rest['hold_seconds']:g} s"
+    return f"{words}; from rest: {held}"
+
+
+def evaluation_words(record: dict[str, Any]) -> str:
+    """One line on an evaluation record: held-out scores, against the minima, and from rest."""
+    summary, rest = record["summary"], record["rest"]
+    if "balanced" in summary:  # the balance task's measures
+        return balance_words(record)
+    task = get_task(record["config"]["task"])
+    quantity, unit = task.score.quantity, task.score.unit
+    values = summary[quantity]
+    words = (
+        f"{summary['episodes']} held-out starts: {summary['successes']} {task.success_text}, "
+        f"{quantity} median {values['median']:g} {unit} (IQR {values['q25']:g}-"
+        f"{values['q75']:g})"
+    )
+    if "minima" in record:
+        ratio = record["minima"]["ratio"]
+        words += (
+            f", {ratio['median']:.3g} x the per-start minima (IQR {ratio['q25']:.3g}-"
+            f"{ratio['q75']:.3g})"
+        )
+    words += f"; from rest {rest[quantity]:g} {unit}"
+    return words + ("" if rest["success"] else " (no goal)")
+
+
+def add_curves(commands: tools.Commands) -> None:
+    p = add_command(commands, "curves", curves_command, "learning curves of runs, one figure")
+    p.add_argument(
+        "run_dirs",
+        nargs="+",
+        help="directories written by train: of --seeds (their median and band) or "
+        "one run's (a population's learner_K among them)",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        type=tools.output_file,
+        help="the figure: .png, .svg or .pdf (by its suffix)",
+    )
+    p.add_argument("--title", default="Learning curves", help="the figure's title")
+    p.add_argument("--minimum", action="store_true", help="draw the task's best known minimum")
+
+
+def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
+    """The config and run records of a ``--seeds`` directory (its runs) or of one run."""
+    summary_file, run_file = folder / SUMMARY_FILE, folder / RUN_FILE
+    if summary_file.is_file():
+        summary = _record(summary_file)
+        if not isinstance(summary.get("runs"), list) or not summary["runs"]:
+            raise ValueError(f"{summary_file} lists no runs: nothing to draw")
+        runs = [_record(folder / str(run) / RUN_FILE) for run in summary["runs"]]
+        return _config(summary_file, summary), runs
+    if run_file.is_file():
+        record = _record(run_file)
+        return _config(run_file, record), [record]
+    raise FileNotFoundError(
+        f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give "
+        "directories written by acrobot-mj train"
+    )
+
+
+def _record(path: Path) -> dict[str, Any]:
+    """A JSON record, or one line naming the file and what is wrong with it."""
+    try:
+        record = read_json(path)
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path} is not a readable record: {error}") from None
+    if not isinstance(record, dict):
+        raise ValueError(f"{path} is not a record: a JSON object was expected")
+    return record
+
+
+def _config(path: Path, record: dict[str, Any]) -> TrainConfig:
+    try:
+        return TrainConfig.from_dict(record["config"])
+    except (KeyError, ValueError, TypeError) as error:
+        raise ValueError(f"{path} holds no readable config: {error}") from None
+
+
+def curves_command(args: argparse.Namespace) -> None:
+    figure_format(args.out)  # a bad suffix is refused before any run is read
+    groups: dict[str, list[list[float]]] = {}
+    for folder in args.run_dirs:  # at least one (argparse)
+        config, records = _curve_records(Path(folder))
+        score = get_task(config.task).score
+        try:
+            groups[Path(folder).name] = [score.values(record) for record in records]
+        except KeyError as error:
+            raise ValueError(f"{folder}: a run record lacks {error}: not a training run") from None
+    task = get_task(config.task)
+    reference = task.reference(config.frame_skip) if args.minimum else None
+    with output_into(args.out, "curves"):
+        compare_curves(
+            args.out,
+            groups,
+            args.title,
+            [reference] if reference else [],
+            task.score.label,
+            task.score.log_scale,
+        )
+    print(f"wrote {args.out}")

@@ -1,0 +1,129 @@
+"""A controller of :mod:`acrobot_mj.control` closed loop on ``acrobot_mj/AcrobotBalance-v0``:
+:class:`BalanceActor` (the controller as an episode-loop actor, beside
+:class:`~acrobot_mj.envs.rollout.PolicyActor`), the env of a swing-up, and :func:`closed_loop`,
+which runs one and assesses it. Balanced: within the task's tolerance (0.05 rad) from the end of
+the swing-up to the end of the run."""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.control.feedback import Feedback
+from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
+from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.envs.rollout import acrobot_of, run_episode
+from acrobot_mj.envs.tasks import Balance
+
+INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
+    scaled in MuJoCo's model, and Gaussian torque noise on the elbow [N m] drawn from ``seed``."""
+
+    start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    mass_scale: float = 1.0
+    inertia_scale: float = 1.0
+    torque_noise: float = 0.0
+    seed: int = 0
+
+
+class BalanceActor:
+    """The controller as an episode-loop actor (a clocked one, ``u = pi(k, x)``, is told the
+    physics step); records each step's state and applied torque."""
+
+    def __init__(
+        self,
+        env: gym.Env,
+        controller: SwingUpController | Feedback,
+        discrete: bool,
+        noise: Any = None,
+        observed: bool = False,
+    ) -> None:
+        self.env = acrobot_of(env)
+        # observed: the controller sees the observation (angles wrapped), not MuJoCo's state.
+        self.observed = observed
+        self.obs: np.ndarray | None = None
+        # A state feedback has a memory of its own for this episode, and hears each torque.
+        self.feedback: Feedback | None = None
+        if isinstance(controller, SwingUpController):
+            clocked = controller
+            self.controller: Any = lambda x: clocked(len(self.torques), x)
+        else:
+            self.controller = self.feedback = controller.fresh()
+        self.modulator = SigmaDelta() if discrete else None
+        self.noise = noise  # a generator and a standard deviation, or None
+        self.states: list[list[float]] = []
+        self.torques: list[float] = []
+
+    def _act(self) -> Any:
+        u = self.controller(self.obs if self.observed else self.env.state)
+        if self.noise is not None:
+            rng, sigma = self.noise
+            self.env.data.qfrc_applied[1] = sigma * rng.standard_normal()
+        return np.array([u], dtype=np.float32) if self.modulator is None else self.modulator(u)
+
+    def begin(self, obs: np.ndarray) -> Any:
+        self.obs = np.asarray(obs, dtype=np.float64)
+        self.states.append(self.env.state.tolist())
+        return self._act()
+
+    def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
+        self.obs = np.asarray(obs, dtype=np.float64)
+        self.states.append(self.env.state.tolist())
+        self.torques.append(float(self.env.data.ctrl[0]))
+        if self.feedback is not None:
+            self.feedback.record(self.torques[-1])
+        return None if terminated or truncated else self._act()
+
+
+def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: Any) -> gym.Env:
+    """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more
+    (unless ``kwargs`` give ``max_episode_steps``)."""
+    steps = trajectory.steps + math.ceil(hold / trajectory.dt - 1e-9)
+    kwargs.setdefault("max_episode_steps", steps)
+    return gym.make(
+        Balance.env_id,
+        continuous=not discrete,
+        integrator=INTEGRATOR_OF[trajectory.method],
+        **kwargs,
+    )
+
+
+def closed_loop(
+    trajectory: Trajectory,
+    discrete: bool = False,
+    hold: float = 60.0,
+    perturbation: Perturbation = Perturbation(),
+    env: gym.Env | None = None,
+    record: Any = None,
+) -> dict[str, Any]:
+    """:meth:`~acrobot_mj.envs.tasks.Balance.assess` of the controller on ``env``, with per-step
+    ``torques`` and ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead
+    (videos)."""
+    env = env or balance_env(trajectory, discrete, hold)
+    model = acrobot_of(env).model
+    for name in ("link1", "link2"):
+        model.body_mass[model.body(name).id] *= perturbation.mass_scale
+        model.body_inertia[model.body(name).id] *= perturbation.inertia_scale
+    rng = np.random.default_rng(perturbation.seed)
+    noise = (rng, perturbation.torque_noise) if perturbation.torque_noise > 0 else None
+    actor = BalanceActor(env, SwingUpController(trajectory), discrete, noise)
+    offset = np.asarray(perturbation.start_offset, dtype=float)
+
+    def start(obs: np.ndarray, info: dict[str, Any]) -> None:
+        if offset.any():
+            state = acrobot_of(env).state + offset
+            acrobot_of(env).set_state(state[:2], state[2:])
+
+    record = record or functools.partial(run_episode, seed=perturbation.seed)
+    record(env, actor, on_reset=start)
+    result = acrobot_of(env).task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
+    return {**result, "torques": actor.torques, "states": actor.states}
