@@ -108,7 +108,7 @@ def balances(
 ) -> np.ndarray:
     """For each start ``(n, 4)``: is it within ``tolerance`` of upright after ``seconds``?"""
     x = np.array(starts, dtype=float)
-    for _ in range(round(seconds / REPORT.dt)):
+    for _ in range(integrators.steps_in(seconds, REPORT.dt)):
         x = integrators.step_states(x, controller(x))
     return np.all(np.abs(state_error(x)) < tolerance, axis=1)
 

@@ -286,7 +286,7 @@ class Optimiser:
         free = self.solve(target, start, free_time=True)
         if free is None:
             return None
-        horizon = int(np.ceil(len(start[1]) * free[2] / self.p.dt - 1e-9))
+        horizon = integrators.steps_in(len(start[1]) * free[2], self.p.dt)
         for steps in range(horizon, horizon + 8):
             found = self.approach(target, resample(free[0], free[1], steps))[1]
             if found is not None:

@@ -7,7 +7,6 @@ the swing-up to the end of the run."""
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,6 +18,7 @@ from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.physics.integrators import steps_in
 
 INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
 
@@ -87,7 +87,7 @@ class BalanceActor:
 def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: Any) -> gym.Env:
     """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more
     (unless ``kwargs`` give ``max_episode_steps``)."""
-    steps = trajectory.steps + math.ceil(hold / trajectory.dt - 1e-9)
+    steps = trajectory.steps + steps_in(hold, trajectory.dt)
     kwargs.setdefault("max_episode_steps", steps)
     return gym.make(
         Balance.env_id,

@@ -11,7 +11,6 @@ every physics step is.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,6 +19,7 @@ import numpy as np
 
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
+from acrobot_mj.physics.integrators import limit_velocities, steps_in
 
 #: The links whose mass and inertia ``perturb`` scales, and the record's names for them.
 LINKS = ("link1", "link2")
@@ -58,7 +58,7 @@ class Disturbances:
         if self.push_every is None:
             return []
         decision, steps, n = dt * frame_skip, [], 1
-        while (k := math.ceil(n * self.push_every / decision - 1e-9) * frame_skip) < physics_steps:
+        while (k := steps_in(n * self.push_every, decision) * frame_skip) < physics_steps:
             steps.append(k)
             n += 1
         return steps
@@ -140,9 +140,7 @@ def add_velocity(env: gym.Env, kick: Any) -> None:
     """Add ``kick`` [rad/s] to ``env``'s joint velocities, clipped to the velocity limits as
     every physics step is."""
     qvel = env.unwrapped.data.qvel  # type: ignore[attr-defined]
-    qvel[:] = np.clip(
-        qvel + np.asarray(kick, dtype=np.float64), [-MAX_VEL1, -MAX_VEL2], [MAX_VEL1, MAX_VEL2]
-    )
+    qvel[:] = limit_velocities(*(qvel + np.asarray(kick, dtype=np.float64)), (MAX_VEL1, MAX_VEL2))
 
 
 def recoveries(
@@ -162,7 +160,7 @@ def recoveries(
     pushed) and ``balanced_seconds`` (within the tolerance until the next push or the end)."""
     error = np.asarray(error, dtype=float)
     balanced = error < tolerance
-    n, need = len(balanced), max(1, round(settle / dt))
+    n, need = len(balanced), max(1, steps_in(settle, dt))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], balanced.astype(np.int8), [0]])))
     stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     catches = [(a, b) for a, b in stretches if b - a >= need or b == n]

@@ -25,6 +25,7 @@ from acrobot_mj.envs.control_loop import BalanceActor
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, versions, write_json
+from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.records import MODEL_FILE, RUN_FILE, read_kind
@@ -238,7 +239,7 @@ class BlackBoxLearner(Learner):
     def greedy(self, env: gym.Env) -> dict[str, Any]:
         """The task's assessment of one episode from rest (the env's own start) in ``env``."""
         dt = decision_seconds(env)
-        limited = gym.wrappers.TimeLimit(env, round(self.config.seconds / dt))
+        limited = gym.wrappers.TimeLimit(env, steps_in(self.config.seconds, dt))
         assert self.controller is not None
         actor = BalanceActor(limited, self.controller, discrete=False, observed=True)
         run_episode(limited, actor, self.seed, {"start_noise": 0.0})
@@ -258,7 +259,7 @@ class BlackBoxLearner(Learner):
 
     def env(self, **kwargs: Any) -> gym.Env:
         assert self.trajectory is not None
-        steps = round(self.config.seconds / self.trajectory.dt)
+        steps = steps_in(self.config.seconds, self.trajectory.dt)
         return black_box_env(**{"max_episode_steps": steps, **kwargs})
 
     def actor(self, env: gym.Env, episode: int) -> Actor:

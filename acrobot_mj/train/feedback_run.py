@@ -7,7 +7,6 @@ It is built on the report's model (it is told the equations), along the shipped 
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ from acrobot_mj.envs.control_loop import BalanceActor, balance_env
 from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import versions, write_json
+from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
 
@@ -109,7 +109,7 @@ class FeedbackLearner(Learner):
         return record
 
     def env(self, **kwargs: Any) -> gym.Env:
-        steps = math.ceil(self.config.seconds / self.trajectory.dt - 1e-9)
+        steps = steps_in(self.config.seconds, self.trajectory.dt)
         kwargs.setdefault("max_episode_steps", steps)
         return balance_env(self.trajectory, self.config.discrete, 0.0, **kwargs)
 
