@@ -18,7 +18,7 @@ from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.report.video import RenderSettings, record_episode, watch
+from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.learners import PERTURB, PUSHES, Learner, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
@@ -223,7 +223,7 @@ def render_run(
     finally:
         env.close()
     record.update(run=str(run_dir), run_seed=learner.seed, policy=learner.describes)
-    write_json(Path(out).with_suffix(".json"), record)
+    write_video_record(record)
     return record
 
 
