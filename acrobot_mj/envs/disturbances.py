@@ -1,6 +1,7 @@
 """What an evaluation does to the acrobot that its controller does not know: pushes (random
 velocity kicks every few seconds) and a perturbed model (masses and inertias scaled); how a run
-recovers from them; and the replay of an episode's torques and pushes in MuJoCo.
+recovers from them; and the replay of an episode's torques and pushes in MuJoCo. A
+:class:`Perturbation` is what the robustness table of ``acrobot-mj balance`` changes.
 
 A push is added to the joint velocities just before physics step ``k`` (counted from 0), at the
 first decision boundary at or after each multiple of ``push_every`` seconds: the controller
@@ -69,6 +70,27 @@ class Disturbances:
             return dict(nominal)
         scale = rng.uniform(1.0 - self.perturb, 1.0 + self.perturb, size=len(PARAMETERS))
         return {name: nominal[name] * s for name, s in zip(PARAMETERS, scale, strict=True)}
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
+    scaled in MuJoCo's model (:func:`scale_links`), and Gaussian torque noise on the elbow
+    [N m] drawn from ``seed``."""
+
+    start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    mass_scale: float = 1.0
+    inertia_scale: float = 1.0
+    torque_noise: float = 0.0
+    seed: int = 0
+
+
+def scale_links(env: gym.Env, mass_scale: float, inertia_scale: float) -> None:
+    """Scale the mass and the three principal inertias of each of ``env``'s links."""
+    model = env.unwrapped.model  # type: ignore[attr-defined]
+    for link in LINKS:
+        model.body_mass[model.body(link).id] *= mass_scale
+        model.body_inertia[model.body(link).id] *= inertia_scale
 
 
 def model_parameters(env: gym.Env) -> dict[str, float]:

@@ -8,7 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
-from acrobot_mj.envs.control_loop import Perturbation, balance_env, closed_loop
+from acrobot_mj.envs.control_loop import balance_env, closed_loop
+from acrobot_mj.envs.disturbances import Perturbation
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, write_video_record
 
