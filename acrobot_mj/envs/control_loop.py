@@ -73,6 +73,13 @@ class BalanceActor:
         return None if terminated or truncated else self._act()
 
 
+def assess_from_rest(env: gym.Env, actor: BalanceActor, seed: int) -> dict[str, Any]:
+    """The task's assessment of ``actor``'s episode on ``env`` from rest (no start noise)."""
+    run_episode(env, actor, seed, {"start_noise": 0.0})
+    acrobot = acrobot_of(env)
+    return acrobot.task.assess(np.array(actor.states), acrobot.dt)
+
+
 def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: Any) -> gym.Env:
     """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more
     (unless ``kwargs`` give ``max_episode_steps``)."""

@@ -21,8 +21,8 @@ from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
-from acrobot_mj.envs.control_loop import BalanceActor
-from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
+from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
+from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
@@ -238,8 +238,7 @@ class BlackBoxLearner(Learner):
         limited = gym.wrappers.TimeLimit(env, steps_in(self.config.seconds, dt))
         assert self.controller is not None
         actor = BalanceActor(limited, self.controller, discrete=False, observed=True)
-        run_episode(limited, actor, self.seed, {"start_noise": 0.0})
-        return acrobot_of(env).task.assess(np.array(actor.states), dt)
+        return assess_from_rest(limited, actor, self.seed)
 
     def model_record(self) -> dict[str, Any]:
         assert self.model is not None and self.trajectory is not None

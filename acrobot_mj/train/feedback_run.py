@@ -13,13 +13,12 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 
 from acrobot_mj.checks import check_float, check_settings
 from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
-from acrobot_mj.envs.control_loop import BalanceActor, balance_env
-from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
+from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest, balance_env
+from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.train.learners import Learner, Protocol, Run
@@ -90,8 +89,7 @@ class FeedbackLearner(Learner):
     def learn(self, run: Run) -> dict[str, Any]:
         with self.env() as env:
             actor = BalanceActor(env, self.feedback(), self.config.discrete)
-            run_episode(env, actor, self.seed, {"start_noise": 0.0})
-            rest = acrobot_of(env).task.assess(np.array(actor.states), self.trajectory.dt)
+            rest = assess_from_rest(env, actor, self.seed)
         return self.keep(
             run,
             {
