@@ -16,7 +16,8 @@ import acrobot_mj  # noqa: F401  registers the tasks
 from acrobot_mj.cli import main
 from acrobot_mj.control.lqr import step_jacobians
 from acrobot_mj.control.trajopt import Trajectory, shipped
-from acrobot_mj.envs.control_loop import Perturbation, closed_loop
+from acrobot_mj.envs.control_loop import closed_loop
+from acrobot_mj.envs.disturbances import Perturbation
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics import integrators
 from acrobot_mj.report.balance_run import load_trajectory

@@ -36,28 +36,9 @@ def test_the_shipped_reserve_trajectory_loads() -> None:
     assert reserve.u_max == 0.8 and reserve.steps == 476 and reserve.residual() < TOLERANCE
 
 
-@pytest.mark.slow
-def test_optimisation_reaches_upright_at_rest_within_its_bounds() -> None:
-    from acrobot_mj.control.trajopt import min_effort, optimise
-
-    # Warm-started from the shipped reserve trajectory (two IPOPT solves of 476 steps, about
-    # 30 s). The step is met to the trajectory check's TOLERANCE (IPOPT's constraint
-    # tolerance is 1e-12, so only rounding remains), and the bound to 1e-12 likewise.
-    reserve = shipped("reserve")
-    found = optimise(reserve.steps, u_max=0.8, warm=reserve)
-    assert found.residual() < TOLERANCE and np.abs(found.torques).max() <= 0.8 + 1e-12
-    relaxed = min_effort(found, extra_steps=20)
-    assert relaxed.steps == found.steps + 20
-    assert np.sum(relaxed.torques**2) < np.sum(found.torques**2)
-
-
 @pytest.mark.parametrize(
     ("call", "message"),
     [
-        (lambda o: o.optimise(40), "no trajectory of 40 steps .* the horizon is too short"),
-        (lambda o: o.optimise(400, u_max=0.0), r"u_max must be in \(0, 1\] N m, got 0.0"),
-        (lambda o: o.optimise(0), "horizon must be an integer >= 1 step"),
-        (lambda o: o.optimise(400, objective="fast"), "objective must be 'feasible' or"),
         (lambda o: o.min_time(u_max=-1), r"u_max must be in \(0, 1\]"),
         (lambda o: o.min_time(starts="random"), r"starts must be one of \('rest', 'pumping'\)"),
     ],

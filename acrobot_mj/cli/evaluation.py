@@ -10,12 +10,11 @@ from typing import Any
 from acrobot_mj.cli import tools
 from acrobot_mj.cli.tools import add_command, positive_int, seed
 from acrobot_mj.envs.tasks import get_task
-from acrobot_mj.files import read_json
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import DEFAULT, STARTS
-from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into
+from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, read_record
 
 
 def add_evaluate(commands: tools.Commands) -> None:
@@ -175,29 +174,18 @@ def _curve_records(folder: Path) -> tuple[TrainConfig, list[dict[str, Any]]]:
     """The config and run records of a ``--seeds`` directory (its runs) or of one run."""
     summary_file, run_file = folder / SUMMARY_FILE, folder / RUN_FILE
     if summary_file.is_file():
-        summary = _record(summary_file)
+        summary = read_record(summary_file)
         if not isinstance(summary.get("runs"), list) or not summary["runs"]:
             raise ValueError(f"{summary_file} lists no runs: nothing to draw")
-        runs = [_record(folder / str(run) / RUN_FILE) for run in summary["runs"]]
+        runs = [read_record(folder / str(run) / RUN_FILE) for run in summary["runs"]]
         return _config(summary_file, summary), runs
     if run_file.is_file():
-        record = _record(run_file)
+        record = read_record(run_file)
         return _config(run_file, record), [record]
     raise FileNotFoundError(
         f"{folder} holds neither {SUMMARY_FILE} nor {RUN_FILE}: give "
         "directories written by acrobot-mj train"
     )
-
-
-def _record(path: Path) -> dict[str, Any]:
-    """A JSON record, or one line naming the file and what is wrong with it."""
-    try:
-        record = read_json(path)
-    except (OSError, ValueError) as error:
-        raise ValueError(f"{path} is not a readable record: {error}") from None
-    if not isinstance(record, dict):
-        raise ValueError(f"{path} is not a record: a JSON object was expected")
-    return record
 
 
 def _config(path: Path, record: dict[str, Any]) -> TrainConfig:

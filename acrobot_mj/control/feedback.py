@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.control.lqr import LQR, MPC, Jacobians, tvlqr
+from acrobot_mj.control.lqr import LQR, MPC, Jacobians, tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
@@ -136,9 +136,8 @@ class FunnelController:
         return bool(error @ self.lqr.cost @ error < self.settings.upright)
 
     def funnel_torque(self, k: int, x: np.ndarray) -> float:
-        """TVLQR at funnel point ``k``: ``clip(u*_k - K_k (x - x*_k))`` [N m]."""
-        u = self.trajectory.torques[k] - self.gains[k] @ state_error(x, self.trajectory.states[k])
-        return float(np.clip(u, -self.limit, self.limit))
+        """TVLQR at funnel point ``k`` (:func:`~acrobot_mj.control.lqr.tvlqr_torque`) [N m]."""
+        return tvlqr_torque(self.trajectory, self.gains, k, x)
 
     def __call__(self, x: np.ndarray) -> float:
         """The torque [N m] in state ``x``; it moves the memory one funnel point on."""

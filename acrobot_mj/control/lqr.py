@@ -55,14 +55,23 @@ def discrete_model(
     return a_k, b_k
 
 
+def riccati_step(
+    a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, cost: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """One step of the discrete Riccati recursion back from the cost-to-go ``cost`` (4, 4) under
+    ``x' = a x + b u`` with weights ``q`` (4, 4) and ``r`` (1, 1): the gain K (1, 4) of
+    ``u = -K x`` and the cost-to-go (4, 4) one step earlier."""
+    gain = np.linalg.solve(r + b.T @ cost @ b, b.T @ cost @ a)
+    return gain, q + a.T @ cost @ (a - b @ gain)
+
+
 def dlqr(
     a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, tol: float = 1e-12
 ) -> tuple[np.ndarray, np.ndarray]:
     """Infinite-horizon discrete LQR by Riccati iteration: gain K (``u = -K x``) and cost P."""
     cost = q.copy()
     for _ in range(10_000):
-        gain = np.linalg.solve(r + b.T @ cost @ b, b.T @ cost @ a)
-        new = q + a.T @ cost @ (a - b @ gain)
+        gain, new = riccati_step(a, b, q, r, cost)
         if np.max(np.abs(new - cost)) <= tol * max(1.0, np.max(np.abs(new))):
             return gain, new
         cost = new
@@ -108,7 +117,7 @@ def balances(
 ) -> np.ndarray:
     """For each start ``(n, 4)``: is it within ``tolerance`` of upright after ``seconds``?"""
     x = np.array(starts, dtype=float)
-    for _ in range(round(seconds / REPORT.dt)):
+    for _ in range(integrators.steps_in(seconds, REPORT.dt)):
         x = integrators.step_states(x, controller(x))
     return np.all(np.abs(state_error(x)) < tolerance, axis=1)
 
@@ -285,11 +294,17 @@ def tvlqr(
             a, b = step_jacobians(x, u, trajectory.method, trajectory.params)
         else:
             a, b = linear(x, u)
-        riccati = costs[k + 1]
-        gain = np.linalg.solve(torque_cost + b.T @ riccati @ b, b.T @ riccati @ a)
-        costs[k] = weights + a.T @ riccati @ (a - b @ gain)
+        gain, costs[k] = riccati_step(a, b, weights, torque_cost, costs[k + 1])
         gains[k] = gain[0]
     return costs, gains
+
+
+def tvlqr_torque(trajectory: Trajectory, gains: np.ndarray, k: int, x: np.ndarray) -> float:
+    """TVLQR at point ``k`` of ``trajectory`` (``gains`` from :func:`tvlqr`) in state ``x``:
+    ``clip(u*_k - K_k (x - x*_k), -u_max, u_max)`` [N m], ``u_max`` the model's torque bound."""
+    u = trajectory.torques[k] - gains[k] @ state_error(x, trajectory.states[k])
+    limit = trajectory.params.max_torque
+    return float(np.clip(u, -limit, limit))
 
 
 class SwingUpController:
@@ -309,10 +324,7 @@ class SwingUpController:
         """The torque [N m] at physics step ``k`` (0 at the start) in state ``x``."""
         if k >= self.trajectory.steps:
             return float(self.balancer(x))
-        error = state_error(x, self.trajectory.states[k])
-        u = self.trajectory.torques[k] - self.gains[k] @ error
-        limit = self.trajectory.params.max_torque
-        return float(np.clip(u, -limit, limit))
+        return tvlqr_torque(self.trajectory, self.gains, k, x)
 
 
 class SigmaDelta:

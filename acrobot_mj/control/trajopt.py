@@ -238,8 +238,8 @@ class Optimiser:
     def solve(
         self, target: np.ndarray, warm: Arrays, objective: str = "feasible", free_time: bool = False
     ) -> tuple[np.ndarray, np.ndarray, float] | None:
-        """States, torques and step [s] from ``warm`` (None if none): reach ``target``, with the
-        least ``sum u^2`` (``"effort"``), or end nearest it (``"closest"``)."""
+        """States, torques and step [s] from ``warm`` (None if none): reach ``target``
+        (``"feasible"``), or end nearest it (``"closest"``)."""
         import casadi
 
         horizon = len(warm[1])
@@ -249,7 +249,7 @@ class Optimiser:
             opti.minimize(casadi.sumsqr((xs[:, horizon] - target) * weights))
         else:
             opti.subject_to(xs[:, horizon] == target)
-            effort = (1.0 if objective == "effort" else 1e-3) * casadi.sumsqr(us)
+            effort = 1e-3 * casadi.sumsqr(us)
             opti.minimize(horizon * h + 1e-4 * casadi.sumsqr(us) if free_time else effort)
         if free_time:
             opti.subject_to(opti.bounded(0.5 * self.p.dt, h, 2.5 * self.p.dt))
@@ -286,7 +286,7 @@ class Optimiser:
         free = self.solve(target, start, free_time=True)
         if free is None:
             return None
-        horizon = int(np.ceil(len(start[1]) * free[2] / self.p.dt - 1e-9))
+        horizon = integrators.steps_in(len(start[1]) * free[2], self.p.dt)
         for steps in range(horizon, horizon + 8):
             found = self.approach(target, resample(free[0], free[1], steps))[1]
             if found is not None:
@@ -409,48 +409,6 @@ def _mapped(work: list[tuple[Optimiser, int, np.ndarray, str]], jobs: int) -> It
 
 def _cost(path: Arrays) -> tuple[int, float]:
     return len(path[1]), float(np.sum(path[1] ** 2))
-
-
-def optimise(
-    horizon: int,
-    u_max: float = 1.0,
-    method: str = "semi_implicit_euler",
-    objective: str = "feasible",
-    warm: Trajectory | None = None,
-) -> Trajectory:
-    """A swing-up of exactly ``horizon`` steps with ``|u| <= u_max`` (``objective``
-    ``"feasible"`` or ``"effort"``), warm-started from ``warm`` or the pumping law."""
-    if not isinstance(horizon, int) or isinstance(horizon, bool) or horizon < 1:
-        raise ValueError(f"horizon must be an integer >= 1 step, got {horizon!r}")
-    optimiser = Optimiser(u_max, method)
-    if objective not in ("feasible", "effort"):
-        raise ValueError(f"objective must be 'feasible' or 'effort', got {objective!r}")
-    if warm is None:
-        targets, start = TARGETS, optimiser.pumping(horizon)
-    else:
-        targets, start = (warm.states[-1],), resample(warm.states, warm.torques, horizon)
-    for target in targets:
-        found = optimiser.approach(target, start)[1]
-        if found is not None and objective == "effort":
-            solved = optimiser.solve(target, found, "effort")  # (states, torques, cost)
-            found = None if solved is None else solved[:2]
-        if found is not None:
-            return optimiser.trajectory(found[:2]).check()
-    raise ValueError(
-        f"no trajectory of {horizon} steps ({horizon * REPORT.dt:g} s) to upright at rest with "
-        f"|u| <= {u_max:g} N m was found: the horizon is too short, or the warm start too far "
-        "(min_time searches over horizons)"
-    )
-
-
-def min_effort(reference: Trajectory, extra_steps: int = 0) -> Trajectory:
-    """The least-effort (``sum u^2``) trajectory to ``reference``'s end, ``extra_steps`` longer."""
-    optimiser = Optimiser(reference.u_max, reference.method, reference.params)
-    warm = resample(reference.states, reference.torques, reference.steps + extra_steps)
-    result = optimiser.solve(reference.states[-1], warm, "effort")
-    if result is None:
-        raise ValueError(f"no least-effort trajectory of {len(warm[1])} steps was found")
-    return optimiser.trajectory(result[:2])
 
 
 def shortest_to_height(

@@ -31,7 +31,8 @@ from acrobot_mj.envs.spaces import (
     reset_state,
 )
 from acrobot_mj.envs.tasks import Task, TaskOptions, get_task
-from acrobot_mj.physics.xp import clip, wrap
+from acrobot_mj.physics.integrators import limit_velocities
+from acrobot_mj.physics.xp import wrap
 
 if sys.version_info >= (3, 11):
     from typing import Unpack
@@ -48,6 +49,7 @@ MAX_FRAME_SKIP = 1000  # physics steps per action: 50 s
 # Globals are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
 _MIN_Q, _MIN_VEL1, _MIN_VEL2 = -MAX_ANGLE, -MAX_VEL1, -MAX_VEL2
+_MAX_VEL = (MAX_VEL1, MAX_VEL2)
 _PI, _MIN_PI = math.pi, -math.pi
 
 
@@ -265,8 +267,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             _mj_step(m, d)
             v1, v2 = qvel.tolist()
             if not (_MIN_VEL1 <= v1 <= MAX_VEL1 and _MIN_VEL2 <= v2 <= MAX_VEL2):  # or NaN
-                v1 = qvel[0] = clip(v1, _MIN_VEL1, MAX_VEL1)
-                v2 = qvel[1] = clip(v2, _MIN_VEL2, MAX_VEL2)
+                v1, v2 = qvel[0], qvel[1] = limit_velocities(v1, v2, _MAX_VEL)
         q1, q2 = self._qpos.tolist()
         # False for NaN, infinities and runaway angles (MuJoCo's autoreset is off).
         if not (_MIN_Q < q1 < MAX_ANGLE and _MIN_Q < q2 < MAX_ANGLE and v1 == v1 and v2 == v2):

@@ -18,7 +18,7 @@ from acrobot_mj.envs.acrobot import HUGE, MAX_ANGLE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics import xp
 from acrobot_mj.physics.dynamics import forward_dynamics
-from acrobot_mj.physics.integrators import Stepping, step_rows
+from acrobot_mj.physics.integrators import Stepping, limit_velocities, step_rows
 from acrobot_mj.physics.params import AcrobotParams
 
 #: Sizes from which threads pay: waking them costs tens of microseconds per step (MuJoCo's).
@@ -32,10 +32,8 @@ def limit_rows(qvel, lim1, lim2) -> None:
     """The velocity limits on ``qvel`` ``(N, 2)``, in place (rows inside are not written)."""
     for i in range(qvel.shape[0]):
         v1, v2 = qvel[i, 0], qvel[i, 1]
-        if not (-lim1 <= v1 <= lim1):  # or NaN (written back unchanged)
-            qvel[i, 0] = xp.clip(v1, -lim1, lim1)
-        if not (-lim2 <= v2 <= lim2):
-            qvel[i, 1] = xp.clip(v2, -lim2, lim2)
+        if not (-lim1 <= v1 <= lim1 and -lim2 <= v2 <= lim2):  # or NaN (written back unchanged)
+            qvel[i, 0], qvel[i, 1] = limit_velocities(v1, v2, (lim1, lim2))
 
 
 @jitable

@@ -1,14 +1,13 @@
 """A controller of :mod:`acrobot_mj.control` closed loop on ``acrobot_mj/AcrobotBalance-v0``:
 :class:`BalanceActor` (the controller as an episode-loop actor, beside
 :class:`~acrobot_mj.envs.rollout.PolicyActor`), the env of a swing-up, and :func:`closed_loop`,
-which runs one and assesses it. Balanced: within the task's tolerance (0.05 rad) from the end of
-the swing-up to the end of the run."""
+which runs one under a :class:`~acrobot_mj.envs.disturbances.Perturbation` and assesses it.
+Balanced: within the task's tolerance (0.05 rad) from the end of the swing-up to the end of the
+run."""
 
 from __future__ import annotations
 
 import functools
-import math
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -17,22 +16,12 @@ import numpy as np
 from acrobot_mj.control.feedback import Feedback
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.envs.disturbances import Perturbation, scale_links
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.physics.integrators import steps_in
 
 INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
-
-
-@dataclass(frozen=True)
-class Perturbation:
-    """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
-    scaled in MuJoCo's model, and Gaussian torque noise on the elbow [N m] drawn from ``seed``."""
-
-    start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    mass_scale: float = 1.0
-    inertia_scale: float = 1.0
-    torque_noise: float = 0.0
-    seed: int = 0
 
 
 class BalanceActor:
@@ -84,10 +73,17 @@ class BalanceActor:
         return None if terminated or truncated else self._act()
 
 
+def assess_from_rest(env: gym.Env, actor: BalanceActor, seed: int) -> dict[str, Any]:
+    """The task's assessment of ``actor``'s episode on ``env`` from rest (no start noise)."""
+    run_episode(env, actor, seed, {"start_noise": 0.0})
+    acrobot = acrobot_of(env)
+    return acrobot.task.assess(np.array(actor.states), acrobot.dt)
+
+
 def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: Any) -> gym.Env:
     """The balance task's env for a swing-up along ``trajectory`` and ``hold`` seconds more
     (unless ``kwargs`` give ``max_episode_steps``)."""
-    steps = trajectory.steps + math.ceil(hold / trajectory.dt - 1e-9)
+    steps = trajectory.steps + steps_in(hold, trajectory.dt)
     kwargs.setdefault("max_episode_steps", steps)
     return gym.make(
         Balance.env_id,
@@ -101,7 +97,7 @@ def closed_loop(
     trajectory: Trajectory,
     discrete: bool = False,
     hold: float = 60.0,
-    perturbation: Perturbation = Perturbation(),
+    perturbation: Perturbation = Perturbation(),  # noqa: B008 (frozen)
     env: gym.Env | None = None,
     record: Any = None,
 ) -> dict[str, Any]:
@@ -109,10 +105,7 @@ def closed_loop(
     ``torques`` and ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead
     (videos)."""
     env = env or balance_env(trajectory, discrete, hold)
-    model = acrobot_of(env).model
-    for name in ("link1", "link2"):
-        model.body_mass[model.body(name).id] *= perturbation.mass_scale
-        model.body_inertia[model.body(name).id] *= perturbation.inertia_scale
+    scale_links(env, perturbation.mass_scale, perturbation.inertia_scale)
     rng = np.random.default_rng(perturbation.seed)
     noise = (rng, perturbation.torque_noise) if perturbation.torque_noise > 0 else None
     actor = BalanceActor(env, SwingUpController(trajectory), discrete, noise)

@@ -1,6 +1,7 @@
 """What an evaluation does to the acrobot that its controller does not know: pushes (random
 velocity kicks every few seconds) and a perturbed model (masses and inertias scaled); how a run
-recovers from them; and the replay of an episode's torques and pushes in MuJoCo.
+recovers from them; and the replay of an episode's torques and pushes in MuJoCo. A
+:class:`Perturbation` is what the robustness table of ``acrobot-mj balance`` changes.
 
 A push is added to the joint velocities just before physics step ``k`` (counted from 0), at the
 first decision boundary at or after each multiple of ``push_every`` seconds: the controller
@@ -11,7 +12,6 @@ every physics step is.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,6 +20,7 @@ import numpy as np
 
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
+from acrobot_mj.physics.integrators import limit_velocities, steps_in
 
 #: The links whose mass and inertia ``perturb`` scales, and the record's names for them.
 LINKS = ("link1", "link2")
@@ -58,7 +59,7 @@ class Disturbances:
         if self.push_every is None:
             return []
         decision, steps, n = dt * frame_skip, [], 1
-        while (k := math.ceil(n * self.push_every / decision - 1e-9) * frame_skip) < physics_steps:
+        while (k := steps_in(n * self.push_every, decision) * frame_skip) < physics_steps:
             steps.append(k)
             n += 1
         return steps
@@ -69,6 +70,27 @@ class Disturbances:
             return dict(nominal)
         scale = rng.uniform(1.0 - self.perturb, 1.0 + self.perturb, size=len(PARAMETERS))
         return {name: nominal[name] * s for name, s in zip(PARAMETERS, scale, strict=True)}
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
+    scaled in MuJoCo's model (:func:`scale_links`), and Gaussian torque noise on the elbow
+    [N m] drawn from ``seed``."""
+
+    start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    mass_scale: float = 1.0
+    inertia_scale: float = 1.0
+    torque_noise: float = 0.0
+    seed: int = 0
+
+
+def scale_links(env: gym.Env, mass_scale: float, inertia_scale: float) -> None:
+    """Scale the mass and the three principal inertias of each of ``env``'s links."""
+    model = env.unwrapped.model  # type: ignore[attr-defined]
+    for link in LINKS:
+        model.body_mass[model.body(link).id] *= mass_scale
+        model.body_inertia[model.body(link).id] *= inertia_scale
 
 
 def model_parameters(env: gym.Env) -> dict[str, float]:
@@ -140,9 +162,7 @@ def add_velocity(env: gym.Env, kick: Any) -> None:
     """Add ``kick`` [rad/s] to ``env``'s joint velocities, clipped to the velocity limits as
     every physics step is."""
     qvel = env.unwrapped.data.qvel  # type: ignore[attr-defined]
-    qvel[:] = np.clip(
-        qvel + np.asarray(kick, dtype=np.float64), [-MAX_VEL1, -MAX_VEL2], [MAX_VEL1, MAX_VEL2]
-    )
+    qvel[:] = limit_velocities(*(qvel + np.asarray(kick, dtype=np.float64)), (MAX_VEL1, MAX_VEL2))
 
 
 def recoveries(
@@ -162,7 +182,7 @@ def recoveries(
     pushed) and ``balanced_seconds`` (within the tolerance until the next push or the end)."""
     error = np.asarray(error, dtype=float)
     balanced = error < tolerance
-    n, need = len(balanced), max(1, round(settle / dt))
+    n, need = len(balanced), max(1, steps_in(settle, dt))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], balanced.astype(np.int8), [0]])))
     stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     catches = [(a, b) for a, b in stretches if b - a >= need or b == n]

@@ -116,11 +116,6 @@ def forward_dynamics(
     return np.stack(np.broadcast_arrays(*ddq), -1)
 
 
-def kinetic_energy(q: ArrayLike, dq: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
-    """``T = dq^T M(q) dq / 2`` [J], shape ``(...)``."""
-    return _over_arrays(energies, q, dq, p)[0]
-
-
 def potential_energy(q: ArrayLike, p: AcrobotParams = REPORT) -> NDArray:
     """Gravitational energy ``V(q)`` [J], zero at the pivot's height, shape ``(...)``."""
     return _over_arrays(energies, q, np.zeros_like(q, dtype=float), p)[1]

@@ -24,6 +24,19 @@ METHODS = ("semi_implicit_euler", "rk4", "explicit_euler")
 UNLIMITED = (math.inf, math.inf)
 
 
+def steps_in(seconds: float, dt: float) -> int:
+    """The steps of ``dt`` [s] that cover ``seconds`` [s]: rounded up, where a float's last
+    digits do not count (``100 s / 0.05 s`` is 2000 steps)."""
+    return math.ceil(seconds / dt - 1e-9)
+
+
+@jitable
+def limit_velocities(dq1, dq2, max_vel, xp=FLOATS):
+    """``(dq1, dq2)`` [rad/s] clipped to ``max_vel = (|dq1|, |dq2|)`` [rad/s], as every
+    physics step ends; a NaN is kept."""
+    return xp.clip(dq1, -max_vel[0], max_vel[0]), xp.clip(dq2, -max_vel[1], max_vel[1])
+
+
 @jitable
 def step(q1, q2, dq1, dq2, tau, theta: Lumped, dt, max_vel, substeps=1, method=0, xp=FLOATS):
     """``substeps`` steps of ``dt`` [s] from ``(q1, q2, dq1, dq2)`` [rad, rad/s] with torque
@@ -51,8 +64,7 @@ def step(q1, q2, dq1, dq2, tau, theta: Lumped, dt, max_vel, substeps=1, method=0
             a1, a2 = accelerations(q1, q2, dq1, dq2, tau, theta, xp)
             q1, q2 = q1 + dt * dq1, q2 + dt * dq2
             dq1, dq2 = dq1 + dt * a1, dq2 + dt * a2
-        dq1 = xp.clip(dq1, -max_vel[0], max_vel[0])
-        dq2 = xp.clip(dq2, -max_vel[1], max_vel[1])
+        dq1, dq2 = limit_velocities(dq1, dq2, max_vel, xp)
     return q1, q2, dq1, dq2
 
 

@@ -4,14 +4,14 @@ video; and its :func:`robustness` to what it does not know."""
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
-from acrobot_mj.envs.control_loop import Perturbation, balance_env, closed_loop
+from acrobot_mj.envs.control_loop import balance_env, closed_loop
+from acrobot_mj.envs.disturbances import Perturbation
 from acrobot_mj.files import versions, write_json
-from acrobot_mj.report.video import RenderSettings, record_episode
+from acrobot_mj.report.video import RenderSettings, record_episode, write_video_record
 
 
 def load_trajectory(
@@ -54,9 +54,12 @@ def run_balance(
     screen = {"render_mode": "rgb_array", "width": size[0], "height": size[1]} if video else {}
     env = balance_env(trajectory, discrete, hold, **screen)
     path, settings = out / "swing_up.mp4", RenderSettings(*size, strip=out / "swing_up.png")
-    recorder = functools.partial(record_episode, path=path, settings=settings) if video else None
+
+    def filmed(env: Any, actor: Any, *, on_reset: Any) -> None:
+        write_video_record(record_episode(env, actor, path, settings, on_reset=on_reset))
+
     try:
-        result = closed_loop(trajectory, discrete, hold, env=env, record=recorder)
+        result = closed_loop(trajectory, discrete, hold, env=env, record=filmed if video else None)
     finally:
         env.close()
     fields = ("steps", "seconds", "u_max", "method")

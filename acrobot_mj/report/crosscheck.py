@@ -71,7 +71,7 @@ def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> 
             for t, tau in enumerate(taus):
                 data.ctrl[0] = tau
                 mujoco.mj_step(model, data)
-                data.qvel[:] = np.clip(data.qvel, -limits, limits)
+                data.qvel[:] = integrators.limit_velocities(*data.qvel, P.max_vel)
                 gap = np.abs(np.concatenate([data.qpos, data.qvel]) - analytic[t + 1])
                 traj = max(traj, float(gap.max()))
         result["one_step"][name] = one
@@ -85,7 +85,7 @@ def integrator_study(
     """Energy drift [J] with zero torque of each integrator, and of RK4 at dt / substeps."""
     # A 0.5 rad swing, kicked from hanging, and released horizontal (chaotic).
     starts = np.array([[-np.pi / 2 + 0.5, 0, 0, 0], [-np.pi / 2, 0, 1, -1], [0.0, 0, 0, 0]])
-    steps = round(seconds / P.dt)
+    steps = integrators.steps_in(seconds, P.dt)
     e0 = dynamics.total_energy(starts[:, :2], starts[:, 2:])
     drift, curves = {}, {}
     for method in METHODS:

@@ -194,8 +194,9 @@ def record_episode(
     states: list[np.ndarray] | None = None,
     on_reset: Any = None,
 ) -> dict[str, Any]:
-    """Write an episode of ``actor`` on ``env`` (``rgb_array``) as MP4, and its record as JSON
-    beside it (returned); ``states`` collects each frame's state."""
+    """Write an episode of ``actor`` on ``env`` (``rgb_array``) as MP4 (and the strip); its
+    record, which the caller completes and writes beside it (:func:`write_video_record`);
+    ``states`` collects each frame's state."""
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
     path, strip = Path(path), settings.strip
@@ -260,8 +261,12 @@ def record_episode(
         image = Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1))
         write_atomic(strip, lambda f: image.save(f, format="PNG"))
         record["strip"] = str(strip)
-    write_json(path.with_suffix(".json"), record)
     return record
+
+
+def write_video_record(record: dict[str, Any]) -> None:
+    """A video's record as JSON beside it (``record["video"]``, ``.json`` for ``.mp4``)."""
+    write_json(Path(record["video"]).with_suffix(".json"), record)
 
 
 def watch(
@@ -303,5 +308,5 @@ def render_policy(
     finally:
         env.close()
     record.update(policy=name, frame_skip=frame_skip)
-    write_json(Path(out).with_suffix(".json"), record)
+    write_video_record(record)
     return record

@@ -21,11 +21,10 @@ from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.control_loop import BalanceActor, balance_env, closed_loop
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import versions, write_json
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train.learners import Learner, Protocol, Run
 from acrobot_mj.train.model_based import identified_model
-from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
+from acrobot_mj.train.records import TRAJECTORY_FILE
 
 #: ``run.json``'s ``kind`` of a balance-preset run.
 KIND = "identify_and_plan"
@@ -88,7 +87,7 @@ class PlanConfig:
 class PlanLearner(Learner):
     """The balance preset's learner: ``learn`` identifies and plans; it acts through TVLQR."""
 
-    kind = KIND
+    kind, kind_name = KIND, "balance-preset"
     describes = "identified model + TVLQR"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0)
 
@@ -122,22 +121,20 @@ class PlanLearner(Learner):
         torques = np.asarray(result.pop("torques"))
         result.pop("states")
         rest = result | {"steps": len(torques), "mean_abs_torque": float(np.abs(torques).mean())}
-        record = {
-            "kind": KIND,
-            "config": config.to_dict(),
-            "seed": self.seed,
-            "task": Balance.name,
-            "model": model,
-            "plan": plan_summary(self.trajectory),
-            "greedy_from_rest": rest,
-            "decisions_total": model["data_decisions"] + len(torques),
-            "wall_seconds": trained,
-            "versions": versions(),
-        }
-        if run.out is not None:
-            self.trajectory.save(run.out / TRAJECTORY_FILE)
-            write_json(run.out / RUN_FILE, record)
-        return record
+        return self.keep(
+            run,
+            {
+                "task": Balance.name,
+                "model": model,
+                "plan": plan_summary(self.trajectory),
+                "greedy_from_rest": rest,
+                "decisions_total": model["data_decisions"] + len(torques),
+                "wall_seconds": trained,
+            },
+        )
+
+    def save(self, out: Path) -> None:
+        self._planned().save(out / TRAJECTORY_FILE)
 
     def _planned(self) -> Trajectory:
         if self.trajectory is None:
@@ -152,7 +149,7 @@ class PlanLearner(Learner):
 
     @classmethod
     def load(cls, run_dir: Path) -> PlanLearner:
-        record = read_kind(run_dir, KIND, "balance-preset")
+        record = cls.read_run(run_dir)
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if dataclasses.asdict(trajectory.params) != record["model"]["params"]:
             raise ValueError(

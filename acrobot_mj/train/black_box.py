@@ -21,13 +21,14 @@ from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
-from acrobot_mj.envs.control_loop import BalanceActor
-from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
+from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
+from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import read_json, versions, write_json
+from acrobot_mj.files import read_json, write_json
+from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train.learners import Learner, Protocol, Run
-from acrobot_mj.train.records import MODEL_FILE, RUN_FILE, read_kind
+from acrobot_mj.train.records import MODEL_FILE
 
 #: ``run.json``'s ``kind`` of a black-box run.
 KIND = "black_box"
@@ -155,7 +156,7 @@ class BlackBoxLearner(Learner):
     """Learns a model from the env's observations, actions and rewards only, then plans and
     follows a funnel on it (``learn``); acts through that state feedback, with no clock."""
 
-    kind = KIND
+    kind, kind_name = KIND, "black-box"
     describes = "black box: learnt model, planned funnel, constrained LQR"
     protocol = Protocol(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
 
@@ -206,10 +207,7 @@ class BlackBoxLearner(Learner):
         self.controller = self._controller()
         rest = self.greedy(env)
         simulated = len(data["actions"]) * decision_seconds(env)
-        record = {
-            "kind": KIND,
-            "config": config.to_dict(),
-            "seed": self.seed,
+        measured = {
             "task": Balance.name,
             "told": list(TOLD),
             "data": {
@@ -228,21 +226,19 @@ class BlackBoxLearner(Learner):
             "fit_seconds": fitted - clock,
             "plan_seconds": planned - fitted,
             "wall_seconds": time.perf_counter() - clock,
-            "versions": versions(),
         }
-        if run.out is not None:
-            write_json(run.out / MODEL_FILE, self.model_record())
-            write_json(run.out / RUN_FILE, record)
-        return record
+        return self.keep(run, measured)
+
+    def save(self, out: Path) -> None:
+        write_json(out / MODEL_FILE, self.model_record())
 
     def greedy(self, env: gym.Env) -> dict[str, Any]:
         """The task's assessment of one episode from rest (the env's own start) in ``env``."""
         dt = decision_seconds(env)
-        limited = gym.wrappers.TimeLimit(env, round(self.config.seconds / dt))
+        limited = gym.wrappers.TimeLimit(env, steps_in(self.config.seconds, dt))
         assert self.controller is not None
         actor = BalanceActor(limited, self.controller, discrete=False, observed=True)
-        run_episode(limited, actor, self.seed, {"start_noise": 0.0})
-        return acrobot_of(env).task.assess(np.array(actor.states), dt)
+        return assess_from_rest(limited, actor, self.seed)
 
     def model_record(self) -> dict[str, Any]:
         assert self.model is not None and self.trajectory is not None
@@ -258,7 +254,7 @@ class BlackBoxLearner(Learner):
 
     def env(self, **kwargs: Any) -> gym.Env:
         assert self.trajectory is not None
-        steps = round(self.config.seconds / self.trajectory.dt)
+        steps = steps_in(self.config.seconds, self.trajectory.dt)
         return black_box_env(**{"max_episode_steps": steps, **kwargs})
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
@@ -267,7 +263,7 @@ class BlackBoxLearner(Learner):
 
     @classmethod
     def load(cls, run_dir: Path) -> BlackBoxLearner:
-        record = read_kind(run_dir, KIND, "black-box")
+        record = cls.read_run(run_dir)
         path = Path(run_dir) / MODEL_FILE
         try:
             data = read_json(path)

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from pathlib import Path
 from typing import Any, cast
 
@@ -18,7 +17,8 @@ from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_par
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
-from acrobot_mj.report.video import RenderSettings, record_episode, watch
+from acrobot_mj.physics.integrators import steps_in
+from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.learners import PERTURB, PUSHES, Learner, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
@@ -151,7 +151,7 @@ def episode_env(learner: Learner, protocol: Protocol) -> Pushed:
     where it pushes."""
     env = learner.env()
     if protocol.seconds is not None:
-        decisions = math.ceil(protocol.seconds / acrobot_of(env).dt - 1e-9)
+        decisions = steps_in(protocol.seconds, acrobot_of(env).dt)
         env.close()
         env = learner.env(max_episode_steps=decisions)
     return Pushed(env)
@@ -223,7 +223,7 @@ def render_run(
     finally:
         env.close()
     record.update(run=str(run_dir), run_seed=learner.seed, policy=learner.describes)
-    write_json(Path(out).with_suffix(".json"), record)
+    write_video_record(record)
     return record
 
 

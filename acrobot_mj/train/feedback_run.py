@@ -7,24 +7,22 @@ It is built on the report's model (it is told the equations), along the shipped 
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 
 from acrobot_mj.checks import check_float, check_settings
 from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
-from acrobot_mj.envs.control_loop import BalanceActor, balance_env
-from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
+from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest, balance_env
+from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.files import versions, write_json
+from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.train.learners import Learner, Protocol, Run
-from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
+from acrobot_mj.train.records import TRAJECTORY_FILE
 
 #: ``run.json``'s ``kind`` of a state-feedback run.
 KIND = "state_feedback"
@@ -72,7 +70,7 @@ class FeedbackConfig:
 class FeedbackLearner(Learner):
     """Builds the controller (``learn``); acts through it from any start, with no clock."""
 
-    kind = KIND
+    kind, kind_name = KIND, "state-feedback"
     describes = "state feedback: TVLQR funnel, constrained LQR, energy removal"
     protocol = Protocol(
         episodes=100, start_noise=0.01, seed=0, starts_from="uniform", seconds=120.0
@@ -91,25 +89,22 @@ class FeedbackLearner(Learner):
     def learn(self, run: Run) -> dict[str, Any]:
         with self.env() as env:
             actor = BalanceActor(env, self.feedback(), self.config.discrete)
-            run_episode(env, actor, self.seed, {"start_noise": 0.0})
-            rest = acrobot_of(env).task.assess(np.array(actor.states), self.trajectory.dt)
-        record = {
-            "kind": KIND,
-            "config": self.config.to_dict(),
-            "seed": self.seed,
-            "task": Balance.name,
-            "swing_up": SWING_UPS[self.config.reserve],
-            "greedy_from_rest": rest,
-            "build_seconds": self.build_seconds,
-            "versions": versions(),
-        }
-        if run.out is not None:
-            self.trajectory.save(run.out / TRAJECTORY_FILE)
-            write_json(run.out / RUN_FILE, record)
-        return record
+            rest = assess_from_rest(env, actor, self.seed)
+        return self.keep(
+            run,
+            {
+                "task": Balance.name,
+                "swing_up": SWING_UPS[self.config.reserve],
+                "greedy_from_rest": rest,
+                "build_seconds": self.build_seconds,
+            },
+        )
+
+    def save(self, out: Path) -> None:
+        self.trajectory.save(out / TRAJECTORY_FILE)
 
     def env(self, **kwargs: Any) -> gym.Env:
-        steps = math.ceil(self.config.seconds / self.trajectory.dt - 1e-9)
+        steps = steps_in(self.config.seconds, self.trajectory.dt)
         kwargs.setdefault("max_episode_steps", steps)
         return balance_env(self.trajectory, self.config.discrete, 0.0, **kwargs)
 
@@ -122,7 +117,7 @@ class FeedbackLearner(Learner):
 
     @classmethod
     def load(cls, run_dir: Path) -> FeedbackLearner:
-        record = read_kind(run_dir, KIND, "state-feedback")
+        record = cls.read_run(run_dir)
         config = FeedbackConfig.from_dict(record["config"])
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
         if trajectory.u_max != config.reserve:

@@ -23,6 +23,7 @@ from acrobot_mj.envs.disturbances import Disturbances
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
+from acrobot_mj.files import versions, write_json
 from acrobot_mj.stops import SafePoints
 from acrobot_mj.train.checkpoint import (
     RESUME_MAY_DIFFER,
@@ -47,6 +48,7 @@ from acrobot_mj.train.records import (
     SUMMARY_FILE,
     History,
     learner_dir,
+    read_kind,
     recent_median,
     run_record,
     write_run,
@@ -149,8 +151,9 @@ class Learner(ABC):
     """A trained thing: it learns into a run directory (``learn``), acts through ``env`` and
     ``actor``, and is loaded back from the directory (``load``)."""
 
-    #: ``run.json``'s ``kind`` (absent for agents).
+    #: ``run.json``'s ``kind`` (absent for agents) and the run's name in errors.
     kind: ClassVar[str | None] = None
+    kind_name: ClassVar[str] = "agent"
     #: What acts in its episodes, in a video's record.
     describes: ClassVar[str] = "greedy"
     protocol: ClassVar[Protocol] = DEFAULT
@@ -178,6 +181,32 @@ class Learner(ABC):
     @abstractmethod
     def load(cls, run_dir: Path) -> Learner:
         """The learner a run directory holds (refused, saying why, if it holds none)."""
+
+    def save(self, out: Path) -> None:
+        """Its own files beside ``run.json`` in ``out`` (a plan, a model), for :meth:`keep`."""
+        raise NotImplementedError(f"{type(self).__name__} keeps no files of its own")
+
+    def keep(self, run: Run, fields: dict[str, Any]) -> dict[str, Any]:
+        """The run record of a learner of a ``kind``: the kind, config and seed, ``fields``,
+        the versions; written with its own files (:meth:`save`) where ``run`` has a directory."""
+        record = {
+            "kind": self.kind,
+            "config": self.config.to_dict(),
+            "seed": self.seed,
+            **fields,
+            "versions": versions(),
+        }
+        if run.out is not None:
+            self.save(run.out)
+            write_json(run.out / RUN_FILE, record)
+        return record
+
+    @classmethod
+    def read_run(cls, run_dir: Path) -> dict[str, Any]:
+        """``run_dir``'s ``run.json``, refused unless it records a run of this kind."""
+        if cls.kind is None:
+            raise TypeError(f"{cls.__name__} keeps no run.json of a kind")
+        return read_kind(run_dir, cls.kind, cls.kind_name)
 
 
 def episode_seed(seed: int, episode: int) -> int:

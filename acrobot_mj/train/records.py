@@ -190,15 +190,24 @@ def check_fresh(out: Path) -> None:
         )
 
 
+def read_record(path: Path, what: str = "record") -> dict[str, Any]:
+    """The JSON object at ``path``, or one line naming the file and what is wrong with it
+    (``what``: what it should be)."""
+    try:
+        record = read_json(path)
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path} is not a readable {what}: {error}") from None
+    if not isinstance(record, dict):
+        raise ValueError(f"{path} is not a {what}: a JSON object was expected")
+    return record
+
+
 def read_kind(run_dir: Path, kind: str, what: str) -> dict[str, Any]:
     """``run_dir``'s ``run.json``, refused unless it records a run of ``kind`` (``what``: its
     name in the error)."""
     path = Path(run_dir) / RUN_FILE
-    try:
-        record = read_json(path)
-    except (OSError, ValueError) as error:
-        raise ValueError(f"{path} is not a readable run record: {error}") from None
-    if not isinstance(record, dict) or record.get("kind") != kind:
+    record = read_record(path, "run record")
+    if record.get("kind") != kind:
         raise ValueError(f"{path} is not a {what} run (kind {kind!r})")
     return record
 

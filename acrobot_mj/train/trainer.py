@@ -8,7 +8,6 @@ from typing import Any
 
 import gymnasium as gym
 
-from acrobot_mj.files import read_json
 from acrobot_mj.train.balance_preset import PlanConfig, PlanLearner
 from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner
 from acrobot_mj.train.config import TrainConfig
@@ -17,7 +16,14 @@ from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import ModelBasedLearner
 from acrobot_mj.train.progress import run_total, watching
-from acrobot_mj.train.records import CURVE_FILE, EVAL_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
+from acrobot_mj.train.records import (
+    CURVE_FILE,
+    EVAL_FILE,
+    RUN_FILE,
+    SUMMARY_FILE,
+    check_fresh,
+    read_record,
+)
 
 #: The learners that are not trained by episodes, by their config's type and ``run.json`` kind.
 BUILT: dict[type, type[Learner]] = {
@@ -93,7 +99,7 @@ def load_learner(run_dir: str | Path) -> Learner:
     """The trained learner of a run directory, whatever it is."""
     run_dir = Path(run_dir)
     try:
-        kind = read_json(run_dir / RUN_FILE).get("kind")
-    except (OSError, ValueError, AttributeError):
+        kind = read_record(run_dir / RUN_FILE).get("kind")
+    except ValueError:
         kind = None  # an agent's run: its checkpoint says what is wrong
     return KINDS.get(kind, AgentLearner).load(run_dir)
