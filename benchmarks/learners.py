@@ -19,7 +19,7 @@ from acrobot_mj.agents.base import Learning
 from acrobot_mj.envs.identified import IdentifiedEnv
 from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.learners import episode_seed, make_env, shape_rewards
+from acrobot_mj.train.learners import RunOptions, episode_seed, make_env, shape_rewards
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.seeds import train_seeds
@@ -82,7 +82,7 @@ def tuned_seeds(seeds: int, jobs: int, config: TrainConfig) -> float:
         raise ValueError("tuned_seeds counts a model-based run's decisions: identify_decisions")
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        train_seeds(config, list(range(seeds)), Path(tmp) / "run", jobs=jobs)
+        train_seeds(config, list(range(seeds)), Path(tmp) / "run", options=RunOptions(jobs=jobs))
         wall = time.perf_counter() - start
         records = [json.loads(path.read_text()) for path in Path(tmp).glob("run/seed_*/run.json")]
     if len(records) != seeds:

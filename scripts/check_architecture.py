@@ -165,7 +165,9 @@ def check_package(root: Path) -> list[str]:
                     f"{MAX_PARAMETERS}: pass an object that owns them)"
                 )
             if length > MAX_FUNCTION:
-                problems.append(f"{where}:{line}: {name}() is {length} lines (at most {MAX_FUNCTION})")
+                problems.append(
+                    f"{where}:{line}: {name}() is {length} lines (at most {MAX_FUNCTION})"
+                )
         for line, text_ in private_reads(tree):
             problems.append(f"{where}:{line}: reads the private attribute {text_}")
         is_package = path.name == "__init__.py"

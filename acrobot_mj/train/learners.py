@@ -9,7 +9,7 @@ import shutil
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -54,8 +54,44 @@ from acrobot_mj.train.records import (
 
 #: Called after every training episode with its index and the history so far.
 OnEpisode = Callable[[int, History], None]
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How a run goes, whatever it trains: ``resume`` from its checkpoints (exactly),
+    ``overwrite`` another run in its directory, a ``progress`` bar on stderr (or the
+    :class:`~acrobot_mj.train.progress.Monitor` of a bigger run this one is part of), each episode's
+    scalars in ``tensorboard``, ``on_episode(index, history)`` after every training episode;
+    for several seeds or trials, ``jobs`` processes (None: one; a sweep: one per CPU) and
+    ``lockstep``: seeds together on one vector env (True), apart (False), where that pays
+    (None)."""
+
+    resume: bool = False
+    overwrite: bool = False
+    progress: bool | Monitor = False
+    tensorboard: str | Path | None = None
+    on_episode: OnEpisode | None = None
+    jobs: int | None = None
+    lockstep: bool | None = None
+
+    def only(self, what: str, *used: str) -> RunOptions:
+        """These options, refused where one that ``what`` has no use for is set."""
+        unused = [
+            f.name
+            for f in fields(self)
+            if f.name not in used and getattr(self, f.name) != f.default
+        ]
+        if unused:
+            raise ValueError(f"{what} takes no {' or '.join(unused)} option")
+        return self
+
+
 #: Scores a trained learner ``k`` of a population (instead of its last training episodes).
 Judge = Callable[[Agent, int], float]
+
+
+#: Every option at its default: a fresh run, no bar.
+PLAIN = RunOptions()
 
 
 @dataclass

@@ -19,7 +19,14 @@ from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.stops import SafePoints
 from acrobot_mj.train.checkpoint import Checkpoints, load_into, read_for_resume
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
+from acrobot_mj.train.learners import (
+    PLAIN,
+    RunOptions,
+    diverged,
+    episode_seed,
+    greedy_from_rest,
+    make_env,
+)
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.progress import Monitor, watching
 from acrobot_mj.train.records import CHECKPOINT_FILE, History, run_record, seed_dir, write_run
@@ -61,32 +68,32 @@ def train_lockstep(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path | None = None,
+    options: RunOptions = PLAIN,
     *,
-    progress: bool | Monitor = False,
     greedy: bool = True,
-    resume: bool = False,
     run_dirs: list[Path] | None = None,
-    tensorboard: str | Path | None = None,
 ) -> list[dict[str, Any]]:
     """Train one learner per seed together; the run records. Writes ``out_dir/seed_S/`` (or
     ``run_dirs[k]``) as ``train`` does; ``greedy=False`` skips the greedy runs from rest;
-    ``progress``: one bar over every learner's episodes (or a bigger run's monitor)."""
+    ``options``: ``resume``, one ``progress`` bar over every learner's episodes, and
+    ``tensorboard``."""
+    options.only("a lockstep run", "resume", "progress", "tensorboard")
     check_lockstep(config)
     if run_dirs is None and out_dir is not None:
         run_dirs = [seed_dir(Path(out_dir), s) for s in seeds]
     if run_dirs is not None and len(run_dirs) != len(seeds):
         raise ValueError(f"give one run directory per seed ({len(seeds)}), got {len(run_dirs)}")
-    if resume and run_dirs is None:
+    if options.resume and run_dirs is None:
         raise ValueError("resume needs the run directories (out_dir or run_dirs)")
     if run_dirs is not None:
         check_open_files(f"{len(seeds)} seeds in lockstep", 2 * len(seeds))  # lock, episode log
     with RunLock(out_dir) if out_dir is not None else contextlib.nullcontext():
         run = _Lockstep(config, seeds, run_dirs)
-        if resume:
+        if options.resume:
             run.restore()
         total = (config.episodes * len(seeds), "episodes")
         label = f"lockstep {config.algorithm} x{len(seeds)}"
-        with watching(progress, total, label, tensorboard) as monitor:
+        with watching(options.progress, total, label, options.tensorboard) as monitor:
             started = time.perf_counter()
             run.train(monitor)
         return run.records(time.perf_counter() - started, greedy)
