@@ -5,7 +5,6 @@ agent does, so the records and checkpoints are the single runs' (but ``wall_seco
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from functools import partial
 from pathlib import Path
@@ -17,12 +16,12 @@ from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
 from acrobot_mj.checks import check_open_files
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.stops import SafePoints
+from acrobot_mj.train.bookkeeping import Books
 from acrobot_mj.train.checkpoint import Checkpoints, load_into, read_for_resume
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import (
     PLAIN,
     RunOptions,
-    diverged,
     episode_seed,
     greedy_from_rest,
     make_env,
@@ -119,7 +118,7 @@ class _Lockstep:
             Checkpoints(None if dirs is None else dirs[i] / CHECKPOINT_FILE, config, s, learner=i)
             for i, s in enumerate(self.seeds)
         ]
-        self.monitors: list[Monitor] = []
+        self.books: list[Books] = []
 
     def restore(self) -> None:
         """Each learner from its checkpoint; one that never reached one starts afresh."""
@@ -154,11 +153,12 @@ class _Lockstep:
         """Step every learner with episodes left until all are done."""
         config, k = self.config, self.k
         dirs = self.dirs if self.dirs is not None else [seed_dir(Path(), s) for s in self.seeds]
-        self.monitors = [monitor.scoped(d.name) for d in dirs]
-        for i in range(k):
-            self.checkpoints[i].start(self.histories[i])
-            self.checkpoints[i].snapshot(partial(self.learners.state_dict, i), self.histories[i])
-            self.monitors[i].restored(self.histories[i])
+        self.books = [
+            Books(c, partial(self.learners.state_dict, i), monitor.scoped(d.name), h)
+            for i, (c, d, h) in enumerate(zip(self.checkpoints, dirs, self.histories, strict=True))
+        ]
+        for books in self.books:
+            books.start()
         length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
         active = self.episode < config.episodes
         actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
@@ -198,21 +198,13 @@ class _Lockstep:
     def _finish_episodes(
         self, done: np.ndarray, length: np.ndarray, total: np.ndarray, success: np.ndarray
     ) -> None:
-        """Record the episodes that just ended, and checkpoint where one is due."""
+        """Record the episodes that just ended (:meth:`.Books.end`)."""
         self.episode[done] += 1
         for i in np.flatnonzero(done):
-            episode = int(self.episode[i]) - 1
-            if not math.isfinite(total[i]):
-                error = DivergenceError(f"the episode's return is {total[i]}", rewards=True)
-                path = None if self.dirs is None else self.dirs[i] / CHECKPOINT_FILE
-                raise diverged(
-                    self.config, self.seeds[i], episode, len(self.histories[i]), error, path
-                )
-            self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
-            self.checkpoints[i].snapshot(partial(self.learners.state_dict, i), self.histories[i])
-            self.monitors[i].episode(episode, int(length[i]), float(total[i]), bool(success[i]))
-            if self.episode[i] % self.config.checkpoint_every == 0:
-                self.checkpoints[i].save()
+            try:
+                self.books[i].end(int(length[i]), float(total[i]), bool(success[i]))
+            except DivergenceError as error:
+                raise self.books[i].diverged(error) from None
 
     def records(self, elapsed: float, greedy: bool) -> list[dict[str, Any]]:
         """Each learner's run record and directory (``greedy``: with its greedy run from rest)."""
