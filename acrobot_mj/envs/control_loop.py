@@ -17,7 +17,7 @@ import numpy as np
 from acrobot_mj.control.feedback import Feedback
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.envs.rollout import acrobot_of, run_episode
+from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 
 INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
@@ -106,7 +106,7 @@ def closed_loop(
     record: Any = None,
 ) -> dict[str, Any]:
     """:meth:`~acrobot_mj.envs.tasks.Balance.assess` of the controller on ``env``, with per-step
-    ``torques`` and ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead
+    ``torques`` and ``states``; ``record(env, actor, *, hooks)`` runs the episode instead
     (videos)."""
     env = env or balance_env(trajectory, discrete, hold)
     model = acrobot_of(env).model
@@ -124,6 +124,6 @@ def closed_loop(
             acrobot_of(env).set_state(state[:2], state[2:])
 
     record = record or functools.partial(run_episode, seed=perturbation.seed)
-    record(env, actor, on_reset=start)
+    record(env, actor, hooks=Hooks(on_reset=start))
     result = acrobot_of(env).task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
     return {**result, "torques": actor.torques, "states": actor.states}

@@ -101,21 +101,19 @@ class PlanLearner(Learner):
         return None if self.trajectory is None else self.trajectory.steps
 
     def learn(self, run: Run) -> dict[str, Any]:
-        from acrobot_mj.control.trajopt import TARGETS, min_time  # CasADi: the control extra
+        from acrobot_mj.control.trajopt import (  # CasADi: the control extra
+            TARGETS,
+            WarmStarts,
+            min_time,
+        )
 
         config, start = self.config, time.perf_counter()
         model = learn_model(config, self.seed)
         targets = None if config.targets is None else tuple(TARGETS[i] for i in config.targets)
         horizons = None if config.horizons is None else range(*config.horizons)
         p = AcrobotParams(**model["params"])
-        self.trajectory = min_time(
-            config.reserve,
-            horizons=horizons,
-            targets=targets,
-            p=p,
-            progress=run.progress,
-            starts=config.starts,
-        )
+        warm = WarmStarts(config.starts, horizons, targets)
+        self.trajectory = min_time(config.reserve, warm=warm, p=p, progress=run.progress)
         trained = time.perf_counter() - start
         with self.env() as env:
             result = closed_loop(self.trajectory, config.discrete, config.hold, env=env)

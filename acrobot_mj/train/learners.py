@@ -46,6 +46,7 @@ from acrobot_mj.train.records import (
     RUN_FILE,
     SUMMARY_FILE,
     History,
+    Outcome,
     learner_dir,
     recent_median,
     run_record,
@@ -328,7 +329,7 @@ def train_one(
         if (run.out / RUN_FILE).exists() and len(history) < config.episodes:
             # The finished record no longer describes the run: until this one ends (or is
             # killed, or diverges), it is this config's, interrupted where it resumed.
-            record = run_record(config, seed, history, 0.0, interrupted=True, env=env_name)
+            record = run_record(config, seed, history, Outcome(0.0, True), env=env_name)
             write_run(run.out, record, f"seed {seed}", curve=False)
     with SafePoints() as stops:  # from the first checkpoint on, stops land between episodes
         state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
@@ -342,9 +343,8 @@ def train_one(
         checkpoints.save()
         checkpoints.close()
         rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
-        record = run_record(
-            config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
-        )
+        outcome = Outcome(elapsed, bool(stop), rest)
+        record = run_record(config, seed, history, outcome, env=env_name)
         if run.out is not None:
             write_run(run.out, record, f"seed {seed}", curve=greedy)
         if stop:
@@ -469,10 +469,8 @@ def _population_record(
         config,
         seed,
         history,
-        sum(r["wall_seconds"] for r in records),
-        interrupted=best["interrupted"],
+        Outcome(sum(r["wall_seconds"] for r in records), best["interrupted"], greedy),
         env=best.get("env"),
-        greedy=greedy,
         population={
             "learners": config.population,
             "seeds": [r["seed"] for r in records],

@@ -28,7 +28,14 @@ from acrobot_mj.train.learners import (
 )
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.progress import Monitor, watching
-from acrobot_mj.train.records import CHECKPOINT_FILE, History, run_record, seed_dir, write_run
+from acrobot_mj.train.records import (
+    CHECKPOINT_FILE,
+    History,
+    Outcome,
+    run_record,
+    seed_dir,
+    write_run,
+)
 
 #: Seeds of one process from which they go in lockstep unless told otherwise: in smaller groups
 #: one process per seed is faster (docs/guide/train.md).
@@ -214,9 +221,8 @@ class _Lockstep:
             agent: Agent = config.make_agent(seed, self.vec.single_observation_space)
             agent.load_state_dict(self.learners.state_dict(i))
             rest = greedy_from_rest(env, agent, seed) if env is not None else None  # greedy
-            record = run_record(
-                config, seed, self.histories[i], elapsed / self.k, lockstep=self.k, greedy=rest
-            )
+            outcome = Outcome(elapsed / self.k, greedy=rest)
+            record = run_record(config, seed, self.histories[i], outcome, lockstep=self.k)
             if self.dirs is not None:
                 write_run(self.dirs[i], record, f"seed {seed}")
             records.append(record)

@@ -17,7 +17,7 @@ from acrobot_mj.bars import Steps
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import is_sealed, read_json, sealed, write_json, write_text
 from acrobot_mj.pool import WorkerPool
-from acrobot_mj.report.plots import Series, line_plot
+from acrobot_mj.report.plots import Labels, Series, line_plot
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT, PLAIN, RunOptions
@@ -199,9 +199,11 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
         line_plot(
             out / "summary.png",
             [series],
-            f"Sweep of the {spec.preset} preset over {list(spec.grid)}",
-            "grid point (rows of summary.md, in order)",
-            f"{score.unit} from rest",
+            Labels(
+                f"Sweep of the {spec.preset} preset over {list(spec.grid)}",
+                "grid point (rows of summary.md, in order)",
+                f"{score.unit} from rest",
+            ),
         )
     return summary
 
