@@ -213,15 +213,16 @@ def test_seeds_in_worker_processes_share_one_bar_read_from_their_logs(tmp_path) 
 
 
 def test_a_followed_log_that_is_cut_back_is_counted_again(tmp_path, capsys) -> None:
+    from acrobot_mj.bars import EpisodeBar
     from acrobot_mj.files import write_text
-    from acrobot_mj.train.progress import LogFollower, Progress
+    from acrobot_mj.train.monitor import LogFollower
 
     def lines(n: int, length: int) -> str:
         row = {"length": length, "return": -1.0, "success": True}
         return "".join(json.dumps({"episode": k, **row}) + "\n" for k in range(n))
 
     log = tmp_path / "episodes.jsonl"
-    bar = Progress(10, "follow", True)
+    bar = EpisodeBar(10, "follow", True, "episodes", 20)
     follower = LogFollower([log, tmp_path / "not_yet.jsonl"], bar)
     log.write_text(lines(6, 30) + '{"episode": 6, "len')  # the last line still being written
     follower.poll()

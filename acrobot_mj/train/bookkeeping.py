@@ -12,7 +12,7 @@ import gymnasium as gym
 
 from acrobot_mj.agents import DivergenceError
 from acrobot_mj.train.checkpoint import Checkpoints
-from acrobot_mj.train.progress import Monitor
+from acrobot_mj.train.monitor import Monitor
 from acrobot_mj.train.records import History
 
 #: Called after every training episode with its index and the history so far.

@@ -38,7 +38,7 @@ from acrobot_mj.train.checkpoint import (
 )
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import RunLog
-from acrobot_mj.train.progress import Monitor, run_total, watching
+from acrobot_mj.train.monitor import Monitor, run_total, watching
 from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     EPISODE_LOG,
@@ -58,7 +58,7 @@ from acrobot_mj.train.records import (
 class RunOptions:
     """How a run goes, whatever it trains: ``resume`` from its checkpoints (exactly),
     ``overwrite`` another run in its directory, a ``progress`` bar on stderr (or the
-    :class:`~acrobot_mj.train.progress.Monitor` of a bigger run this one is part of), each episode's
+    :class:`~acrobot_mj.train.monitor.Monitor` of a bigger run this one is part of), each episode's
     scalars in ``tensorboard``, ``on_episode(index, history)`` after every training episode;
     for several seeds or trials, ``jobs`` processes (None: one; a sweep: one per CPU) and
     ``lockstep``: seeds together on one vector env (True), apart (False), where that pays

@@ -27,7 +27,7 @@ from acrobot_mj.train.learners import (
     make_env,
 )
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.progress import Monitor, watching
+from acrobot_mj.train.monitor import Monitor, watching
 from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     History,

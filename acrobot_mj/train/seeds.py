@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from acrobot_mj.bars import EpisodeBar
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.pool import WorkerPool
@@ -17,10 +18,9 @@ from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT, PLAIN, Protocol, RunOptions
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
-from acrobot_mj.train.progress import (
+from acrobot_mj.train.monitor import (
     LogFollower,
     Monitor,
-    Progress,
     run_total,
     summary_writer,
     watching,
@@ -28,6 +28,7 @@ from acrobot_mj.train.progress import (
 from acrobot_mj.train.records import (
     CURVE_FILE,
     EPISODE_LOG,
+    RECENT,
     SUMMARY_FILE,
     check_fresh,
     plot_learning_curves,
@@ -142,7 +143,7 @@ def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, pro
         function, calls = runs.one, [(s, False, b) for s, b in zip(seeds, boards, strict=True)]
     count, unit = run_total(runs.config)
     label = f"{'lockstep ' if together else ''}{runs.config.algorithm} x{len(seeds)} seeds"
-    bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
+    bar = EpisodeBar(count * len(seeds), f"{label}, {jobs} processes", progress, unit, RECENT)
     logs = [seed_dir(runs.out, s) / EPISODE_LOG for s in seeds]
     try:
         with WorkerPool(jobs) as pool, LogFollower(logs, bar):

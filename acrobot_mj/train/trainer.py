@@ -16,7 +16,7 @@ from acrobot_mj.train.feedback_run import FeedbackConfig, FeedbackLearner
 from acrobot_mj.train.learners import PLAIN, AgentLearner, Learner, Run, RunOptions
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import ModelBasedLearner
-from acrobot_mj.train.progress import run_total, watching
+from acrobot_mj.train.monitor import run_total, watching
 from acrobot_mj.train.records import CURVE_FILE, EVAL_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
 
 #: The learners that are not trained by episodes, by their config's type and ``run.json`` kind.
