@@ -84,12 +84,12 @@ class RunOptions:
         return self
 
 
-#: Scores a trained learner ``k`` of a population (instead of its last training episodes).
-Judge = Callable[[Agent, int], float]
-
-
 #: Every option at its default: a fresh run, no bar.
 PLAIN = RunOptions()
+
+
+#: Scores a trained learner ``k`` of a population (instead of its last training episodes).
+Judge = Callable[[Agent, int], float]
 
 
 @dataclass
