@@ -44,7 +44,8 @@ class Books:
     def end(self, length: int, total: float, success: bool) -> None:
         """One episode ended: ``length`` decisions, return ``total``, ``success``. Its history
         entry and log line, the state after it kept, a checkpoint where one is due; a
-        :class:`DivergenceError` (nothing recorded) if ``total`` is not finite."""
+        :class:`~acrobot_mj.agents.base.DivergenceError` (nothing recorded) if ``total`` is not
+        finite."""
         episode = len(self.history)
         if not math.isfinite(total):
             raise DivergenceError(f"the episode's return is {total}", rewards=True)
