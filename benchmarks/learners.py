@@ -22,6 +22,7 @@ from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import episode_seed, make_env, shape_rewards
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.seeds import train_seeds
 
 Rate = Callable[[int], float]  # round -> decisions per second
@@ -82,7 +83,7 @@ def tuned_seeds(seeds: int, jobs: int, config: TrainConfig) -> float:
         raise ValueError("tuned_seeds counts a model-based run's decisions: identify_decisions")
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        train_seeds(config, list(range(seeds)), Path(tmp) / "run", jobs=jobs)
+        train_seeds(config, list(range(seeds)), Path(tmp) / "run", options=RunOptions(jobs=jobs))
         wall = time.perf_counter() - start
         records = [json.loads(path.read_text()) for path in Path(tmp).glob("run/seed_*/run.json")]
     if len(records) != seeds:

@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 
 PACKAGE = "acrobot_mj"
-MAX_MODULE, MAX_PARAMETERS = 500, 6
+MAX_MODULE, MAX_PARAMETERS, MAX_FUNCTION = 500, 6, 60
 #: Rank of each subpackage: a module may import modules of its own rank or lower.
 LAYERS = {"physics": 1, "control": 2, "envs": 3, "agents": 4, "report": 5, "train": 6, "cli": 7}
 #: Modules at the package's top: helpers below every layer, and the root above all.
@@ -84,8 +84,10 @@ def _private(name: str) -> bool:
     return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
 
 
-def parameter_counts(tree: ast.AST, lines: list[str]):
-    """(name, line, parameters passed by position) of every function but compiled kernels."""
+def function_sizes(tree: ast.AST, lines: list[str]):
+    """(name, line, parameters, lines) of every function but compiled kernels. Parameters count
+    positional and keyword-only ones (``self``, ``cls``, ``*args`` and ``**kwargs`` aside); a
+    constructor's keyword-only settings with defaults (as Gymnasium envs take theirs) aside."""
     for node in ast.walk(tree):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             kernel = "# kernel" in lines[node.lineno - 1] or any(
@@ -93,8 +95,11 @@ def parameter_counts(tree: ast.AST, lines: list[str]):
             )
             positional = [a.arg for a in node.args.posonlyargs + node.args.args]
             count = len([name for name in positional if name not in ("self", "cls")])
+            if node.name != "__init__":
+                count += len(node.args.kwonlyargs)
+            first = min([node.lineno, *(d.lineno for d in node.decorator_list)])
             if not kernel:
-                yield node.name, node.lineno, count
+                yield node.name, node.lineno, count, (node.end_lineno or first) - first + 1
 
 
 def private_reads(tree: ast.AST):
@@ -153,11 +158,15 @@ def check_package(root: Path) -> list[str]:
         lines = text.count("\n") + (not text.endswith("\n"))
         if lines > MAX_MODULE:
             problems.append(f"{where}: {lines} lines (at most {MAX_MODULE})")
-        for name, line, count in parameter_counts(tree, text.splitlines()):
+        for name, line, count, length in function_sizes(tree, text.splitlines()):
             if count > MAX_PARAMETERS:
                 problems.append(
-                    f"{where}:{line}: {name}() takes {count} parameters by position (at most "
-                    f"{MAX_PARAMETERS}: pass an object, or make the options keyword-only)"
+                    f"{where}:{line}: {name}() takes {count} parameters (at most "
+                    f"{MAX_PARAMETERS}: pass an object that owns them)"
+                )
+            if length > MAX_FUNCTION:
+                problems.append(
+                    f"{where}:{line}: {name}() is {length} lines (at most {MAX_FUNCTION})"
                 )
         for line, text_ in private_reads(tree):
             problems.append(f"{where}:{line}: reads the private attribute {text_}")

@@ -18,6 +18,7 @@ import mujoco
 
 from acrobot_mj.envs.assets import model_path
 from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.train.run import RunOptions
 
 #: Number of random states for the cross-checks (at least 100, to sample the whole domain).
 N_STATES = 200
@@ -92,4 +93,4 @@ def lockstep_interrupted_and_resumed(config, seeds, tmp_path, monkeypatch, stop_
         for s in seeds
     ]
     assert 0 < min(done) and max(done) < config.episodes  # stopped part-way
-    return whole, train_lockstep(config, seeds, tmp_path / "split", resume=True)
+    return whole, train_lockstep(config, seeds, tmp_path / "split", options=RunOptions(resume=True))

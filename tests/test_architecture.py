@@ -52,6 +52,7 @@ def test_the_checker_finds_every_kind_of_violation(tmp_path) -> None:
                 f"def k({many}):  # kernel (numba): arrays by position\n    return a0\n"
             ),
             "acrobot_mj/envs/big.py": "x = 1\n" * 501,
+            "acrobot_mj/envs/long.py": "def h():\n" + "    x = 1\n" * 60,
             # Text citing a file outside the repository, and a tracker (assembled, so that this
             # file does not cite them itself).
             "README.md": f"See {OUTSIDE}.\nAs the {TRACKER} says.\n",
@@ -63,11 +64,12 @@ def test_the_checker_finds_every_kind_of_violation(tmp_path) -> None:
     assert "imports acrobot_mj.envs.b (layer 3): imports go down the layers only" in problems
     assert "imports private names ['_hidden']" in problems
     assert "reads the private attribute other._state" in problems
-    assert "g() takes 7 parameters by position" in problems  # self and keywords aside
+    assert "g() takes 8 parameters" in problems  # self aside, keyword-only ones counted
+    assert "h() is 61 lines (at most 60)" in problems
     assert "big.py: 501 lines" in problems
     assert f"README.md:1: cites '{OUTSIDE[:9]}'" in problems
     assert f"README.md:2: cites '{TRACKER}'" in problems
-    assert len(problems.splitlines()) == 9  # and nothing else
+    assert len(problems.splitlines()) == 10  # and nothing else
 
 
 def _layout_paths() -> list[str]:

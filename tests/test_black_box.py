@@ -20,7 +20,8 @@ from acrobot_mj.envs.disturbances import model_parameters, set_model_parameters
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.dynamics import UPRIGHT
 from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner, black_box_env, explore
-from acrobot_mj.train.learners import Protocol, Run
+from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.run import Run
 from acrobot_mj.train.trainer import load_learner
 
 RNG = np.random.default_rng(7)

@@ -10,6 +10,7 @@ import pytest
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.sweep import complete
 from acrobot_mj.train.trainer import train
 
@@ -48,8 +49,18 @@ def test_a_capped_run_resumes_to_the_same_record(tmp_path) -> None:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train(CAPPED.replace(checkpoint_every=1), seed=2, out_dir=tmp_path, on_episode=interrupt)
-    resumed = train(CAPPED.replace(checkpoint_every=1), seed=2, out_dir=tmp_path, resume=True)
+        train(
+            CAPPED.replace(checkpoint_every=1),
+            seed=2,
+            out_dir=tmp_path,
+            options=RunOptions(on_episode=interrupt),
+        )
+    resumed = train(
+        CAPPED.replace(checkpoint_every=1),
+        seed=2,
+        out_dir=tmp_path,
+        options=RunOptions(resume=True),
+    )
     for key in ("episode_lengths", "episode_returns", "steps", "greedy_from_rest"):
         assert resumed[key] == whole[key], key
     assert complete(resumed, CAPPED.replace(checkpoint_every=1))

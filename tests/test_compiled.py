@@ -25,8 +25,9 @@ from acrobot_mj.envs.spaces import observation_space
 from acrobot_mj.physics.integrators import Stepping, step_one
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train.checkpoint import load_checkpoint
-from acrobot_mj.train.learners import Run, make_env
+from acrobot_mj.train.learners import make_env
 from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.run import Run, RunOptions
 from acrobot_mj.train.trainer import learner_for, train
 
 BOOK = PRESETS["book"]
@@ -409,7 +410,7 @@ def test_a_compiled_run_stopped_mid_episode_resumes_to_the_same_run(tmp_path) ->
     train(config.replace(episodes=7), 6, tmp_path / "seven")
     seven = load_checkpoint(tmp_path / "seven" / "checkpoint.npz")[1]
     assert all(np.array_equal(arrays[k], seven[k]) for k in seven)  # the rewound state
-    resumed = train(config, 6, tmp_path / "split", resume=True)
+    resumed = train(config, 6, tmp_path / "split", options=RunOptions(resume=True))
     for key in ("episode_lengths", "episode_returns", "greedy_from_rest", "steps"):
         assert resumed[key] == whole[key], key
     a = load_checkpoint(tmp_path / "whole" / "checkpoint.npz")[1]

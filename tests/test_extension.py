@@ -18,6 +18,7 @@ from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate, render_run
 from acrobot_mj.train.learners import Protocol
 from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train
 from tests.plugins import q_learning  # noqa: F401  registers the algorithm q_learning
@@ -86,7 +87,9 @@ def test_training_selection_and_summaries_ask_the_new_task(tmp_path) -> None:
     pop = record["population"]
     assert pop["kept"] == int(np.argmax(pop["scores"])) and len(set(pop["scores"])) > 1
     assert pop["rule"] == "highest median of the last 20 training episodes"
-    summary = train_seeds(ON_TIP_HEIGHT, [0, 1], tmp_path / "seeds", lockstep=True)
+    summary = train_seeds(
+        ON_TIP_HEIGHT, [0, 1], tmp_path / "seeds", options=RunOptions(lockstep=True)
+    )
     assert {"last20_median_return", "greedy_from_rest_return"} <= set(summary)
     runs = [json.loads((tmp_path / "seeds" / r / "run.json").read_text()) for r in summary["runs"]]
     assert [r["lockstep"] for r in runs] == [2, 2]  # lockstep SARSA on the new task's vector env
@@ -110,7 +113,7 @@ def test_the_new_agent_trains_checkpoints_resumes_and_evaluates(tmp_path) -> Non
     )
     whole = train(config, seed=3, out_dir=tmp_path / "whole")
     train(config.replace(episodes=3), seed=3, out_dir=tmp_path / "half")
-    resumed = train(config, seed=3, out_dir=tmp_path / "half", resume=True)
+    resumed = train(config, seed=3, out_dir=tmp_path / "half", options=RunOptions(resume=True))
     for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
         assert resumed[key] == whole[key], key
     assert (

@@ -18,6 +18,7 @@ from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import Protocol
 from acrobot_mj.train.presets import PRESETS, TUNED_0_2
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import load_learner, train
 
@@ -52,7 +53,9 @@ def test_report_preset_three_seeds_in_lockstep_are_unchanged(tmp_path) -> None:
     # Frame skip 4, where the report's SARSA reaches the goal: at frame skip 1 every episode of
     # its 200 runs 1000 steps, which any learner that never succeeds would reproduce.
     config = PRESETS["report"].replace(frame_skip=4, episodes=50)
-    train_seeds(config, [0, 1, 2], tmp_path, lockstep=True, protocol=None)  # no evaluation
+    train_seeds(
+        config, [0, 1, 2], tmp_path, protocol=None, options=RunOptions(lockstep=True)
+    )  # no evaluation
     for seed, golden in enumerate(GOLDEN["report_fs4_seeds3"]):
         _same_run(json.loads((tmp_path / f"seed_{seed}" / "run.json").read_text()), golden)
 
@@ -93,5 +96,5 @@ def test_a_checkpoint_written_before_resumes_to_the_same_run(tmp_path) -> None:
     run = tmp_path / "run"
     shutil.copytree(FIXTURES / "run_dirs" / "report_fs4", run)
     config = PRESETS["report"].replace(frame_skip=4, episodes=50)
-    record = train(config, seed=0, out_dir=run, resume=True)
+    record = train(config, seed=0, out_dir=run, options=RunOptions(resume=True))
     _same_run(record, GOLDEN["report_fs4_seeds3"][0])

@@ -18,6 +18,7 @@ from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.learners import Protocol
 from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.trainer import train
 
 #: The lumped parameters of the report's acrobot, by hand: a = 0.25 + (1 + 0.25) + 1 + 1,
@@ -141,7 +142,7 @@ def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) 
     evaluation = evaluate(tmp_path, Protocol(episodes=3))
     assert evaluation["rest"]["length"] == record["greedy_from_rest"]["length"]
     # Deterministic and resumable: the same data, the same model, the same run.
-    again = train(SMALL, seed=3, out_dir=tmp_path, resume=True)
+    again = train(SMALL, seed=3, out_dir=tmp_path, options=RunOptions(resume=True))
     for key in ("episode_lengths", "greedy_from_rest", "model", "population"):
         assert again[key] == record[key], key
     assert json.loads((tmp_path / "run.json").read_text())["model"] == model

@@ -88,7 +88,9 @@ def test_line_figure_arrows_labels_and_long_titles() -> None:
     arrows = np.array([[0.0, 1.0, 0.1, -0.2], [1.0, 2.0, 0.3, 0.0]])
     title = "A long title " * 10
     figure = plots.line_figure(
-        [plots.Series("s", [0, 1, 2], [3, 4, 5])], title, "q1 [rad]", "dq1 [rad/s]", arrows=arrows
+        [plots.Series("s", [0, 1, 2], [3, 4, 5])],
+        plots.Labels(title, "q1 [rad]", "dq1 [rad/s]"),
+        arrows=arrows,
     )
     (ax,) = figure.axes
     assert ax.get_xlabel() == "q1 [rad]" and ax.get_ylabel() == "dq1 [rad/s]"
@@ -128,7 +130,7 @@ def test_an_unknown_suffix_is_refused_before_drawing(tmp_path, name, monkeypatch
         plots.compare_curves(tmp_path / name, {"": RUNS}, "Curves")
     assert "\n" not in str(error.value)
     with pytest.raises(ValueError, match="must end in"):
-        plots.line_plot(tmp_path / name, [], "t", "x", "y")
+        plots.line_plot(tmp_path / name, [], plots.Labels("t", "x", "y"))
     assert not any(tmp_path.iterdir())
 
 

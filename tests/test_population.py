@@ -13,10 +13,11 @@ from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import read_rows
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import Protocol, Run, learner_seed, train_one
+from acrobot_mj.train.learners import Protocol, learner_seed, train_one
 from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_median
+from acrobot_mj.train.run import Run, RunOptions
 from acrobot_mj.train.trainer import load_learner, train
 
 # Three learners of four episodes of at most 400 decisions: with seed 2 their scores differ
@@ -69,17 +70,19 @@ def test_population_run_keeps_the_best_learner(tmp_path):
 def test_population_runs_are_deterministic_and_resume_to_the_same_record(tmp_path):
     first = train(CONFIG, seed=4, out_dir=tmp_path / "a")
     second = train(CONFIG, seed=4)
-    resumed = train(CONFIG, seed=4, out_dir=tmp_path / "a", resume=True)  # finished: trains again
+    resumed = train(
+        CONFIG, seed=4, out_dir=tmp_path / "a", options=RunOptions(resume=True)
+    )  # finished: trains again
     # Another checkpoint interval changes nothing learned: a finished run resumes with it too.
     other_interval = CONFIG.replace(checkpoint_every=7)
-    again = train(other_interval, seed=4, out_dir=tmp_path / "a", resume=True)
+    again = train(other_interval, seed=4, out_dir=tmp_path / "a", options=RunOptions(resume=True))
     assert again["episode_lengths"] == first["episode_lengths"]
     # Interrupted after learner 0 and half of learner 1 (their checkpoints are still there).
     part = tmp_path / "b"
     single = CONFIG.replace(population=1)
     train(single, seed=learner_seed(4, 0), out_dir=part / "learner_0")
     train(single.replace(episodes=2), seed=learner_seed(4, 1), out_dir=part / "learner_1")
-    continued = train(CONFIG, seed=4, out_dir=part, resume=True)
+    continued = train(CONFIG, seed=4, out_dir=part, options=RunOptions(resume=True))
     for other in (second, resumed, continued):
         for key in ("episode_lengths", "episode_returns", "greedy_from_rest", "population"):
             assert other[key] == first[key], key
@@ -94,18 +97,23 @@ def test_population_refuses_bad_sizes_and_lockstep():
 def test_resume_refuses_another_runs_directory(tmp_path):
     train(CONFIG, seed=4, out_dir=tmp_path / "pop")
     with pytest.raises(CheckpointError, match=r"different config \(\['alpha'\]\)"):
-        train(CONFIG.replace(alpha=0.5), seed=4, out_dir=tmp_path / "pop", resume=True)
+        train(
+            CONFIG.replace(alpha=0.5),
+            seed=4,
+            out_dir=tmp_path / "pop",
+            options=RunOptions(resume=True),
+        )
     with pytest.raises(CheckpointError, match="seed 4, not 7"):
-        train(CONFIG, seed=7, out_dir=tmp_path / "pop", resume=True)
+        train(CONFIG, seed=7, out_dir=tmp_path / "pop", options=RunOptions(resume=True))
     # A one-learner run is not resumed as a population, nor the other way round.
     single = CONFIG.replace(population=1)
     train(single, seed=4, out_dir=tmp_path / "one")
     with pytest.raises(CheckpointError, match="population"):
-        train(CONFIG, seed=4, out_dir=tmp_path / "one", resume=True)
+        train(CONFIG, seed=4, out_dir=tmp_path / "one", options=RunOptions(resume=True))
     with pytest.raises(CheckpointError, match="population"):
-        train(single, seed=4, out_dir=tmp_path / "pop", resume=True)
+        train(single, seed=4, out_dir=tmp_path / "pop", options=RunOptions(resume=True))
     with pytest.raises(ValueError, match="run directory"):
-        train(CONFIG, seed=4, resume=True)
+        train(CONFIG, seed=4, options=RunOptions(resume=True))
 
 
 def test_fresh_runs_refuse_a_partial_population_and_force_clears_it(tmp_path):
@@ -114,7 +122,7 @@ def test_fresh_runs_refuse_a_partial_population_and_force_clears_it(tmp_path):
     with pytest.raises(FileExistsError, match="learner_0"):
         train(CONFIG, seed=4, out_dir=out)
     (out / "learner_5").mkdir()  # left over from a bigger population
-    train(CONFIG, seed=4, out_dir=out, overwrite=True)
+    train(CONFIG, seed=4, out_dir=out, options=RunOptions(overwrite=True))
     assert sorted(p.name for p in out.glob("learner_*")) == [f"learner_{k}" for k in range(3)]
 
 
@@ -127,8 +135,8 @@ def test_interrupt_names_the_learner_and_resume_finishes_the_same(tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt, match="learner 1 of 3"):
-        train(CONFIG, seed=4, out_dir=tmp_path, on_episode=stop)
-    resumed = train(CONFIG, seed=4, out_dir=tmp_path, resume=True)
+        train(CONFIG, seed=4, out_dir=tmp_path, options=RunOptions(on_episode=stop))
+    resumed = train(CONFIG, seed=4, out_dir=tmp_path, options=RunOptions(resume=True))
     whole = train(CONFIG, seed=4)
     for key in ("episode_lengths", "greedy_from_rest", "population"):
         assert resumed[key] == whole[key], key
@@ -192,7 +200,7 @@ def test_a_population_stopped_between_learners_resumes_to_the_same_run(tmp_path)
     single = TABULAR.replace(population=1)
     train(single, learner_seed(4, 0), part / "learner_0")
     train(single.replace(episodes=4), learner_seed(4, 1), part / "learner_1")
-    resumed = train(TABULAR, 4, part, resume=True)
+    resumed = train(TABULAR, 4, part, options=RunOptions(resume=True))
     same_run(tmp_path / "whole", part, whole, resumed)
 
 

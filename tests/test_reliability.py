@@ -39,6 +39,7 @@ from acrobot_mj.train.checkpoint import (
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import CHECKPOINT_FILE, History
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.sweep_file import parse_sweep
 from acrobot_mj.train.trainer import load_learner, train
 
@@ -134,7 +135,12 @@ def test_a_stop_at_any_moment_leaves_the_state_of_its_last_episode(tmp_path) -> 
         assert json.loads((out / "run.json").read_text())["episodes_done"] == done
         if done == 0:
             continue
-        train(PRESETS["book"].replace(episodes=done), 5, tmp_path / "alone", overwrite=True)
+        train(
+            PRESETS["book"].replace(episodes=done),
+            5,
+            tmp_path / "alone",
+            options=RunOptions(overwrite=True),
+        )
         alone = load_checkpoint(tmp_path / "alone" / CHECKPOINT_FILE)[1]
         for key in ("w", "stream.block", "stream.next"):
             np.testing.assert_array_equal(arrays[key], alone[key], err_msg=f"{key} at {delay} s")
@@ -244,7 +250,7 @@ def test_a_lockstep_resume_starts_a_seed_that_never_reached_a_checkpoint(tmp_pat
     train_lockstep(config, [0, 1], tmp_path / "whole")
     train_lockstep(config.replace(episodes=2), [0], tmp_path / "part")
     assert not (tmp_path / "part" / "seed_1").exists()
-    train_lockstep(config, [0, 1], tmp_path / "part", resume=True)
+    train_lockstep(config, [0, 1], tmp_path / "part", options=RunOptions(resume=True))
     for seed in (0, 1):
         mine, theirs = (
             load_checkpoint(tmp_path / run / f"seed_{seed}" / CHECKPOINT_FILE)
@@ -425,7 +431,7 @@ def test_a_sweep_leaves_a_trial_directory_another_process_trains_in(tmp_path, ca
     try:
         wait_for(trial / "checkpoint.npz")
         spec = parse_sweep('preset = "report"\nepisodes = 2\nseeds = [0]\n')
-        summary = run_sweep(spec, tmp_path / "sw", jobs=1)
+        summary = run_sweep(spec, tmp_path / "sw", options=RunOptions(jobs=1))
         assert "sweep: trial base__seed=0 left unfinished:" in capsys.readouterr().err
         assert summary["unfinished"] == 1 and not (trial / "error.json").exists()
     finally:
@@ -565,7 +571,7 @@ def test_a_diverging_trial_is_a_failed_trial_in_a_sweep(tmp_path) -> None:
     from acrobot_mj.train.sweep import run_sweep
 
     spec = parse_sweep('preset = "book"\nepisodes = 40\nseeds = [0]\n[grid]\nalpha = [0.2]\n')
-    summary = run_sweep(spec, tmp_path, jobs=1)
+    summary = run_sweep(spec, tmp_path, options=RunOptions(jobs=1))
     error = json.loads((tmp_path / "trials" / "alpha=0.2__seed=0" / "error.json").read_text())
     assert error["error"].startswith("DivergenceError: sarsa_lambda diverged")
     assert summary["points"][0]["failed_seeds"] == [0] and summary["points"][0]["runs"] == 0
@@ -1026,7 +1032,9 @@ def test_a_lockstep_checkpoint_missing_arrays_is_refused_not_a_traceback(tmp_pat
     del arrays["stream.block"]
     save_checkpoint(path, arrays, meta)
     with pytest.raises(CheckpointError, match=r"seed_1/checkpoint.npz does not fit its agent"):
-        train_lockstep(config.replace(episodes=3), [0, 1], tmp_path, resume=True)
+        train_lockstep(
+            config.replace(episodes=3), [0, 1], tmp_path, options=RunOptions(resume=True)
+        )
 
 
 def test_curves_of_a_summary_without_runs_is_a_clear_error(tmp_path, exits, capsys) -> None:

@@ -19,6 +19,7 @@ from acrobot_mj.train import lockstep as lockstep_module
 from acrobot_mj.train.checkpoint import load_checkpoint
 from acrobot_mj.train.lockstep import LOCKSTEP_GROUP_FROM
 from acrobot_mj.train.records import CHECKPOINT_FILE
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.sweep import run_sweep
 from acrobot_mj.train.sweep_file import load_sweep, parse_sweep
 
@@ -129,8 +130,8 @@ def test_a_grid_points_seeds_go_in_lockstep_from_a_group_size_or_when_asked(
     # asked; the same records and weights either way.
     assert LOCKSTEP_GROUP_FROM > 2
     spec = parse_sweep(SMALL)
-    summaries = {"apart": run_sweep(spec, tmp_path / "apart", jobs=1)}
-    summaries["asked"] = run_sweep(spec, tmp_path / "asked", lockstep=True)
+    summaries = {"apart": run_sweep(spec, tmp_path / "apart", options=RunOptions(jobs=1))}
+    summaries["asked"] = run_sweep(spec, tmp_path / "asked", options=RunOptions(lockstep=True))
     monkeypatch.setattr(lockstep_module, "LOCKSTEP_GROUP_FROM", 2)
     summaries["threshold"] = run_sweep(spec, tmp_path / "threshold")
     apart = _trial_records(tmp_path / "apart")
@@ -160,7 +161,10 @@ MIXED = MIXED.replace("frame_skip = [4]\n", "")
     [
         ({"address": "auto"}, "--address is for --backend ray, not local"),
         ({"ray_num_cpus": 2}, "--num-cpus is for --backend ray, not local"),
-        ({"backend": "ray", "jobs": 2}, "--jobs is for --backend local, not ray"),
+        (
+            {"backend": "ray", "options": RunOptions(jobs=2)},
+            "--jobs is for --backend local, not ray",
+        ),
         # Nothing listens on port 1: refused at once (Ray retried for over 300 s).
         ({"backend": "ray", "address": "127.0.0.1:1"}, "no Ray cluster answers at 127.0.0.1:1"),
     ],
@@ -174,9 +178,11 @@ def test_a_sweep_refuses_options_of_the_other_backend(tmp_path, options, says) -
 def test_a_lockstep_sweep_refuses_what_cannot_go_in_lockstep(tmp_path, capsys) -> None:
     match = r"grid point algorithm=sarsa_lambda: lockstep training needs"
     with pytest.raises(ValueError, match=match):
-        run_sweep(parse_sweep(MIXED), tmp_path / "a", lockstep=True)
+        run_sweep(parse_sweep(MIXED), tmp_path / "a", options=RunOptions(lockstep=True))
     with pytest.raises(ValueError, match="lockstep sweeps run on the local backend"):
-        run_sweep(parse_sweep(SMALL), tmp_path / "b", backend="ray", lockstep=True)
+        run_sweep(
+            parse_sweep(SMALL), tmp_path / "b", backend="ray", options=RunOptions(lockstep=True)
+        )
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()  # nothing written
     sweep = tmp_path / "mixed.toml"
     sweep.write_text(MIXED)
@@ -205,7 +211,7 @@ def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch
         return original(config, seed, run_dir)
 
     monkeypatch.setattr(sweep_module, "run_trial", flaky)
-    summary = sweep_module.run_sweep(spec, tmp_path / "out", jobs=1)
+    summary = sweep_module.run_sweep(spec, tmp_path / "out", options=RunOptions(jobs=1))
     trials = tmp_path / "out" / "trials"
     error = json.loads((trials / "lam=0.9__seed=1" / "error.json").read_text())
     assert "alpha" in error["error"]
@@ -268,7 +274,7 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path) -> None:
 
 def test_a_changed_sweep_does_not_reuse_another_sweeps_trials(tmp_path) -> None:
     one = 'preset = "report"\nepisodes = 2\nmax_episode_steps = 30\nseeds = [0]\n'  # one trial
-    run_sweep(parse_sweep(one), tmp_path, jobs=1)
+    run_sweep(parse_sweep(one), tmp_path, options=RunOptions(jobs=1))
     changed = parse_sweep(one.replace("episodes = 2", "episodes = 3"))
     with pytest.raises(ValueError, match="another sweep's trial"):
         run_sweep(changed, tmp_path)

@@ -13,9 +13,10 @@ from acrobot_mj.envs.wrappers import make_gymnasium_acrobot
 from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig, parse_value
 from acrobot_mj.train.evaluate import evaluate, evaluate_learner
-from acrobot_mj.train.learners import DEFAULT, AgentLearner, Protocol, Run, make_env
+from acrobot_mj.train.learners import DEFAULT, AgentLearner, Protocol, make_env
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import CHECKPOINT_FILE
+from acrobot_mj.train.run import Run, RunOptions
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import load_learner, train
 from tests.conftest import lockstep_interrupted_and_resumed
@@ -143,10 +144,10 @@ def test_resume_after_interrupt_matches_an_uninterrupted_run(tmp_path) -> None:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train(TINY_BOOK, seed=4, out_dir=tmp_path / "split", on_episode=stop)
+        train(TINY_BOOK, seed=4, out_dir=tmp_path / "split", options=RunOptions(on_episode=stop))
     meta, _ = load_checkpoint(tmp_path / "split" / CHECKPOINT_FILE)
     assert meta["episodes_done"] == 3
-    resumed = train(TINY_BOOK, seed=4, out_dir=tmp_path / "split", resume=True)
+    resumed = train(TINY_BOOK, seed=4, out_dir=tmp_path / "split", options=RunOptions(resume=True))
     for key in RECORD_KEYS:
         assert resumed[key] == whole[key]
     a = load_checkpoint(tmp_path / "whole" / CHECKPOINT_FILE)[1]
@@ -157,16 +158,20 @@ def test_resume_after_interrupt_matches_an_uninterrupted_run(tmp_path) -> None:
 def test_resume_refuses_a_different_config_or_seed(tmp_path) -> None:
     train(TINY_BOOK, seed=1, out_dir=tmp_path)
     with pytest.raises(CheckpointError, match="alpha"):
-        train(TINY_BOOK.replace(alpha=0.1), seed=1, out_dir=tmp_path, resume=True)
+        train(
+            TINY_BOOK.replace(alpha=0.1), seed=1, out_dir=tmp_path, options=RunOptions(resume=True)
+        )
     with pytest.raises(CheckpointError, match="seed"):
-        train(TINY_BOOK, seed=2, out_dir=tmp_path, resume=True)
+        train(TINY_BOOK, seed=2, out_dir=tmp_path, options=RunOptions(resume=True))
     # More episodes than before is what resume is for.
-    more = train(TINY_BOOK.replace(episodes=8), seed=1, out_dir=tmp_path, resume=True)
+    more = train(
+        TINY_BOOK.replace(episodes=8), seed=1, out_dir=tmp_path, options=RunOptions(resume=True)
+    )
     assert more["episodes_done"] == 8
     # And checkpoints at other intervals: they change nothing learned.
     whole = train(TINY_BOOK.replace(episodes=10), seed=1)
     later = TINY_BOOK.replace(episodes=10, checkpoint_every=5)
-    resumed = train(later, seed=1, out_dir=tmp_path, resume=True)
+    resumed = train(later, seed=1, out_dir=tmp_path, options=RunOptions(resume=True))
     assert resumed["episode_lengths"] == whole["episode_lengths"]
 
 
@@ -189,7 +194,11 @@ def test_train_refuses_envs_with_other_spaces() -> None:
 def test_train_seeds_summary(tmp_path) -> None:
     # Three held-out episodes a seed (the protocol's 100 take seconds; test_heldout checks them).
     summary = train_seeds(
-        TINY_BOOK.replace(episodes=3), [0, 1], tmp_path, jobs=1, protocol=Protocol(episodes=3)
+        TINY_BOOK.replace(episodes=3),
+        [0, 1],
+        tmp_path,
+        protocol=Protocol(episodes=3),
+        options=RunOptions(jobs=1),
     )
     assert summary["seeds"] == [0, 1]
     assert (tmp_path / "seed_0" / "run.json").exists() and (tmp_path / "summary.json").exists()
@@ -346,11 +355,15 @@ def test_seeds_stopped_in_lockstep_resume_one_by_one(tmp_path) -> None:
 
     config = PRESETS["report"].replace(episodes=6, max_episode_steps=150, frame_skip=4)
     seeds, short = [0, 2], config.replace(episodes=3)
-    whole = train_seeds(config, seeds, tmp_path / "whole", lockstep=False, protocol=None)
+    whole = train_seeds(
+        config, seeds, tmp_path / "whole", protocol=None, options=RunOptions(lockstep=False)
+    )
     for first, then in [(True, False), (False, True)]:
         out = tmp_path / f"from_{first}"
-        train_seeds(short, seeds, out, lockstep=first, protocol=None)
-        resumed = train_seeds(config, seeds, out, resume=True, lockstep=then, protocol=None)
+        train_seeds(short, seeds, out, protocol=None, options=RunOptions(lockstep=first))
+        resumed = train_seeds(
+            config, seeds, out, protocol=None, options=RunOptions(resume=True, lockstep=then)
+        )
         assert (
             resumed["decisions"] == whole["decisions"]
             and resumed["successes"] == whole["successes"]
@@ -400,8 +413,12 @@ def test_seeds_over_processes_are_lockstep_groups_with_the_same_runs(tmp_path) -
     # group of them all.
     config = PRESETS["report"].replace(episodes=3, frame_skip=4, max_episode_steps=300)
     seeds = [0, 1, 2, 3, 4]
-    split = train_seeds(config, seeds, tmp_path / "two", jobs=2, protocol=None, lockstep=True)
-    together = train_seeds(config, seeds, tmp_path / "one", jobs=1, protocol=None, lockstep=True)
+    split = train_seeds(
+        config, seeds, tmp_path / "two", protocol=None, options=RunOptions(jobs=2, lockstep=True)
+    )
+    together = train_seeds(
+        config, seeds, tmp_path / "one", protocol=None, options=RunOptions(jobs=1, lockstep=True)
+    )
     assert split["decisions"] == together["decisions"] and split["seeds"] == seeds
     for s in seeds:
         a, b = (

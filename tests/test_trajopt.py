@@ -40,7 +40,10 @@ def test_the_shipped_reserve_trajectory_loads() -> None:
     ("call", "message"),
     [
         (lambda o: o.min_time(u_max=-1), r"u_max must be in \(0, 1\]"),
-        (lambda o: o.min_time(starts="random"), r"starts must be one of \('rest', 'pumping'\)"),
+        (
+            lambda o: o.min_time(warm=o.WarmStarts("random")),
+            r"starts must be one of \('rest', 'pumping'\)",
+        ),
     ],
 )
 def test_bad_optimisation_requests_are_refused(call, message) -> None:
@@ -74,10 +77,10 @@ def test_continuous_torque_reaches_the_height_goal_sooner() -> None:
     # Seeded with the {-1, 0, +1} 63-decision minimum (252 steps, the beam search), the
     # optimiser finds 248 steps, and the MuJoCo env terminates on the last of them (float32
     # torques included).
-    from acrobot_mj.control.search import min_time_search
+    from acrobot_mj.control.search import Beam, min_time_search
     from acrobot_mj.report.references import continuous_torque_height
 
-    search = min_time_search(frame_skip=4, width=20_000)
+    search = min_time_search(frame_skip=4, beam=Beam(20_000))
     result = continuous_torque_height([a for a in search.actions for _ in range(4)])
     assert result["steps"] <= 250 and result["residual"] < TOLERANCE  # as above: rounding only
     assert result["reached_goal"] and result["replayed_steps"] == result["steps"]

@@ -47,7 +47,7 @@ evaluate("runs/x", minimia="none")
 dynamics.forward_dynamics(np.zeros(2), np.zeros(2), tua=0.0)
 dynamics.total_energy(np.zeros(2), np.zeros(2), parms=None)
 simulate(np.zeros(4), np.zeros(3), methd="rk4")
-record = train(TrainConfig(episodes=5), 0, progress=False)
+record = train(TrainConfig(episodes=5), 0, "runs/x")
 evaluate("runs/x", minima="none")
 """
 

@@ -116,7 +116,7 @@ def test_minimum_time_sequences_replay_to_the_goal_in_the_env(report) -> None:
 @pytest.mark.slow
 def test_full_search_matches_the_best_known_minimum() -> None:
     # The best known: 63 decisions at frame_skip 4 (252 steps; 83 at frame_skip 3 take 249).
-    result = search.min_time_search(frame_skip=4, width=20_000)
+    result = search.min_time_search(frame_skip=4, beam=search.Beam(20_000))
     assert result.decisions <= 63
     assert _play(result.actions, 4)[:2] == (result.decisions, True)
 

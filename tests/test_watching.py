@@ -20,6 +20,7 @@ from acrobot_mj.train.episode_log import EpisodeLog, read_rows
 from acrobot_mj.train.lockstep import train_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import History
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.trainer import train
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,7 +51,7 @@ def test_each_episode_is_on_disk_when_it_ends_not_at_the_next_checkpoint(tmp_pat
         assert rows[-1]["episode"] == episode and rows[-1]["length"] == history.episode_lengths[-1]
 
     config = PRESETS["report"].replace(episodes=5, max_episode_steps=30, checkpoint_every=100)
-    record = train(config, seed=0, out_dir=tmp_path, on_episode=look)
+    record = train(config, seed=0, out_dir=tmp_path, options=RunOptions(on_episode=look))
     assert seen == [1, 2, 3, 4, 5]
     rows = read_rows(tmp_path / "episodes.jsonl", 10**6)
     assert log_lists(rows) == {key: record[key] for key in HISTORY_KEYS}
@@ -94,7 +95,7 @@ def test_lockstep_and_population_logs_name_their_learners(tmp_path) -> None:
         seen.append(len(read_rows(tmp_path / "pop" / "episodes.jsonl", 100)))
 
     pop = config.replace(population=3)
-    record = train(pop, seed=1, out_dir=tmp_path / "pop", on_episode=look)
+    record = train(pop, seed=1, out_dir=tmp_path / "pop", options=RunOptions(on_episode=look))
     assert seen == list(range(1, 10))
     rows = read_rows(tmp_path / "pop" / "episodes.jsonl", 100)
     assert [r["episode"] for r in rows] == list(range(9))
@@ -114,7 +115,7 @@ def test_a_resumed_population_rebuilds_its_log_without_duplicates(tmp_path) -> N
 
     config = PRESETS["report"].replace(episodes=3, max_episode_steps=20, population=3)
     with pytest.raises(KeyboardInterrupt, match="learner 1 of 3"):
-        train(config, seed=2, out_dir=tmp_path, on_episode=stop)
+        train(config, seed=2, out_dir=tmp_path, options=RunOptions(on_episode=stop))
     log = tmp_path / "episodes.jsonl"
     before = read_rows(log, 100)
     assert [(r["episode"], r["learner"]) for r in before] == [
@@ -126,7 +127,7 @@ def test_a_resumed_population_rebuilds_its_log_without_duplicates(tmp_path) -> N
     ]
     with open(log, "a") as f:
         f.write('{"episode": 5, "le')  # a kill in the middle of a line
-    record = train(config, seed=2, out_dir=tmp_path, resume=True)
+    record = train(config, seed=2, out_dir=tmp_path, options=RunOptions(resume=True))
     rows = read_rows(log, 100)
     assert log.read_bytes().endswith(b"\n")
     assert rows[:5] == before  # rebuilt from the learners' logs: the same lines
@@ -212,15 +213,16 @@ def test_seeds_in_worker_processes_share_one_bar_read_from_their_logs(tmp_path) 
 
 
 def test_a_followed_log_that_is_cut_back_is_counted_again(tmp_path, capsys) -> None:
+    from acrobot_mj.bars import EpisodeBar
     from acrobot_mj.files import write_text
-    from acrobot_mj.train.progress import LogFollower, Progress
+    from acrobot_mj.train.monitor import LogFollower
 
     def lines(n: int, length: int) -> str:
         row = {"length": length, "return": -1.0, "success": True}
         return "".join(json.dumps({"episode": k, **row}) + "\n" for k in range(n))
 
     log = tmp_path / "episodes.jsonl"
-    bar = Progress(10, "follow", True)
+    bar = EpisodeBar(10, "follow", True, "episodes", 20)
     follower = LogFollower([log, tmp_path / "not_yet.jsonl"], bar)
     log.write_text(lines(6, 30) + '{"episode": 6, "len')  # the last line still being written
     follower.poll()
@@ -310,7 +312,9 @@ def _scalars(folder: Path) -> dict[str, list[tuple[int, float]]]:
 def test_tensorboard_gets_every_episode_of_every_learner(tmp_path) -> None:
     pytest.importorskip("tensorboardX")
     config = PRESETS["report"].replace(episodes=4, max_episode_steps=25, population=2)
-    record = train(config, seed=3, out_dir=tmp_path / "r", tensorboard=tmp_path / "tb")
+    record = train(
+        config, seed=3, out_dir=tmp_path / "r", options=RunOptions(tensorboard=tmp_path / "tb")
+    )
     for k in range(2):
         scalars = _scalars(tmp_path / "tb" / f"learner_{k}")
         own = slice(4 * k, 4 * k + 4)

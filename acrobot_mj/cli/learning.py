@@ -15,6 +15,7 @@ from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_score
+from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.sweep import run_sweep, summary_table
 from acrobot_mj.train.sweep_file import load_sweep
@@ -188,7 +189,7 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
                 "resume)"
             )
         out = Path(args.out or f"runs/{args.preset}__seed{args.seed}")
-        record = train(config, args.seed, out, progress=progress, overwrite=args.force)
+        record = train(config, args.seed, out, RunOptions(overwrite=args.force, progress=progress))
         describe = plan_words if isinstance(config, PlanConfig) else black_box_words
         print(f"trained -> {out}: " + describe(record))
         return record
@@ -204,15 +205,10 @@ def train_command(args: argparse.Namespace) -> dict[str, Any]:
     out = args.run_out = Path(
         args.out or f"runs/{args.preset}__{config.algorithm}__seed{args.seed}"
     )
-    record = train(
-        config,
-        args.seed,
-        out,
-        resume=args.resume,
-        progress=progress,
-        overwrite=args.force,
-        tensorboard=args.tensorboard,
+    options = RunOptions(
+        resume=args.resume, overwrite=args.force, progress=progress, tensorboard=args.tensorboard
     )
+    record = train(config, args.seed, out, options)
     task = get_task(config.task)
     pop = record.get("population")
     kept = f" (kept learner {pop['kept']} of {pop['learners']})" if pop else ""
@@ -236,17 +232,15 @@ def _train_seeds(args: argparse.Namespace, config: TrainConfig, progress: bool) 
     # Each seed's records (its history of every episode, its summary) stay in memory.
     check_memory(f"--seeds {args.seeds}", args.seeds * (2**16 + 100 * config.episodes))
     seeds = list(range(args.seed, args.seed + args.seeds))
-    summary = train_seeds(
-        config,
-        seeds,
-        out,
-        jobs=args.jobs,
+    options = RunOptions(
         resume=args.resume,
-        progress=progress,
         overwrite=args.force,
+        progress=progress,
         tensorboard=args.tensorboard,
+        jobs=args.jobs,
         lockstep=args.lockstep,
     )
+    summary = train_seeds(config, seeds, out, options)
     task = get_task(config.task)
     score, s = task.score, summary["successes"]
     g = summary[f"greedy_from_rest_{score.quantity}"]
@@ -335,15 +329,9 @@ def add_sweep(commands: tools.Commands) -> None:
 def sweep_command(args: argparse.Namespace) -> dict[str, Any]:
     spec = load_sweep(args.sweep_file)
     out = Path(args.out or f"runs/sweep__{Path(args.sweep_file).stem}")
+    options = RunOptions(progress=show_progress(args), jobs=args.jobs, lockstep=args.lockstep)
     summary = run_sweep(
-        spec,
-        out,
-        backend=args.backend,
-        address=args.address,
-        jobs=args.jobs,
-        ray_num_cpus=args.num_cpus,
-        progress=show_progress(args),
-        lockstep=args.lockstep,
+        spec, out, options, backend=args.backend, address=args.address, ray_num_cpus=args.num_cpus
     )
     print(summary_table(summary), end="")
     print(

@@ -14,7 +14,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 
 from acrobot_mj.control.policies import POLICY_NAMES, make_policy
-from acrobot_mj.envs.rollout import PolicyActor, acrobot_of, run_episode
+from acrobot_mj.envs.rollout import Hooks, PolicyActor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import check_regular, versions, write_json
 from acrobot_mj.physics.params import describe
@@ -311,8 +311,7 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
         PolicyActor(make_policy(args.policy, args.seed)),
         args.seed,
         max_steps=args.steps,
-        on_reset=keep,
-        on_step=lambda action, obs, *rest: keep(obs, rest[-1]),
+        hooks=Hooks(keep, lambda action, obs, *rest: keep(obs, rest[-1])),
     )
     dt = acrobot_of(env).dt
     print(
@@ -438,23 +437,17 @@ def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def balance_command(args: argparse.Namespace) -> dict[str, Any]:
-    from acrobot_mj.report.balance_run import run_balance
+    from acrobot_mj.report.balance_run import BalanceRun, run_balance
 
     if args.feedback:
         return feedback_command(args)
     if args.adaptive:
         raise ValueError("--adaptive is an option of --feedback")
     out = Path(args.out or "runs/balance")
-    record = run_balance(
-        out,
-        discrete=args.discrete,
-        reserve=args.reserve,
-        hold=args.hold,
-        optimise=args.optimise,
-        video=args.video,
-        size=(args.width, args.height),
-        progress=show_progress(args),
+    settings = BalanceRun(
+        args.discrete, args.reserve, args.hold, args.optimise, args.video, (args.width, args.height)
     )
+    record = run_balance(out, settings, show_progress(args))
     trajectory = record["trajectory"]
     kind = "{-1, 0, +1}" if args.discrete else "continuous"
     held = (

@@ -19,30 +19,39 @@ class SearchResult:
     expanded: int  # states expanded
 
 
+@dataclass(frozen=True)
+class Beam:
+    """What a search keeps at each depth: one state per ``cell`` [rad, rad, rad/s, rad/s] of
+    the state space, the ``width`` most energetic of them."""
+
+    width: int = 20_000
+    cell: tuple[float, ...] = (0.05, 0.05, 0.1, 0.2)
+
+
 def min_time_search(
     frame_skip: int = 4,
     *,
-    width: int = 20_000,
-    cell: tuple[float, ...] = (0.05, 0.05, 0.1, 0.2),
+    beam: Beam = Beam(),
     method: str = "semi_implicit_euler",
     max_decisions: int = 1000,
     goal_height: float = 1.0,
     start: np.ndarray | None = None,
 ) -> SearchResult:
     """Fewest decisions of {-1, 0, +1} N m to get the tip above ``goal_height`` [m] (an upper
-    bound): breadth-first, one state per ``cell`` [rad, rad/s], the ``width`` most energetic."""
+    bound): breadth-first over the :class:`Beam` of each depth."""
+    width, cell = beam.width, beam.cell
     torques = np.array([-1.0, 0.0, 1.0])
-    beam = (HANGING if start is None else np.asarray(start, dtype=np.float64))[None].copy()
-    if beam.shape != (1, 4) or not np.all(np.isfinite(beam)):
+    states = (HANGING if start is None else np.asarray(start, dtype=np.float64))[None].copy()
+    if states.shape != (1, 4) or not np.all(np.isfinite(states)):
         raise ValueError(f"start must be a finite state (q1, q2, dq1, dq2), got {start!r}")
     parents: list[np.ndarray] = []  # per depth: the kept states' parents and actions
     choices: list[np.ndarray] = []
     expanded = 0
     for depth in range(1, max_decisions + 1):
-        n = len(beam)
+        n = len(states)
         expanded += 3 * n
         children = integrators.step_states(
-            np.repeat(beam, 3, axis=0), np.tile(torques, n), REPORT, frame_skip, method
+            np.repeat(states, 3, axis=0), np.tile(torques, n), REPORT, frame_skip, method
         )
         parent, choice = np.repeat(np.arange(n), 3), np.tile(np.arange(3), n)
         reached = np.flatnonzero(tip_height(children) > goal_height)
@@ -62,7 +71,7 @@ def min_time_search(
             # between numpy versions.
             energy = dynamics.total_energy(children[first, :2], children[first, 2:])
             first = first[np.argsort(-energy, kind="stable")[:width]]
-        beam = children[first]
+        states = children[first]
         parents.append(parent[first])
         choices.append(choice[first])
     return SearchResult(None, [], expanded)

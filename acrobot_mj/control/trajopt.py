@@ -347,24 +347,34 @@ def _candidates(job: tuple[Optimiser, int, np.ndarray, str]) -> list[Arrays]:
     return optimiser.candidates(horizon, target, starts)
 
 
+@dataclass(frozen=True)
+class WarmStarts:
+    """Where a minimum-time search starts its solves: ``starts`` near rest or along the
+    energy-pumping law (:data:`STARTS`), each of ``horizons`` [steps] (None:
+    :func:`default_horizons`) to each of ``targets`` (None: from rest the three with
+    ``q1 = pi/2``, whose mirror images are the other three; pumping, all of :data:`TARGETS`)."""
+
+    starts: str = "rest"
+    horizons: range | None = None
+    targets: tuple[np.ndarray, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.starts not in STARTS:
+            raise ValueError(f"starts must be one of {STARTS}, got {self.starts!r}")
+
+
 def min_time(
     u_max: float = 1.0,
     method: str = "semi_implicit_euler",
     *,
-    horizons: range | None = None,
-    targets: tuple[np.ndarray, ...] | None = None,
+    warm: WarmStarts = WarmStarts(),
     p: AcrobotParams = REPORT,
     progress: bool = False,
-    starts: str = "rest",
     jobs: int = 2,
 ) -> Trajectory:
-    """The shortest swing-up found from every start horizon and target (ties: the least effort),
-    an upper bound on the minimum, over ``jobs`` processes; ``progress``: a bar on stderr.
-    ``starts``: the warm starts (:data:`STARTS`). From rest it tries the three targets with
-    ``q1 = pi/2``: the swing-ups to the other three are their mirror images. Measured at 0.8 N
-    m: 449 steps in about 40 s from rest, 476 in about 250 s pumping; at 1 N m 368 and 345."""
-    if starts not in STARTS:
-        raise ValueError(f"starts must be one of {STARTS}, got {starts!r}")
+    """The shortest swing-up found from every :class:`WarmStarts` (ties: the least effort), an
+    upper bound on the minimum, over ``jobs`` processes; ``progress``: a bar on stderr."""
+    starts, horizons, targets = warm.starts, warm.horizons, warm.targets
     optimiser = Optimiser(u_max, method, p)
     horizons = default_horizons(u_max, starts) if horizons is None else horizons
     if targets is None:

@@ -83,6 +83,17 @@ class EnvOptions(TaskOptions, total=False):
     model_path: str | Path | None
 
 
+def check_copy(what: str, state: dict[str, Any], keys: tuple[str, ...]) -> None:
+    """Refuse the pickled state of a ``what`` without ``keys``, which every copy from 0.4.0 on
+    holds: one pickled by an older acrobot_mj."""
+    missing = [key for key in keys if key not in state]
+    if missing:
+        raise ValueError(
+            f"this {what} was pickled by acrobot_mj before 0.4.0 (it lacks {missing}), which "
+            "this version does not unpickle: make it again"
+        )
+
+
 class AcrobotEnv(gym.Env[np.ndarray, Any]):
     r"""The acrobot of the IND E 599 report simulated by MuJoCo, with a ``task`` on top
     (:mod:`acrobot_mj.envs.tasks`: rewards, episode end, ``info``).
@@ -198,9 +209,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         return {**state, "_renderer": None, "_viewer": None}  # GL contexts cannot be copied
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        # What copies from before 0.4.0 lack: no window, state observations.
-        older = {"_human": False, "_viewer": None, "_shown_at": 0.0, "_cos_sin": False}
-        state = {**older, "_observation": "state", **state}
+        added = ("_human", "_viewer", "_shown_at", "_cos_sin", "_observation")  # in 0.4.0
+        check_copy("AcrobotEnv", state, added)
         self.__dict__.update(state)
         self._bind()
 

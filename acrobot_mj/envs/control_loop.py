@@ -17,7 +17,7 @@ from acrobot_mj.control.feedback import Feedback
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.disturbances import Perturbation, scale_links
-from acrobot_mj.envs.rollout import acrobot_of, run_episode
+from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
 
@@ -102,7 +102,7 @@ def closed_loop(
     record: Any = None,
 ) -> dict[str, Any]:
     """:meth:`~acrobot_mj.envs.tasks.Balance.assess` of the controller on ``env``, with per-step
-    ``torques`` and ``states``; ``record(env, actor, *, on_reset)`` runs the episode instead
+    ``torques`` and ``states``; ``record(env, actor, *, hooks)`` runs the episode instead
     (videos)."""
     env = env or balance_env(trajectory, discrete, hold)
     scale_links(env, perturbation.mass_scale, perturbation.inertia_scale)
@@ -117,6 +117,6 @@ def closed_loop(
             acrobot_of(env).set_state(state[:2], state[2:])
 
     record = record or functools.partial(run_episode, seed=perturbation.seed)
-    record(env, actor, on_reset=start)
+    record(env, actor, hooks=Hooks(on_reset=start))
     result = acrobot_of(env).task.assess(np.array(actor.states), trajectory.dt, trajectory.steps)
     return {**result, "torques": actor.torques, "states": actor.states}

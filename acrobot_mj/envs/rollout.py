@@ -72,6 +72,19 @@ ResetHook = Callable[[np.ndarray, dict[str, Any]], None]
 StepHook = Callable[[Any, np.ndarray, float, bool, bool, dict[str, Any]], None]
 
 
+@dataclass(frozen=True)
+class Hooks:
+    """What watches an episode: ``on_reset(obs, info)`` after the reset, ``on_step(action, obs,
+    reward, terminated, truncated, info)`` after each step (None: nothing)."""
+
+    on_reset: ResetHook | None = None
+    on_step: StepHook | None = None
+
+
+#: An episode nothing watches.
+UNWATCHED = Hooks()
+
+
 def run_episode(
     env: gym.Env,
     actor: Actor,
@@ -79,20 +92,19 @@ def run_episode(
     options: dict[str, Any] | None = None,
     *,
     max_steps: int | None = None,
-    on_reset: ResetHook | None = None,
-    on_step: StepHook | None = None,
+    hooks: Hooks = UNWATCHED,
 ) -> Episode:
     """Run one episode of ``actor`` on ``env`` from ``env.reset(seed, options)`` until it ends
     or has taken ``max_steps`` actions (the actor sees a truncation; the Episode the env's
-    flag)."""
+    flag); ``hooks`` see the reset and each step."""
     check_stop()  # a stop that numba's loader dropped: taken between episodes
     obs, info = env.reset(seed=seed, options=options)
-    if on_reset is not None:
-        on_reset(obs, info)
+    if hooks.on_reset is not None:
+        hooks.on_reset(obs, info)
     action = actor.begin(obs)
     # Training's hot loop: locals only. Rewards are floats here (Gymnasium: any SupportsFloat).
     step = cast("Callable[[Any], tuple[Any, float, bool, bool, dict[str, Any]]]", env.step)
-    observe = actor.observe
+    observe, on_step = actor.observe, hooks.on_step
     limit = sys.maxsize if max_steps is None else max_steps
     length, total = 0, 0.0
     while True:

@@ -16,7 +16,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int, check_memory
-from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions
+from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions, check_copy
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
 
@@ -140,11 +140,9 @@ class AcrobotVectorEnv(VectorEnv):
         return {**state, "batch_state": self.physics.snapshot()}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
+        check_copy("AcrobotVectorEnv", state, ("backend", "_same_step", "_cos_sin"))
         state = dict(state)
         rows = state.pop("batch_state")
-        state.setdefault("backend", "mujoco")  # pickled before there were backends
-        state.setdefault("_same_step", False)  # pickled before SAME_STEP
-        state.setdefault("_cos_sin", False)  # pickled before observation kinds
         self.__dict__.update(state)
         self._build_batch()
         self.physics.restore(rows)

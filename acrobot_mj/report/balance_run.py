@@ -4,12 +4,14 @@ video; and its :func:`robustness` to what it does not know."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
 from acrobot_mj.envs.control_loop import balance_env, closed_loop
 from acrobot_mj.envs.disturbances import Perturbation
+from acrobot_mj.envs.rollout import Hooks
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, write_video_record
 
@@ -34,29 +36,42 @@ def load_trajectory(
     return trajectory, "optimised now"
 
 
+@dataclass(frozen=True)
+class BalanceRun:
+    """What ``acrobot-mj balance`` runs: ``discrete`` torques ({-1, 0, +1} N m) or continuous,
+    the swing-up for ``|u| <= reserve`` N m (``optimise``: a new one, not the shipped or cached
+    one), ``hold`` [s] of balance after it, and with ``video`` a video of ``size`` (width,
+    height) [pixels]."""
+
+    discrete: bool = False
+    reserve: float = 0.8
+    hold: float = 60.0
+    optimise: bool = False
+    video: bool = True
+    size: tuple[int, int] = (480, 480)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.hold, (int, float)) and 0.0 < self.hold <= 3600.0):
+            raise ValueError(f"the hold time must be in (0, 3600] s, got {self.hold!r}")
+
+
 def run_balance(
-    out: Path,
-    *,
-    discrete: bool = False,
-    reserve: float = 0.8,
-    hold: float = 60.0,
-    optimise: bool = False,
-    video: bool = True,
-    size: tuple[int, int] = (480, 480),
-    progress: bool = False,
+    out: Path, settings: BalanceRun = BalanceRun(), progress: bool = False
 ) -> dict[str, Any]:
-    """``acrobot-mj balance``: the closed loop for ``hold`` s after the swing-up, written to
-    ``out/balance.json`` and, with ``video``, ``out/swing_up.mp4`` and ``out/swing_up.png``."""
-    if not (isinstance(hold, (int, float)) and 0.0 < hold <= 3600.0):
-        raise ValueError(f"the hold time must be in (0, 3600] s, got {hold!r}")
+    """``acrobot-mj balance``: the closed loop for ``settings.hold`` s after the swing-up, written
+    to ``out/balance.json`` and, with ``settings.video``, ``out/swing_up.mp4`` and
+    ``out/swing_up.png``; ``progress``: a bar on stderr where a swing-up is optimised."""
+    discrete, reserve, hold = settings.discrete, settings.reserve, settings.hold
+    video, size = settings.video, settings.size
     out = Path(out)
-    trajectory, source = load_trajectory(reserve, out / "trajectory.json", optimise, progress)
+    cache = out / "trajectory.json"
+    trajectory, source = load_trajectory(reserve, cache, settings.optimise, progress)
     screen = {"render_mode": "rgb_array", "width": size[0], "height": size[1]} if video else {}
     env = balance_env(trajectory, discrete, hold, **screen)
-    path, settings = out / "swing_up.mp4", RenderSettings(*size, strip=out / "swing_up.png")
+    path, render = out / "swing_up.mp4", RenderSettings(*size, strip=out / "swing_up.png")
 
-    def filmed(env: Any, actor: Any, *, on_reset: Any) -> None:
-        write_video_record(record_episode(env, actor, path, settings, on_reset=on_reset))
+    def filmed(env: Any, actor: Any, *, hooks: Hooks) -> None:
+        write_video_record(record_episode(env, actor, path, render, hooks=hooks))
 
     try:
         result = closed_loop(trajectory, discrete, hold, env=env, record=filmed if video else None)

@@ -14,7 +14,7 @@ from acrobot_mj.control.lqr import controllability_rank, discrete_model
 from acrobot_mj.envs.assets import load_model
 from acrobot_mj.physics import dynamics, errata, integrators
 from acrobot_mj.physics.params import REPORT as P
-from acrobot_mj.report.plots import Series, line_plot
+from acrobot_mj.report.plots import Labels, Series, line_plot
 
 METHODS = ("explicit_euler", "semi_implicit_euler", "rk4")
 EQUILIBRIUM_NAMES = ("hanging", "upright", "down_folded", "up_folded")
@@ -115,7 +115,7 @@ def integrator_study(
         series.append(Series(f"RK4 at {h:g} s (reference)", t, np.maximum(ref_curve, 1e-16)))
         title = "Energy error with zero torque, 0.5 rad swing from hanging (dt = 0.05 s)"
         labels = ("time [s]", "|E - E0| [J] (log scale)")
-        line_plot(out / "energy_drift.png", series, title, *labels, log_y=True)
+        line_plot(out / "energy_drift.png", series, Labels(title, *labels), log_y=True)
         result["figure"] = "energy_drift.png"
     return result
 

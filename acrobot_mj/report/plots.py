@@ -62,11 +62,18 @@ def save_figure(figure: Figure, path: str | Path) -> Path:
     return write_atomic(path, write)
 
 
+@dataclass(frozen=True)
+class Labels:
+    """A figure's words: its ``title`` and the labels of its ``x`` and ``y`` axes."""
+
+    title: str
+    x: str
+    y: str
+
+
 def line_figure(
     series: Sequence[Series],
-    title: str,
-    xlabel: str,
-    ylabel: str,
+    labels: Labels,
     *,
     log_y: bool = False,
     size: tuple[int, int] = (800, 500),
@@ -104,8 +111,8 @@ def line_figure(
         ax.plot(s.x, s.y, color=colour, linewidth=1.6, marker=marker, markersize=4, label=s.label)
     if log_y:
         ax.set_yscale("log")
-    ax.set_title(textwrap.fill(title, 96), fontsize=11)
-    ax.set(xlabel=xlabel, ylabel=ylabel)
+    ax.set_title(textwrap.fill(labels.title, 96), fontsize=11)
+    ax.set(xlabel=labels.x, ylabel=labels.y)
     ax.grid(True, color="0.9", linewidth=0.8)
     ax.set_axisbelow(True)
     if series or hlines:
@@ -113,10 +120,10 @@ def line_figure(
     return figure
 
 
-def line_plot(path: str | Path, series: Sequence[Series], *args: Any, **kwargs: Any) -> Path:
+def line_plot(path: str | Path, series: Sequence[Series], labels: Labels, **kwargs: Any) -> Path:
     """Save :func:`line_figure` (same arguments) to ``path``, its suffix checked first."""
     figure_format(path)
-    return save_figure(line_figure(series, *args, **kwargs), path)
+    return save_figure(line_figure(series, labels, **kwargs), path)
 
 
 def curves_figure(
@@ -142,7 +149,7 @@ def curves_figure(
         text = f"{prefix}median of {len(values)} seeds, 25-75 % band{going}"
         series.append(Series(text, episodes, median, low, high))
     ylabel = f"{ylabel} (log scale)" if log_y else ylabel
-    return line_figure(series, title, "episode", ylabel, log_y=log_y, hlines=reference)
+    return line_figure(series, Labels(title, "episode", ylabel), log_y=log_y, hlines=reference)
 
 
 def learning_curve(

@@ -19,7 +19,7 @@ from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.params import REPORT
 from acrobot_mj.report.balance_run import CASES, robustness, table
 from acrobot_mj.report.crosscheck import METHODS, cross_check, integrator_study, linearisation
-from acrobot_mj.report.plots import Series, line_plot
+from acrobot_mj.report.plots import Labels, Series, line_plot
 from acrobot_mj.report.references import controllers, minimum_time
 from acrobot_mj.version import __version__
 
@@ -49,7 +49,7 @@ def phase_figures(actions_fs4: list[int], out: Path) -> list[str]:
     field = np.stack([q1.ravel(), dq1.ravel(), 0.05 * 4.7 * u / norm, 0.05 * 9.0 * v / norm], 1)
     title = "Zero-torque flow: arrows (dq1, ddq1) at q2 = dq2 = 0; lines released from rest, q2 = 0"
     labels = ("q1 [rad] (unwrapped)", "dq1 [rad/s]")
-    line_plot(out / "phase_portrait.png", series, f"{title} (10 s)", *labels, arrows=field)
+    line_plot(out / "phase_portrait.png", series, Labels(f"{title} (10 s)", *labels), arrows=field)
     path = [dynamics.HANGING.copy()]
     for u in np.repeat(np.array([-1.0, 0.0, 1.0])[actions_fs4], 4):
         path.append(integrators.step_states(path[-1], u))
@@ -59,7 +59,8 @@ def phase_figures(actions_fs4: list[int], out: Path) -> list[str]:
         Series("elbow (q2, dq2)", xs[:, 1], xs[:, 3]),
     ]
     title = f"Minimum-time swing-up ({len(actions_fs4)} decisions of 0.2 s) in phase space"
-    line_plot(out / "swing_up_phase.png", series, title, "angle [rad]", "angular velocity [rad/s]")
+    words = Labels(title, "angle [rad]", "angular velocity [rad/s]")
+    line_plot(out / "swing_up_phase.png", series, words)
     return ["phase_portrait.png", "swing_up_phase.png"]
 
 
@@ -133,17 +134,20 @@ def balance_section(report: dict[str, Any], quick: bool) -> dict[str, Any]:
 
 
 def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
-    """The headline numbers, as (what, value) rows."""
-    cc, lin, ctl = report["cross_check"], report["linearisation"], report["controllers"]
-    rel, drift, mt = cc["relative"], report["integrators"]["energy_drift"], report["minimum_time"]
+    """The headline numbers, as (what, value) rows: the model's, then the controllers'."""
+    return _model_rows(report) + _control_rows(report)
+
+
+def _joined(values: Any) -> str:
+    return " / ".join(map(str, values))
+
+
+def _model_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
+    """The analytic model against MuJoCo: terms, steps, energy drift, linearisation."""
+    cc, lin = report["cross_check"], report["linearisation"]
+    rel, drift = cc["relative"], report["integrators"]["energy_drift"]
     gap = max(row["max_eigenvalue_gap"] for row in lin["equilibria"].values())
-    pumping, basin, balance = ctl["energy_pumping"], ctl["lqr"]["q1_basin_rad"], report["balance"]
-    continuous, fs4 = mt.get("continuous_torque"), mt["min_time_decisions_frame_skip_4"]
-    eq2, bound = rel["accelerations_eq2_as_printed"], ctl["bound_any_controller_q1_rad"]
-
-    def joined(values: Any) -> str:
-        return " / ".join(map(str, values))
-
+    eq2 = rel["accelerations_eq2_as_printed"]
     return [
         ("mass matrix vs mj_fullM (max rel. error)", f"{rel['mass_matrix']:.1e}"),
         ("bias forces vs qfrc_bias", f"{rel['bias_forces']:.1e}"),
@@ -151,19 +155,29 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ("accelerations, report's eq. (2) as printed", f"{eq2:.2f}"),
         (
             "one step, Euler / RK4 (max abs. error)",
-            joined(f"{cc['one_step'][m]:.1e}" for m in ("euler", "rk4")),
+            _joined(f"{cc['one_step'][m]:.1e}" for m in ("euler", "rk4")),
         ),
         (
             "1000-step trajectories, Euler / RK4",
-            joined(f"{cc['trajectory_1000'][m]:.1e}" for m in ("euler", "rk4")),
+            _joined(f"{cc['trajectory_1000'][m]:.1e}" for m in ("euler", "rk4")),
         ),
         (
             f"energy drift over {report['integrators']['seconds']:g} s (0.5 rad swing): "
             "explicit / semi-implicit Euler / RK4 [J]",
-            joined(f"{drift[m]['max_abs_J'][0]:.2g}" for m in METHODS),
+            _joined(f"{drift[m]['max_abs_J'][0]:.2g}" for m in METHODS),
         ),
         ("eigenvalues, analytic vs mjd_transitionFD (max gap)", f"{gap:.1e}"),
         ("controllability rank at upright", str(lin["controllability_rank_upright"])),
+    ]
+
+
+def _control_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
+    """The controllers, the bound, the minimum-time swing-ups and the balance."""
+    ctl, mt = report["controllers"], report["minimum_time"]
+    pumping, basin, balance = ctl["energy_pumping"], ctl["lqr"]["q1_basin_rad"], report["balance"]
+    continuous, fs4 = mt.get("continuous_torque"), mt["min_time_decisions_frame_skip_4"]
+    bound = ctl["bound_any_controller_q1_rad"]
+    return [
         (
             "energy pumping from rest: steps to the goal",
             f"{pumping['steps_to_goal']} ({pumping['seconds']:g} s)",
@@ -185,15 +199,15 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ),
         (
             "swing-up to upright AT REST, |u| <= 1 / with a 0.8 N m reserve [steps]",
-            joined(t["steps"] for t in balance["trajectories"].values()),
+            _joined(t["steps"] for t in balance["trajectories"].values()),
         ),
         (
             "balanced for 60 s in MuJoCo: min time / reserve / reserve with {-1, 0, +1}",
-            joined("yes" if r["balanced"] else "no" for r in balance["closed_loop"].values()),
+            _joined("yes" if r["balanced"] else "no" for r in balance["closed_loop"].values()),
         ),
         (
             "minimum time, explicit Euler / semi-implicit / RK4 [decisions at 0.2 s]",
-            joined(mt["decisions_frame_skip_4_by_integrator"][m] for m in METHODS),
+            _joined(mt["decisions_frame_skip_4_by_integrator"][m] for m in METHODS),
         ),
     ]
 

@@ -21,7 +21,15 @@ from PIL import Image, ImageDraw, ImageFont
 
 from acrobot_mj.bars import Steps
 from acrobot_mj.control.policies import make_policy
-from acrobot_mj.envs.rollout import Actor, PolicyActor, run_episode
+from acrobot_mj.envs.rollout import (
+    UNWATCHED,
+    Actor,
+    Hooks,
+    PolicyActor,
+    ResetHook,
+    StepHook,
+    run_episode,
+)
 from acrobot_mj.envs.spaces import TORQUES
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import read_json, write_atomic, write_json
@@ -121,7 +129,7 @@ def caption(frame: np.ndarray, text: str, colour: tuple[int, int, int] = (20, 20
     """Draw ``text`` at the top left of ``frame`` (in place, returned), in a font that fits."""
     shape = re.sub(r"\d", "0", text)  # captions of one video share a size
     size, font = _fitting_font(shape, max(10, frame.shape[0] // 24), frame.shape[1] - 16)
-    band = frame[: size + 12]  # only the caption's band goes through Pillow: 5x faster
+    band = frame[: size + 12]  # only the caption's band goes through Pillow
     image = Image.fromarray(band)
     ImageDraw.Draw(image).text((8, 6), text, fill=colour, font=font)
     band[...] = np.asarray(image)
@@ -191,12 +199,11 @@ def record_episode(
     settings: RenderSettings = RenderSettings(),
     *,
     reset_options: dict[str, Any] | None = None,
-    states: list[np.ndarray] | None = None,
-    on_reset: Any = None,
+    hooks: Hooks = UNWATCHED,
 ) -> dict[str, Any]:
     """Write an episode of ``actor`` on ``env`` (``rgb_array``) as MP4 (and the strip); its
     record, which the caller completes and writes beside it (:func:`write_video_record`);
-    ``states`` collects each frame's state."""
+    ``hooks`` see the reset and each step, before its frame."""
     if env.render_mode != "rgb_array":
         raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
     path, strip = Path(path), settings.strip
@@ -205,45 +212,14 @@ def record_episode(
         raise ValueError(f"an MP4's width and height must be even, got {size[0]} x {size[1]}")
     check_outputs(path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fps, task, dt = env.metadata["render_fps"], env.unwrapped.task, env.unwrapped.dt
-    continuous = getattr(env.unwrapped, "continuous", False)
+    fps = env.metadata["render_fps"]
     limit = settings.max_steps or getattr(env.spec, "max_episode_steps", None)  # None: unknown
-    kept: list[np.ndarray] = []  # the frames, for the strip
-    steps = itertools.count(1)
     bar = Steps(limit + 1 if limit else None, "render", settings.progress, "frames")
     with VideoWriter(path, fps) as writer, bar:
-
-        def frame(step: int, torque: float, info: dict[str, Any], note: str = "") -> None:
-            image = env.render()
-            if settings.captions:
-                words = f"torque {torque:+.2f} N m   {task.caption(info)}{note}"
-                caption(image, f"t = {step * dt:5.2f} s   {words}")
-            writer.append(image)
-            bar.done()
-            if strip is not None:
-                kept.append(image)
-            if states is not None:
-                states.append(env.unwrapped.state)
-
-        def reset_hook(obs: np.ndarray, info: dict[str, Any]) -> None:
-            if on_reset is not None:
-                on_reset(obs, info)
-            frame(0, 0.0, info)
-
-        def step_hook(action, obs, reward, terminated, truncated, info) -> None:
-            torque = float(np.asarray(action).ravel()[0]) if continuous else TORQUES[int(action)]
-            success = bool(info.get("is_success", terminated))
-            note = f"   {task.success_label}" if success else "   truncated" if truncated else ""
-            frame(next(steps), torque, info, note)
-
+        frames = _Frames(env, writer, bar, settings.captions, kept=[] if strip else None)
+        watched = Hooks(frames.reset_hook(hooks.on_reset), frames.step_hook(hooks.on_step))
         episode = run_episode(
-            env,
-            actor,
-            settings.seed,
-            reset_options,
-            max_steps=settings.max_steps,
-            on_reset=reset_hook,
-            on_step=step_hook,
+            env, actor, settings.seed, reset_options, max_steps=settings.max_steps, hooks=watched
         )
     record = {
         "video": str(path),
@@ -256,9 +232,9 @@ def record_episode(
         "size": [env.unwrapped.width, env.unwrapped.height],
         "camera": env.unwrapped.camera,
     }
-    if strip is not None:
-        picks = np.linspace(0, len(kept) - 1, 6).round().astype(int)
-        image = Image.fromarray(np.concatenate([kept[i] for i in picks], axis=1))
+    if strip is not None and frames.kept is not None:
+        picks = np.linspace(0, len(frames.kept) - 1, 6).round().astype(int)
+        image = Image.fromarray(np.concatenate([frames.kept[i] for i in picks], axis=1))
         write_atomic(strip, lambda f: image.save(f, format="PNG"))
         record["strip"] = str(strip)
     return record
@@ -267,6 +243,48 @@ def record_episode(
 def write_video_record(record: dict[str, Any]) -> None:
     """A video's record as JSON beside it (``record["video"]``, ``.json`` for ``.mp4``)."""
     write_json(Path(record["video"]).with_suffix(".json"), record)
+
+
+class _Frames:
+    """An episode's frames into ``writer`` (and ``kept``, for a strip), captioned or not."""
+
+    def __init__(
+        self, env: Any, writer: VideoWriter, bar: Steps, captions: bool, kept: list | None
+    ) -> None:
+        self.env, self.writer, self.bar, self.captions, self.kept = env, writer, bar, captions, kept
+        self.steps = itertools.count(1)
+
+    def frame(self, step: int, torque: float, info: dict[str, Any], note: str = "") -> None:
+        image, task = self.env.render(), self.env.unwrapped.task
+        if self.captions:
+            words = f"torque {torque:+.2f} N m   {task.caption(info)}{note}"
+            caption(image, f"t = {step * self.env.unwrapped.dt:5.2f} s   {words}")
+        self.writer.append(image)
+        self.bar.done()
+        if self.kept is not None:
+            self.kept.append(image)
+
+    def reset_hook(self, then: ResetHook | None) -> ResetHook:
+        def reset(obs: np.ndarray, info: dict[str, Any]) -> None:
+            if then is not None:
+                then(obs, info)
+            self.frame(0, 0.0, info)
+
+        return reset
+
+    def step_hook(self, then: StepHook | None) -> StepHook:
+        continuous = getattr(self.env.unwrapped, "continuous", False)
+        task = self.env.unwrapped.task
+
+        def step(action, obs, reward, terminated, truncated, info) -> None:
+            if then is not None:
+                then(action, obs, reward, terminated, truncated, info)
+            torque = float(np.asarray(action).ravel()[0]) if continuous else TORQUES[int(action)]
+            success = bool(info.get("is_success", terminated))
+            note = f"   {task.success_label}" if success else "   truncated" if truncated else ""
+            self.frame(next(self.steps), torque, info, note)
+
+        return step
 
 
 def watch(

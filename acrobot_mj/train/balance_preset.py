@@ -22,9 +22,10 @@ from acrobot_mj.envs.control_loop import BalanceActor, balance_env, closed_loop
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.train.learners import Learner, Protocol, Run
+from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import TRAJECTORY_FILE
+from acrobot_mj.train.run import Run
 
 #: ``run.json``'s ``kind`` of a balance-preset run.
 KIND = "identify_and_plan"
@@ -100,21 +101,19 @@ class PlanLearner(Learner):
         return None if self.trajectory is None else self.trajectory.steps
 
     def learn(self, run: Run) -> dict[str, Any]:
-        from acrobot_mj.control.trajopt import TARGETS, min_time  # CasADi: the control extra
+        from acrobot_mj.control.trajopt import (  # CasADi: the control extra
+            TARGETS,
+            WarmStarts,
+            min_time,
+        )
 
         config, start = self.config, time.perf_counter()
         model = learn_model(config, self.seed)
         targets = None if config.targets is None else tuple(TARGETS[i] for i in config.targets)
         horizons = None if config.horizons is None else range(*config.horizons)
         p = AcrobotParams(**model["params"])
-        self.trajectory = min_time(
-            config.reserve,
-            horizons=horizons,
-            targets=targets,
-            p=p,
-            progress=run.progress,
-            starts=config.starts,
-        )
+        warm = WarmStarts(config.starts, horizons, targets)
+        self.trajectory = min_time(config.reserve, warm=warm, p=p, progress=run.progress)
         trained = time.perf_counter() - start
         with self.env() as env:
             result = closed_loop(self.trajectory, config.discrete, config.hold, env=env)

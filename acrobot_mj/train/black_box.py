@@ -27,8 +27,9 @@ from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.train.learners import Learner, Protocol, Run
+from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.records import MODEL_FILE
+from acrobot_mj.train.run import Run
 
 #: ``run.json``'s ``kind`` of a black-box run.
 KIND = "black_box"

@@ -138,12 +138,12 @@ def checkpoint_meta(config: TrainConfig, seed: int, episodes: int, steps: int) -
 def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
     """A training checkpoint's meta (schema checked), arrays and config."""
     meta, arrays = load_checkpoint(path)
-    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int}
+    kinds = {"config": dict, "seed": int, "episodes_done": int, "steps": int, "agent": str}
     wrong = [key for key, kind in kinds.items() if not isinstance(meta.get(key), kind)]
     wrong += [
         key for key in ("seed", "episodes_done", "steps") if key not in wrong and meta[key] < 0
     ]
-    if "history" in meta:  # written before the episode log: the episodes in the meta
+    if "history" in meta:  # written by 0.1.0, before the episode log: the golden runs' form
         history = meta["history"]
         ok = isinstance(history, dict) and sorted(history) == sorted(HISTORY_KEYS)
         if not (ok and all(len(v) == meta.get("episodes_done") for v in history.values())):
@@ -156,7 +156,7 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
         config = TrainConfig.from_dict(meta["config"])
     except (TypeError, ValueError) as error:
         raise CheckpointError(f"{path} holds an invalid config: {error}") from error
-    if meta.get("agent", config.algorithm) != config.algorithm:  # older ones have none
+    if meta["agent"] != config.algorithm:
         raise CheckpointError(
             f"{path} is of agent {meta['agent']!r}, its config of {config.algorithm!r}"
         )
@@ -164,7 +164,7 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], StateNow, TrainConfig]:
 
 
 def read_history(path: Path, meta: dict[str, Any]) -> History:
-    """The episodes a checkpoint covers: in its meta (older ones) or the episode log beside it."""
+    """The episodes a checkpoint covers: in its meta (0.1.0) or the episode log beside it."""
     if "history" in meta:
         return History(**meta["history"])
     log, count = path.parent / meta["episode_log"], meta["episodes_done"]

@@ -12,9 +12,9 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.search import min_time_search
+from acrobot_mj.control.search import Beam, min_time_search
 from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_parameters
-from acrobot_mj.envs.rollout import acrobot_of, run_episode
+from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import steps_in
@@ -172,8 +172,7 @@ def play(env: Pushed, learner: Learner, episode: int, options: dict, seed: int |
         learner.actor(env, episode),
         seed,
         options,
-        on_step=on_step,
-        on_reset=lambda *_: states.append(acrobot.state),
+        hooks=Hooks(lambda *_: states.append(acrobot.state), on_step),
     )
     kicks = [int(k) // acrobot.frame_skip for k, *_ in env.pushes]
     assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up, kicks)
@@ -209,13 +208,17 @@ def render_run(
     env = learner.env(render_mode="rgb_array", **settings.env_kwargs())
     try:
         states: list[np.ndarray] = []
+
+        def keep(*_: Any) -> None:  # each frame's state
+            states.append(acrobot_of(env).state)
+
         record = record_episode(
             env,
             learner.actor(env, 0),
             out,
             settings,
             reset_options={"start_noise": 0.0},
-            states=states,
+            hooks=Hooks(keep, keep),
         )
         record.update(
             acrobot_of(env).task.assess(np.array(states), acrobot_of(env).dt, learner.swing_up)
@@ -261,7 +264,7 @@ def compute_minima(
     results = [
         min_time_search(
             frame_skip=settings["frame_skip"],
-            width=width,
+            beam=Beam(width),
             method=METHODS[settings["integrator"]],
             max_decisions=max_decisions,
             goal_height=settings["goal_height"],

@@ -21,8 +21,9 @@ from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest, balance
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.train.learners import Learner, Protocol, Run
+from acrobot_mj.train.learners import Learner, Protocol
 from acrobot_mj.train.records import TRAJECTORY_FILE
+from acrobot_mj.train.run import Run
 
 #: ``run.json``'s ``kind`` of a state-feedback run.
 KIND = "state_feedback"

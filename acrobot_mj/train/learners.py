@@ -4,7 +4,6 @@ from the run's seed, so a resumed run is identical to an uninterrupted one."""
 
 from __future__ import annotations
 
-import math
 import shutil
 import time
 from abc import ABC, abstractmethod
@@ -25,6 +24,7 @@ from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.stops import SafePoints
+from acrobot_mj.train.bookkeeping import Books
 from acrobot_mj.train.checkpoint import (
     RESUME_MAY_DIFFER,
     Checkpoints,
@@ -39,7 +39,7 @@ from acrobot_mj.train.checkpoint import (
 )
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import RunLog
-from acrobot_mj.train.progress import Monitor, run_total, watching
+from acrobot_mj.train.monitor import run_total, watching
 from acrobot_mj.train.records import (
     CHECKPOINT_FILE,
     EPISODE_LOG,
@@ -47,36 +47,17 @@ from acrobot_mj.train.records import (
     RUN_FILE,
     SUMMARY_FILE,
     History,
+    Outcome,
     learner_dir,
     read_kind,
     recent_median,
     run_record,
     write_run,
 )
+from acrobot_mj.train.run import Run
 
-#: Called after every training episode with its index and the history so far.
-OnEpisode = Callable[[int, History], None]
 #: Scores a trained learner ``k`` of a population (instead of its last training episodes).
 Judge = Callable[[Agent, int], float]
-
-
-@dataclass
-class Run:
-    """Where a run writes (None: nowhere), whether it resumes, and what watches it."""
-
-    out: Path | None = None
-    resume: bool = False
-    monitor: Monitor | None = None
-    on_episode: OnEpisode | None = None
-    tee: RunLog | None = None
-    progress: bool = False  # a bar where the learner keeps no monitor (the balance preset)
-
-    def learner(self, k: int, tee: RunLog | None) -> Run:
-        """The run of learner ``k`` of a population, in ``learner_K/``."""
-        out = None if self.out is None else learner_dir(self.out, k)
-        again = self.resume and out is not None and (out / CHECKPOINT_FILE).exists()
-        monitor = None if self.monitor is None else self.monitor.scoped(f"learner_{k}")
-        return Run(out, again, monitor, self.on_episode, tee, self.progress)
 
 
 #: The spawn key of every evaluation draw (training draws have none).
@@ -324,59 +305,22 @@ def train_one(
         if (run.out / RUN_FILE).exists() and len(history) < config.episodes:
             # The finished record no longer describes the run: until this one ends (or is
             # killed, or diverges), it is this config's, interrupted where it resumed.
-            record = run_record(config, seed, history, 0.0, interrupted=True, env=env_name)
+            record = run_record(config, seed, history, Outcome(0.0, True), env=env_name)
             write_run(run.out, record, f"seed {seed}", curve=False)
     with SafePoints() as stops:  # from the first checkpoint on, stops land between episodes
-        checkpoints.start(history)
         state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
-        checkpoints.snapshot(state, history)
-        with watching(
-            run.monitor or False, run_total(config), f"{config.algorithm} seed {seed}"
-        ) as m:
-            m.restored(history)
+        label = f"{config.algorithm} seed {seed}"
+        with watching(run.monitor or False, run_total(config), label) as monitor:
+            books = Books(checkpoints, state, monitor, history, on_episode=run.on_episode)
+            books.start()
             started = time.perf_counter()
-            stop = None
-            try:
-                for episode in range(len(history), config.episodes):
-                    stops.check()
-                    cap = config.learner_decisions
-                    left = None if cap == 0 else max(cap - history.steps, 0)
-                    if left == 0:
-                        break
-                    noise = config.start_noise_at(episode)
-                    options = {"start_noise": noise} if noise > 0 else None
-                    try:
-                        with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
-                            result = run_episode(
-                                env,
-                                Learning(agent),
-                                episode_seed(seed, episode),
-                                options,
-                                max_steps=left,
-                            )
-                        if not math.isfinite(result.episode_return):
-                            total = result.episode_return
-                            raise DivergenceError(f"the episode's return is {total}", rewards=True)
-                    except DivergenceError as error:
-                        checkpoints.save()  # the state after the last finite episode
-                        checkpoints.close()
-                        raise diverged(config, seed, episode, len(history), error, path) from None
-                    history.add_episode(result)
-                    checkpoints.snapshot(state, history)
-                    m.episode(episode, result.length, result.episode_return, result.success)
-                    if (episode + 1) % config.checkpoint_every == 0:
-                        checkpoints.save()
-                    if run.on_episode is not None:
-                        run.on_episode(episode, history)
-            except KeyboardInterrupt as interrupt:
-                stop = interrupt
+            stop = _episodes(books, env, agent, stops)
         elapsed = time.perf_counter() - started
         checkpoints.save()
         checkpoints.close()
         rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
-        record = run_record(
-            config, seed, history, elapsed, interrupted=bool(stop), env=env_name, greedy=rest
-        )
+        outcome = Outcome(elapsed, bool(stop), rest)
+        record = run_record(config, seed, history, outcome, env=env_name)
         if run.out is not None:
             write_run(run.out, record, f"seed {seed}", curve=greedy)
         if stop:
@@ -384,32 +328,31 @@ def train_one(
         return record, agent
 
 
-def diverged(
-    config: TrainConfig,
-    seed: int,
-    episode: int,
-    kept: int,
-    error: DivergenceError,
-    checkpoint: Path | None = None,
-) -> DivergenceError:
-    """The error a run stops with when its learner diverges: where, the likely cause, and what
-    ``checkpoint`` keeps."""
-    if error.rewards:
-        cause = (
-            f"the rewards (step_reward {config.step_reward}, goal_reward "
-            f"{config.goal_reward}) overflow a float"
-        )
-    else:
-        n = config.encoding.build(gym.spaces.Box(-1.0, 1.0, (4,))).num_active
-        cause = (
-            f"the step size: alpha={config.alpha:g} is per weight, and {n} features are "
-            f"active in each state (Sutton and Barto use 0.2/{n} with tile coding)"
-        )
-    return DivergenceError(
-        f"{config.algorithm} diverged in episode {episode + 1} of seed {seed} ({error}); the "
-        f"likely cause is {cause}; "
-        + (f"{checkpoint} keeps the state after episode {kept}" if checkpoint else "not saved")
-    )
+def _episodes(books: Books, env: gym.Env, agent: Agent, stops: SafePoints) -> BaseException | None:
+    """Train ``agent`` until its config's episodes or decisions are spent; the Ctrl-C that cut
+    the run short, if one did. A divergence saves the checkpoint and stops the run."""
+    config, seed, history = books.checkpoints.config, books.checkpoints.seed, books.history
+    try:
+        for episode in range(len(history), config.episodes):
+            stops.check()
+            cap = config.learner_decisions
+            left = None if cap == 0 else max(cap - history.steps, 0)
+            if left == 0:
+                break
+            noise = config.start_noise_at(episode)
+            options = {"start_noise": noise} if noise > 0 else None
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
+                    seed_now = episode_seed(seed, episode)
+                    result = run_episode(env, Learning(agent), seed_now, options, max_steps=left)
+                books.end(result.length, result.episode_return, result.success)
+            except DivergenceError as error:
+                books.checkpoints.save()  # the state after the last finite episode
+                books.checkpoints.close()
+                raise books.diverged(error) from None
+    except KeyboardInterrupt as interrupt:
+        return interrupt
+    return None
 
 
 def train_population(
@@ -417,7 +360,7 @@ def train_population(
 ) -> tuple[dict[str, Any], Agent]:
     """``config.population`` learners in ``learner_K/``, the one whose last 20 training episodes
     scored best (or the best by ``judge``) kept. A resumed finished run trains them again."""
-    out, single = run.out, config.replace(population=1, max_decisions=config.learner_decisions)
+    out = run.out
     if run.resume:
         if out is None:
             raise ValueError("resume needs the run directory (out_dir)")
@@ -433,57 +376,82 @@ def train_population(
     scores: list[float] = []
     best, kept = 0, None
     for k in range(config.population):
-        tee = None
-        if out is not None:  # the run's episodes.jsonl: the learners' before k and, resuming, k's
-            mine = learner_dir(out, k) / CHECKPOINT_FILE
-            done = load_checkpoint(mine)[0]["episodes_done"] if run.resume and mine.exists() else 0
-            logs = [learner_dir(out, j) / EPISODE_LOG for j in range(k + 1)]
-            tee = RunLog(out / EPISODE_LOG, logs, [r["episodes_done"] for r in records] + [done])
-        try:
-            record, learner = train_one(
-                single, learner_seed(seed, k), run.learner(k, tee), env, greedy=False
-            )
-        except KeyboardInterrupt as error:  # the command says how to continue
-            why = f" ({error})" if str(error) else ""
-            raise type(error)(f"interrupted in learner {k} of {config.population}{why}") from error
-        except DivergenceError as error:  # its seed is the learner's, drawn from the run's
-            raise DivergenceError(
-                f"learner {k} of {config.population} of run seed {seed}: {error}", error.rewards
-            ) from None
-        finally:
-            if tee is not None:
-                tee.close()
+        record, learner = _train_learner(
+            config, seed, k, run.learner(k, _tee(run, k, records)), env
+        )
         records.append(record)
         scores.append(recent_median(score.values(record)) if judge is None else judge(learner, k))
         if k == 0 or score.is_better(scores[k], scores[best]):  # ties: the first
             best, kept = k, learner  # only the best so far stays in memory
     assert kept is not None  # population > 1: learner 0 at least was kept
-    history = History()
-    for r in records:
-        history.extend(r)
+    rule = f"{score.best_word} median of the last {RECENT} training episodes"
+    chosen = {"scores": scores, "kept": best, "rule": getattr(judge, "rule", rule)}
     real = make_env(config) if env is None else shape_rewards(env, config)
-    record = run_record(
-        config,
-        seed,
-        history,
-        sum(r["wall_seconds"] for r in records),
-        interrupted=records[best]["interrupted"],
-        env=records[best].get("env"),
-        greedy=greedy_from_rest(real, kept, seed),
-        population={
-            "learners": config.population,
-            "seeds": [r["seed"] for r in records],
-            "scores": scores,
-            "kept": best,
-            "rule": getattr(
-                judge, "rule", f"{score.best_word} median of the last {RECENT} training episodes"
-            ),
-        },
-    )
+    record = _population_record(config, seed, records, chosen, greedy_from_rest(real, kept, seed))
     if out is not None:
-        meta = checkpoint_meta(config, seed, len(history), history.steps)
+        meta = checkpoint_meta(config, seed, record["episodes_done"], record["steps"])
         save_checkpoint(out / CHECKPOINT_FILE, kept.state_dict(), meta)
         write_run(out, record, f"{config.population} learners, seed {seed}")
         for k in range(config.population):
             (learner_dir(out, k) / CHECKPOINT_FILE).unlink(missing_ok=True)
     return record, kept
+
+
+def _tee(run: Run, k: int, records: list[dict[str, Any]]) -> RunLog | None:
+    """The run's ``episodes.jsonl`` as learner ``k`` starts: the episodes of the learners
+    before it and, resuming, its own (None: no run directory)."""
+    if run.out is None:
+        return None
+    mine = learner_dir(run.out, k) / CHECKPOINT_FILE
+    done = load_checkpoint(mine)[0]["episodes_done"] if run.resume and mine.exists() else 0
+    logs = [learner_dir(run.out, j) / EPISODE_LOG for j in range(k + 1)]
+    return RunLog(run.out / EPISODE_LOG, logs, [r["episodes_done"] for r in records] + [done])
+
+
+def _train_learner(
+    config: TrainConfig, seed: int, k: int, run: Run, env: gym.Env | None
+) -> tuple[dict[str, Any], Agent]:
+    """Learner ``k`` of ``config``'s population of run ``seed``, in ``run`` (whose ``tee`` is
+    closed at its end); its errors name it."""
+    single = config.replace(population=1, max_decisions=config.learner_decisions)
+    try:
+        return train_one(single, learner_seed(seed, k), run, env, greedy=False)
+    except KeyboardInterrupt as error:  # the command says how to continue
+        why = f" ({error})" if str(error) else ""
+        raise type(error)(f"interrupted in learner {k} of {config.population}{why}") from error
+    except DivergenceError as error:  # its seed is the learner's, drawn from the run's
+        raise DivergenceError(
+            f"learner {k} of {config.population} of run seed {seed}: {error}", error.rewards
+        ) from None
+    finally:
+        if run.tee is not None:
+            run.tee.close()
+
+
+def _population_record(
+    config: TrainConfig,
+    seed: int,
+    records: list[dict[str, Any]],
+    chosen: dict[str, Any],
+    greedy: Episode,
+) -> dict[str, Any]:
+    """The run record of a population: every learner's episodes, the kept one's greedy episode
+    from rest, and how it was ``chosen`` (``scores``, ``kept``, ``rule``)."""
+    history = History()
+    for r in records:
+        history.extend(r)
+    best = records[chosen["kept"]]
+    return run_record(
+        config,
+        seed,
+        history,
+        Outcome(sum(r["wall_seconds"] for r in records), best["interrupted"], greedy),
+        env=best.get("env"),
+        population={
+            "learners": config.population,
+            "seeds": [r["seed"] for r in records],
+            "scores": chosen["scores"],
+            "kept": chosen["kept"],
+            "rule": chosen["rule"],
+        },
+    )

@@ -5,7 +5,6 @@ agent does, so the records and checkpoints are the single runs' (but ``wall_seco
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from functools import partial
 from pathlib import Path
@@ -17,12 +16,21 @@ from acrobot_mj.agents import AGENTS, Agent, DivergenceError, agent_spec
 from acrobot_mj.checks import check_open_files
 from acrobot_mj.envs.vector import AcrobotVectorEnv
 from acrobot_mj.stops import SafePoints
+from acrobot_mj.train.bookkeeping import Books
 from acrobot_mj.train.checkpoint import Checkpoints, load_into, read_for_resume
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.learners import diverged, episode_seed, greedy_from_rest, make_env
+from acrobot_mj.train.learners import episode_seed, greedy_from_rest, make_env
 from acrobot_mj.train.lock import RunLock
-from acrobot_mj.train.progress import Monitor, watching
-from acrobot_mj.train.records import CHECKPOINT_FILE, History, run_record, seed_dir, write_run
+from acrobot_mj.train.monitor import Monitor, watching
+from acrobot_mj.train.records import (
+    CHECKPOINT_FILE,
+    History,
+    Outcome,
+    run_record,
+    seed_dir,
+    write_run,
+)
+from acrobot_mj.train.run import PLAIN, RunOptions
 
 #: Seeds of one process from which they go in lockstep unless told otherwise: in smaller groups
 #: one process per seed is faster (docs/guide/train.md).
@@ -61,32 +69,32 @@ def train_lockstep(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path | None = None,
+    options: RunOptions = PLAIN,
     *,
-    progress: bool | Monitor = False,
     greedy: bool = True,
-    resume: bool = False,
     run_dirs: list[Path] | None = None,
-    tensorboard: str | Path | None = None,
 ) -> list[dict[str, Any]]:
     """Train one learner per seed together; the run records. Writes ``out_dir/seed_S/`` (or
     ``run_dirs[k]``) as ``train`` does; ``greedy=False`` skips the greedy runs from rest;
-    ``progress``: one bar over every learner's episodes (or a bigger run's monitor)."""
+    ``options``: ``resume``, one ``progress`` bar over every learner's episodes, and
+    ``tensorboard``."""
+    options.only("a lockstep run", "resume", "progress", "tensorboard")
     check_lockstep(config)
     if run_dirs is None and out_dir is not None:
         run_dirs = [seed_dir(Path(out_dir), s) for s in seeds]
     if run_dirs is not None and len(run_dirs) != len(seeds):
         raise ValueError(f"give one run directory per seed ({len(seeds)}), got {len(run_dirs)}")
-    if resume and run_dirs is None:
+    if options.resume and run_dirs is None:
         raise ValueError("resume needs the run directories (out_dir or run_dirs)")
     if run_dirs is not None:
         check_open_files(f"{len(seeds)} seeds in lockstep", 2 * len(seeds))  # lock, episode log
     with RunLock(out_dir) if out_dir is not None else contextlib.nullcontext():
         run = _Lockstep(config, seeds, run_dirs)
-        if resume:
+        if options.resume:
             run.restore()
         total = (config.episodes * len(seeds), "episodes")
         label = f"lockstep {config.algorithm} x{len(seeds)}"
-        with watching(progress, total, label, tensorboard) as monitor:
+        with watching(options.progress, total, label, options.tensorboard) as monitor:
             started = time.perf_counter()
             run.train(monitor)
         return run.records(time.perf_counter() - started, greedy)
@@ -112,7 +120,7 @@ class _Lockstep:
             Checkpoints(None if dirs is None else dirs[i] / CHECKPOINT_FILE, config, s, learner=i)
             for i, s in enumerate(self.seeds)
         ]
-        self.monitors: list[Monitor] = []
+        self.books: list[Books] = []
 
     def restore(self) -> None:
         """Each learner from its checkpoint; one that never reached one starts afresh."""
@@ -147,11 +155,12 @@ class _Lockstep:
         """Step every learner with episodes left until all are done."""
         config, k = self.config, self.k
         dirs = self.dirs if self.dirs is not None else [seed_dir(Path(), s) for s in self.seeds]
-        self.monitors = [monitor.scoped(d.name) for d in dirs]
-        for i in range(k):
-            self.checkpoints[i].start(self.histories[i])
-            self.checkpoints[i].snapshot(partial(self.learners.state_dict, i), self.histories[i])
-            self.monitors[i].restored(self.histories[i])
+        self.books = [
+            Books(c, partial(self.learners.state_dict, i), monitor.scoped(d.name), h)
+            for i, (c, d, h) in enumerate(zip(self.checkpoints, dirs, self.histories, strict=True))
+        ]
+        for books in self.books:
+            books.start()
         length, total = np.zeros(k, dtype=np.int64), np.zeros(k)
         active = self.episode < config.episodes
         actions = np.ones(k, dtype=np.int64)  # sub-envs of finished learners get no torque
@@ -191,21 +200,13 @@ class _Lockstep:
     def _finish_episodes(
         self, done: np.ndarray, length: np.ndarray, total: np.ndarray, success: np.ndarray
     ) -> None:
-        """Record the episodes that just ended, and checkpoint where one is due."""
+        """Record the episodes that just ended (:meth:`.Books.end`)."""
         self.episode[done] += 1
         for i in np.flatnonzero(done):
-            episode = int(self.episode[i]) - 1
-            if not math.isfinite(total[i]):
-                error = DivergenceError(f"the episode's return is {total[i]}", rewards=True)
-                path = None if self.dirs is None else self.dirs[i] / CHECKPOINT_FILE
-                raise diverged(
-                    self.config, self.seeds[i], episode, len(self.histories[i]), error, path
-                )
-            self.histories[i].add(int(length[i]), float(total[i]), bool(success[i]))
-            self.checkpoints[i].snapshot(partial(self.learners.state_dict, i), self.histories[i])
-            self.monitors[i].episode(episode, int(length[i]), float(total[i]), bool(success[i]))
-            if self.episode[i] % self.config.checkpoint_every == 0:
-                self.checkpoints[i].save()
+            try:
+                self.books[i].end(int(length[i]), float(total[i]), bool(success[i]))
+            except DivergenceError as error:
+                raise self.books[i].diverged(error) from None
 
     def records(self, elapsed: float, greedy: bool) -> list[dict[str, Any]]:
         """Each learner's run record and directory (``greedy``: with its greedy run from rest)."""
@@ -215,9 +216,8 @@ class _Lockstep:
             agent: Agent = config.make_agent(seed, self.vec.single_observation_space)
             agent.load_state_dict(self.learners.state_dict(i))
             rest = greedy_from_rest(env, agent, seed) if env is not None else None  # greedy
-            record = run_record(
-                config, seed, self.histories[i], elapsed / self.k, lockstep=self.k, greedy=rest
-            )
+            outcome = Outcome(elapsed / self.k, greedy=rest)
+            record = run_record(config, seed, self.histories[i], outcome, lockstep=self.k)
             if self.dirs is not None:
                 write_run(self.dirs[i], record, f"seed {seed}")
             records.append(record)

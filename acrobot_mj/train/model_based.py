@@ -18,8 +18,9 @@ from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.physics.integrators import Stepping
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.learners import AgentLearner, Run, greedy_from_rest, make_env, train_learners
+from acrobot_mj.train.learners import AgentLearner, greedy_from_rest, make_env, train_learners
 from acrobot_mj.train.records import greedy_result, write_run
+from acrobot_mj.train.run import Run
 
 #: Seed-tree branches of the data's draws and of the judging episodes' starts.
 DATA_BRANCH, JUDGE_BRANCH = 0xDA7A, 0x7D6E

@@ -117,19 +117,29 @@ def greedy_result(episode: Episode) -> dict[str, Any]:
     return {"length": episode.length, "return": episode.episode_return, "success": episode.success}
 
 
+@dataclass(frozen=True)
+class Outcome:
+    """How a run's training ended: the ``wall_seconds`` [s] it took, whether it was
+    ``interrupted``, and its ``greedy`` episode from rest (None: none was run)."""
+
+    wall_seconds: float
+    interrupted: bool = False
+    greedy: Episode | None = None
+
+
 def run_record(
     config: TrainConfig,
     seed: int,
     history: History,
-    wall_seconds: float,
+    outcome: Outcome,
     *,
-    interrupted: bool = False,
     env: str | None = None,
-    greedy: Episode | None = None,
     **extra: Any,
 ) -> dict[str, Any]:
     """The ``run.json`` of one run: ``steps`` counts the learning decisions, ``decisions_total``
-    adds the greedy episode from rest (``greedy``); ``extra``: a population's or lockstep's."""
+    adds the greedy episode from rest; ``env``: the name of a user's env; ``extra``: a
+    population's or lockstep's."""
+    interrupted, greedy = outcome.interrupted, outcome.greedy
     record: dict[str, Any] = {
         "config": config.to_dict(),
         "seed": seed,
@@ -138,7 +148,7 @@ def run_record(
         "steps": history.steps,
         "interrupted": interrupted,
         **({} if env is None else {"env": env}),
-        "wall_seconds": wall_seconds,
+        "wall_seconds": outcome.wall_seconds,
         **history.to_dict(),
         "decisions_total": history.steps + (0 if greedy is None else greedy.length),
     }

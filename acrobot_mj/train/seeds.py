@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from acrobot_mj.bars import EpisodeBar
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.pool import WorkerPool
@@ -17,10 +18,17 @@ from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT, Protocol
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
-from acrobot_mj.train.progress import LogFollower, Progress, run_total, summary_writer, watching
+from acrobot_mj.train.monitor import (
+    LogFollower,
+    Monitor,
+    run_total,
+    summary_writer,
+    watching,
+)
 from acrobot_mj.train.records import (
     CURVE_FILE,
     EPISODE_LOG,
+    RECENT,
     SUMMARY_FILE,
     check_fresh,
     plot_learning_curves,
@@ -29,6 +37,7 @@ from acrobot_mj.train.records import (
     seed_dir,
     spread,
 )
+from acrobot_mj.train.run import PLAIN, RunOptions
 from acrobot_mj.train.trainer import train
 
 #: A seed's run record and its held-out evaluation (None: not evaluated where it trained).
@@ -45,28 +54,20 @@ class SeedRuns:
     protocol: Protocol | None = DEFAULT
     tensorboard: str | Path | None = None
 
-    def one(self, seed: int, progress: Any = False, board: str | None = None) -> Run:
+    def one(self, seed: int, progress: bool | Monitor = False, board: str | None = None) -> Run:
         """One seed's run and (``protocol``) its held-out evaluation, where it trained. Resuming,
         a seed that never reached a checkpoint starts from its first episode."""
         run_dir = seed_dir(self.out, seed)
         resume = self.resume and resumable(run_dir)
-        record = train(
-            self.config,
-            seed,
-            run_dir,
-            resume=resume,
-            progress=progress,
-            overwrite=True,
-            tensorboard=board,
-        )
+        options = RunOptions(resume, overwrite=True, progress=progress, tensorboard=board)
+        record = train(self.config, seed, run_dir, options)
         return record, None if self.protocol is None else evaluate_run(run_dir, self.protocol)
 
     def group(self, seeds: list[int], board: str | None = None) -> list[Run]:
         """One lockstep group of seeds, then each one's held-out evaluation, where it trained."""
         dirs = [seed_dir(self.out, s) for s in seeds]
-        records = train_lockstep(
-            self.config, seeds, run_dirs=dirs, resume=self.resume, tensorboard=board
-        )
+        options = RunOptions(self.resume, tensorboard=board)
+        records = train_lockstep(self.config, seeds, None, options, run_dirs=dirs)
         return [
             (r, None if self.protocol is None else evaluate_run(d, self.protocol))
             for r, d in zip(records, dirs, strict=True)
@@ -77,52 +78,58 @@ def train_seeds(
     config: TrainConfig,
     seeds: list[int],
     out_dir: str | Path,
+    options: RunOptions = PLAIN,
     *,
-    jobs: int = 1,
-    resume: bool = False,
-    progress: bool = False,
-    overwrite: bool = False,
     protocol: Protocol | None = DEFAULT,
-    tensorboard: str | Path | None = None,
-    lockstep: bool | None = None,
 ) -> dict[str, Any]:
-    """Train one run per seed into ``out_dir/seed_S`` (``jobs`` processes), evaluate each on
-    ``protocol`` (None: not), then write ``out_dir/summary.json`` and the learning curve across
-    seeds. ``progress``: one bar over all the seeds' episodes; ``tensorboard``: each seed's
-    scalars in ``tensorboard/seed_S``; ``lockstep``: the seeds together on one vector env (True),
-    one run per seed (False), or where that pays (None)."""
+    """Train one run per seed into ``out_dir/seed_S`` (``options.jobs`` processes), evaluate each
+    on ``protocol`` (None: not), then write ``out_dir/summary.json`` and the learning curve
+    across seeds. ``options.progress``: one bar over all the seeds' episodes;
+    ``options.tensorboard``: each seed's scalars in ``tensorboard/seed_S``;
+    ``options.lockstep``: the seeds together on one vector env (True), one run per seed
+    (False), or where that pays (None)."""
+    options.only(
+        "several seeds", "resume", "overwrite", "progress", "tensorboard", "jobs", "lockstep"
+    )
     if not seeds:
         raise ValueError("train_seeds needs at least one seed")
-    if tensorboard is not None:
+    if options.tensorboard is not None:
         summary_writer()  # without the extra: its one-line error now, before any training
     out = Path(out_dir)
     with RunLock(out, "train --seeds"):
-        if not resume and not overwrite:
+        if not options.resume and not options.overwrite:
             for path in (out, *(seed_dir(out, s) for s in seeds)):
                 check_fresh(path)
-        jobs = min(jobs, len(seeds))
-        together = lockstep_pays(config, len(seeds) // jobs) if lockstep is None else lockstep
-        if together:
-            check_lockstep(config)
-        runs = SeedRuns(config, out, resume, protocol, tensorboard)
-        if together and jobs == 1:
-            records = train_lockstep(
-                config, seeds, out, progress=progress, resume=resume, tensorboard=tensorboard
-            )
-            finished: list[tuple[dict[str, Any], dict[str, Any] | None]]
-            finished = [(record, None) for record in records]
-        elif jobs == 1:
-            count, unit = run_total(config)
-            label = f"{config.algorithm} x{len(seeds)} seeds"
-            with watching(progress, (count * len(seeds), unit), label, tensorboard) as monitor:
-                finished = [runs.one(s, monitor.scoped(f"seed_{s}")) for s in seeds]
-        else:
-            finished = _in_workers(runs, seeds, jobs, together, progress)
+        finished = _train_all(config, seeds, out, options, protocol)
         records = [record for record, _ in finished]
         evaluations: list[dict[str, Any] | None] = [evaluation for _, evaluation in finished]
         if protocol is not None and None in evaluations:  # lockstep here: evaluated now
             evaluations = [evaluate_run(seed_dir(out, s), protocol) for s in seeds]
         return _summarize_into(out, config, seeds, records, evaluations)
+
+
+def _train_all(
+    config: TrainConfig, seeds: list[int], out: Path, options: RunOptions, protocol: Protocol | None
+) -> list[Run]:
+    """Every seed's run, in lockstep or apart, here or in worker processes."""
+    jobs = min(options.jobs or 1, len(seeds))
+    lockstep = options.lockstep
+    together = lockstep_pays(config, len(seeds) // jobs) if lockstep is None else lockstep
+    if together:
+        check_lockstep(config)
+    runs = SeedRuns(config, out, options.resume, protocol, options.tensorboard)
+    if together and jobs == 1:
+        only = RunOptions(
+            options.resume, progress=options.progress, tensorboard=options.tensorboard
+        )
+        return [(record, None) for record in train_lockstep(config, seeds, out, only)]
+    if jobs == 1:
+        count, unit = run_total(config)
+        label = f"{config.algorithm} x{len(seeds)} seeds"
+        total = (count * len(seeds), unit)
+        with watching(options.progress, total, label, options.tensorboard) as monitor:
+            return [runs.one(s, monitor.scoped(f"seed_{s}")) for s in seeds]
+    return _in_workers(runs, seeds, jobs, together, bool(options.progress))
 
 
 def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, progress: bool):
@@ -137,7 +144,7 @@ def _in_workers(runs: SeedRuns, seeds: list[int], jobs: int, together: bool, pro
         function, calls = runs.one, [(s, False, b) for s, b in zip(seeds, boards, strict=True)]
     count, unit = run_total(runs.config)
     label = f"{'lockstep ' if together else ''}{runs.config.algorithm} x{len(seeds)} seeds"
-    bar = Progress(count * len(seeds), f"{label}, {jobs} processes", progress, unit)
+    bar = EpisodeBar(count * len(seeds), f"{label}, {jobs} processes", progress, unit, RECENT)
     logs = [seed_dir(runs.out, s) / EPISODE_LOG for s in seeds]
     try:
         with WorkerPool(jobs) as pool, LogFollower(logs, bar):

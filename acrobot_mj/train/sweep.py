@@ -17,7 +17,7 @@ from acrobot_mj.bars import Steps
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import is_sealed, read_json, sealed, write_json, write_text
 from acrobot_mj.pool import WorkerPool
-from acrobot_mj.report.plots import Series, line_plot
+from acrobot_mj.report.plots import Labels, Series, line_plot
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
 from acrobot_mj.train.learners import DEFAULT
@@ -31,13 +31,9 @@ from acrobot_mj.train.records import (
     recent_score,
     spread,
 )
+from acrobot_mj.train.run import PLAIN, RunOptions
 from acrobot_mj.train.sweep_file import SweepSpec, Trial
 from acrobot_mj.train.trainer import train
-
-if sys.version_info >= (3, 11):
-    pass
-else:  # pragma: no cover
-    pass
 
 BACKENDS, ERROR_FILE = ("local", "ray"), "error.json"
 
@@ -83,7 +79,8 @@ def train_or_error(config: dict[str, Any], seed: int, run_dir: str | None) -> di
     """Train one trial (resuming from a checkpoint in ``run_dir``), or describe its error."""
     try:
         resume = run_dir is not None and (Path(run_dir) / CHECKPOINT_FILE).exists()
-        return train(TrainConfig.from_dict(config), seed, run_dir, resume=resume, overwrite=True)
+        options = RunOptions(resume, overwrite=True)
+        return train(TrainConfig.from_dict(config), seed, run_dir, options)
     except Exception as error:  # a failing trial is recorded, the others go on
         error_record = {"error": f"{type(error).__name__}: {error}", "seed": seed}
         return error_record | {"traceback": traceback.format_exc(), "config": config}
@@ -203,9 +200,11 @@ def summarize_sweep(spec: SweepSpec, out: str | Path) -> dict[str, Any]:
         line_plot(
             out / "summary.png",
             [series],
-            f"Sweep of the {spec.preset} preset over {list(spec.grid)}",
-            "grid point (rows of summary.md, in order)",
-            f"{score.unit} from rest",
+            Labels(
+                f"Sweep of the {spec.preset} preset over {list(spec.grid)}",
+                "grid point (rows of summary.md, in order)",
+                f"{score.unit} from rest",
+            ),
         )
     return summary
 
@@ -255,18 +254,19 @@ def summary_table(summary: dict[str, Any]) -> str:
 def run_sweep(
     spec: SweepSpec,
     out: str | Path,
+    options: RunOptions = PLAIN,
     *,
     backend: str = "local",
     address: str | None = None,
-    jobs: int | None = None,
     ray_num_cpus: int | None = None,
-    progress: bool = False,
-    lockstep: bool | None = None,
 ) -> dict[str, Any]:
-    """Run the unfinished trials, then summarise all. ``lockstep``: each grid point's seeds
-    together on one vector env in this process (True: every point, refused where one cannot),
-    one trial per process (False), or where that pays (None). ``jobs``: local processes; Ray:
-    ``address``, or a local instance of ``ray_num_cpus``."""
+    """Run the unfinished trials, then summarise all. ``options``: a ``progress`` bar over the
+    trials; ``lockstep``: each grid point's seeds together on one vector env in this process
+    (True: every point, refused where one cannot), one trial per process (False), or where that
+    pays (None); ``jobs``: local processes. Ray: ``address``, or a local instance of
+    ``ray_num_cpus``."""
+    options.only("a sweep", "progress", "jobs", "lockstep")
+    jobs, lockstep = options.jobs, options.lockstep
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if lockstep and backend != "local":
@@ -293,7 +293,9 @@ def run_sweep(
                 sys.stderr.write(f"sweep: running {trial.name} again: {why}\n")
         where = {"address": address} if address else {"num_cpus": ray_num_cpus}
         try:
-            with Steps(len(todo), f"sweep {out.name}", progress, unit="trials") as bar:
+            with Steps(
+                len(todo), f"sweep {out.name}", bool(options.progress), unit="trials"
+            ) as bar:
                 if backend == "local":
                     _run_local(todo, out, jobs, bar, lockstep)
                 else:
@@ -323,7 +325,8 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Steps, locks
     for (_, saved), group in groups.items():
         dirs = [trial_dir(out, t) for t in group]
         try:
-            train_lockstep(group[0].config, [t.seed for t in group], run_dirs=dirs, resume=saved)
+            options = RunOptions(resume=saved)
+            train_lockstep(group[0].config, [t.seed for t in group], None, options, run_dirs=dirs)
         except Exception:  # one trial at a time, each failure recorded
             for t in group:
                 run_trial(t.config.to_dict(), t.seed, str(trial_dir(out, t)))

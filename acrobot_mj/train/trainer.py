@@ -12,10 +12,10 @@ from acrobot_mj.train.balance_preset import PlanConfig, PlanLearner
 from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.feedback_run import FeedbackConfig, FeedbackLearner
-from acrobot_mj.train.learners import AgentLearner, Learner, OnEpisode, Run
+from acrobot_mj.train.learners import AgentLearner, Learner
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.model_based import ModelBasedLearner
-from acrobot_mj.train.progress import run_total, watching
+from acrobot_mj.train.monitor import run_total, watching
 from acrobot_mj.train.records import (
     CURVE_FILE,
     EVAL_FILE,
@@ -24,6 +24,7 @@ from acrobot_mj.train.records import (
     check_fresh,
     read_record,
 )
+from acrobot_mj.train.run import PLAIN, Run, RunOptions
 
 #: The learners that are not trained by episodes, by their config's type and ``run.json`` kind.
 BUILT: dict[type, type[Learner]] = {
@@ -61,27 +62,25 @@ def train(
     config: Config,
     seed: int,
     out_dir: str | Path | None = None,
+    options: RunOptions = PLAIN,
     *,
     env: gym.Env | None = None,
-    resume: bool = False,
-    progress: bool = False,
-    on_episode: OnEpisode | None = None,
-    overwrite: bool = False,
-    tensorboard: str | Path | None = None,
 ) -> dict[str, Any]:
     """Train ``config``'s learner with ``seed``; the run record. ``out_dir``: the run directory
-    (one holding another run is refused unless ``overwrite``; ``resume`` continues from its
-    checkpoints exactly). ``env``: any env with ``Discrete(3)`` actions and ``(q1, q2, dq1, dq2)``
-    observations (default: the config's). ``progress``: a bar on stderr; ``tensorboard``: each
-    episode's scalars there; ``on_episode(index, history)`` after every training episode."""
+    (one holding another run is refused unless ``options.overwrite``; ``options.resume``
+    continues from its checkpoints exactly). ``env``: any env with ``Discrete(3)`` actions and
+    ``(q1, q2, dq1, dq2)`` observations (default: the config's). ``options``: the
+    :class:`~acrobot_mj.train.learners.RunOptions` of one run (no ``jobs`` or ``lockstep``)."""
+    options.only("one run", "resume", "overwrite", "progress", "tensorboard", "on_episode")
     learner = learner_for(config, seed, env)
-    if type(config) in BUILT and resume:
+    if type(config) in BUILT and options.resume:
         raise ValueError(
             "the balance preset and the state-feedback controller have nothing to resume"
         )
     out = None if out_dir is None else Path(out_dir)
+    resume = options.resume
     with RunLock(out, "train", create=not resume) if out is not None else nullcontext():
-        if out is not None and not resume and not overwrite:
+        if out is not None and not resume and not options.overwrite:
             check_fresh(out)
         if out is not None:  # they evaluated or summarised what training is about to change
             (out / EVAL_FILE).unlink(missing_ok=True)
@@ -89,10 +88,11 @@ def train(
                 for name in (SUMMARY_FILE, CURVE_FILE):  # of the --seeds run this seed is of
                     (out.parent / name).unlink(missing_ok=True)
         if not isinstance(config, TrainConfig):
-            return learner.learn(Run(out, progress=progress))
+            return learner.learn(Run(out, progress=bool(options.progress)))
         label = f"{config.algorithm} seed {seed}"
-        with watching(progress, run_total(config), label, tensorboard) as monitor:
-            return learner.learn(Run(out, resume, monitor, on_episode))
+        total = run_total(config)
+        with watching(options.progress, total, label, options.tensorboard) as monitor:
+            return learner.learn(Run(out, resume, monitor, options.on_episode))
 
 
 def load_learner(run_dir: str | Path) -> Learner:

@@ -1,5 +1,6 @@
-"""Watching a run as it trains: one progress bar (tqdm, on stderr) over all its learners' episodes,
-worker processes' logs followed into it, and per-episode scalars for TensorBoard if asked."""
+"""Watching a run as it trains: one :class:`~acrobot_mj.bars.EpisodeBar` over all its learners'
+episodes, worker processes' logs followed into it, and per-episode scalars for TensorBoard if
+asked."""
 
 from __future__ import annotations
 
@@ -7,20 +8,16 @@ import contextlib
 import json
 import os
 import threading
-import time
-from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from acrobot_mj.bars import make_bar
+from acrobot_mj.bars import EpisodeBar
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.records import RECENT, History
 
-#: Seconds between redraws of the bar's statistics, and between reads of workers' logs.
-POSTFIX_EVERY = EVERY = 0.5
+#: Seconds between reads of workers' logs.
+EVERY = 0.5
 
 
 def run_total(config: TrainConfig) -> tuple[int, str]:
@@ -30,62 +27,12 @@ def run_total(config: TrainConfig) -> tuple[int, str]:
     return count * config.population, unit
 
 
-class Progress:
-    """A tqdm bar of ``total`` episodes (or decisions, ``unit``) with the recent median length
-    and the successes; nothing at all (and no tqdm) when not ``enabled``."""
-
-    def __init__(self, total: int, label: str, enabled: bool, unit: str = "episodes") -> None:
-        self.unit = unit
-        self.recent: deque[int] = deque(maxlen=RECENT)
-        self.successes, self._shown = 0, 0.0
-        self.bar = make_bar(total, label, enabled, unit)
-
-    def skip(self, history: History) -> None:
-        """Count a resumed learner's episodes as done."""
-        self.recent.extend(history.episode_lengths[-RECENT:])
-        self.successes += sum(history.episode_successes)
-        if self.bar is not None:
-            self.bar.n += history.steps if self.unit == "decisions" else len(history)
-            self.bar.last_print_n = self.bar.n  # not a burst of speed
-            self.bar.refresh()
-
-    def episode(self, length: int, success: bool) -> None:
-        """One finished episode of any learner."""
-        self.recent.append(length)
-        self.successes += bool(success)
-        if self.bar is None:
-            return
-        now = time.monotonic()
-        if now - self._shown >= POSTFIX_EVERY:
-            self._shown = now
-            self.bar.set_postfix_str(self.stats(), refresh=False)
-        self.bar.update(length if self.unit == "decisions" else 1)
-
-    def stats(self) -> str:
-        """The bar's statistics: ``median 87 decisions (last 20), 12 successes``."""
-        if not self.recent:
-            return ""
-        median = float(np.median(self.recent))
-        return f"median {median:.0f} decisions (last {RECENT}), {self.successes} successes"
-
-    def retract(self, units: int, successes: int) -> None:
-        """Take back ``units`` and ``successes`` counted (a log that was cut back)."""
-        self.successes -= successes
-        if self.bar is not None and units:
-            self.bar.update(-units)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.set_postfix_str(self.stats(), refresh=False)
-            self.bar.close()
-            self.bar = None
-
-
 class Monitor:
-    """A run's :class:`Progress` bar and, if asked, its TensorBoard :class:`Board`; ``name`` is
-    the learner's TensorBoard run (``seed_3/learner_1``; empty for a run of one learner)."""
+    """A run's :class:`~acrobot_mj.bars.EpisodeBar` and, if asked, its TensorBoard
+    :class:`Board`; ``name`` is the learner's TensorBoard run (``seed_3/learner_1``; empty for a
+    run of one learner)."""
 
-    def __init__(self, bar: Progress, board: Board | None = None, name: str = "") -> None:
+    def __init__(self, bar: EpisodeBar, board: Board | None = None, name: str = "") -> None:
         self.bar, self.board, self.name = bar, board, name
 
     def scoped(self, name: str) -> Monitor:
@@ -93,7 +40,7 @@ class Monitor:
         return Monitor(self.bar, self.board, f"{self.name}/{name}" if self.name else name)
 
     def restored(self, history: History) -> None:
-        self.bar.skip(history)
+        self.bar.skip(history.episode_lengths, history.episode_successes)
 
     def episode(self, index: int, length: int, total: float, success: bool) -> None:
         self.bar.episode(length, success)
@@ -121,7 +68,7 @@ def watching(
         yield progress
         return
     board = None if tensorboard is None else Board(tensorboard)
-    monitor = Monitor(Progress(total[0], label, bool(progress), total[1]), board)
+    monitor = Monitor(EpisodeBar(total[0], label, bool(progress), total[1], RECENT), board)
     try:
         yield monitor
     finally:
@@ -133,7 +80,7 @@ class LogFollower:
     ``with`` block, and once more at its end. A log replaced by a new file (a resume cuts it
     back) is read again from its start, its earlier lines taken off the bar."""
 
-    def __init__(self, paths: list[Path], bar: Progress) -> None:
+    def __init__(self, paths: list[Path], bar: EpisodeBar) -> None:
         self.paths, self.bar = paths, bar
         #: Per log: its file's inode, the bytes read, and the units and successes counted.
         self._seen: dict[Path, tuple[int, int, int, int]] = {}
