@@ -14,7 +14,7 @@ import pytest
 from acrobot_mj.cli import main
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.report import plots
-from acrobot_mj.report.crosscheck import METHODS, integrator_study
+from acrobot_mj.report.crosscheck import COMPARED, integrator_study
 from acrobot_mj.report.validation import phase_figures
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import plot_learning_curves
@@ -213,7 +213,7 @@ def test_energy_drift_figure_has_each_integrator(tmp_path, figures) -> None:
     integrator_study(seconds=1.0, reference_substeps=2, out=tmp_path)
     (ax,) = figures["energy_drift.png"].axes
     lines = ax.get_lines()
-    assert [line.get_label() for line in lines][:3] == [m.replace("_", " ") for m in METHODS]
+    assert [line.get_label() for line in lines][:3] == [m.replace("_", " ") for m in COMPARED]
     assert ax.get_yscale() == "log" and ax.get_xlabel() == "time [s]"
     for line in lines:
         np.testing.assert_allclose(line.get_xdata(), np.arange(21) * 0.05)

@@ -16,7 +16,8 @@ from acrobot_mj.physics import dynamics, errata, integrators
 from acrobot_mj.physics.params import REPORT as P
 from acrobot_mj.report.plots import Labels, Series, line_plot
 
-METHODS = ("explicit_euler", "semi_implicit_euler", "rk4")
+#: The integrators compared, from the least accurate to the most.
+COMPARED = ("explicit_euler", "semi_implicit_euler", "rk4")
 EQUILIBRIUM_NAMES = ("hanging", "upright", "down_folded", "up_folded")
 
 
@@ -88,7 +89,7 @@ def integrator_study(
     steps = integrators.steps_in(seconds, P.dt)
     e0 = dynamics.total_energy(starts[:, :2], starts[:, 2:])
     drift, curves = {}, {}
-    for method in METHODS:
+    for method in COMPARED:
         xs = integrators.simulate(starts, np.zeros(steps), method, limits=False)
         error = np.abs(dynamics.total_energy(xs[..., :2], xs[..., 2:]) - e0)
         drift[method] = {"max_abs_J": error.max(axis=0).tolist(), "final_abs_J": error[-1].tolist()}
@@ -111,7 +112,7 @@ def integrator_study(
     }
     if out is not None:
         t = np.arange(steps + 1) * P.dt
-        series = [Series(m.replace("_", " "), t, np.maximum(curves[m], 1e-16)) for m in METHODS]
+        series = [Series(m.replace("_", " "), t, np.maximum(curves[m], 1e-16)) for m in COMPARED]
         series.append(Series(f"RK4 at {h:g} s (reference)", t, np.maximum(ref_curve, 1e-16)))
         title = "Energy error with zero torque, 0.5 rad swing from hanging (dt = 0.05 s)"
         labels = ("time [s]", "|E - E0| [J] (log scale)")

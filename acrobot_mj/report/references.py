@@ -26,7 +26,7 @@ from acrobot_mj.envs.rollout import Hooks, PolicyActor, SequenceActor, acrobot_o
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.physics import dynamics
 from acrobot_mj.physics.params import REPORT as P
-from acrobot_mj.report.crosscheck import METHODS
+from acrobot_mj.report.crosscheck import COMPARED
 
 
 def controllers(quick: bool = False) -> dict[str, Any]:
@@ -109,7 +109,7 @@ def minimum_time(quick: bool = False) -> dict[str, Any]:
     fs1_actions = [a for a in holds[k_best].actions for _ in range(k_best)]
     replay = {"frame_skip_1": _replay(fs1_actions, 1), "frame_skip_4": _replay(best4.actions, 4)}
     by_integrator = {
-        m: (best4 if m == "semi_implicit_euler" else search4(method=m)).decisions for m in METHODS
+        m: (best4 if m == "semi_implicit_euler" else search4(method=m)).decisions for m in COMPARED
     }
     return {
         "continuous_torque": None if quick else continuous_torque_height(fs1_actions),

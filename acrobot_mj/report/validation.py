@@ -18,7 +18,7 @@ from acrobot_mj.files import write_json, write_text
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.params import REPORT
 from acrobot_mj.report.balance_run import CASES, robustness, table
-from acrobot_mj.report.crosscheck import METHODS, cross_check, integrator_study, linearisation
+from acrobot_mj.report.crosscheck import COMPARED, cross_check, integrator_study, linearisation
 from acrobot_mj.report.plots import Labels, Series, line_plot
 from acrobot_mj.report.references import controllers, minimum_time
 from acrobot_mj.version import __version__
@@ -164,7 +164,7 @@ def _model_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         (
             f"energy drift over {report['integrators']['seconds']:g} s (0.5 rad swing): "
             "explicit / semi-implicit Euler / RK4 [J]",
-            _joined(f"{drift[m]['max_abs_J'][0]:.2g}" for m in METHODS),
+            _joined(f"{drift[m]['max_abs_J'][0]:.2g}" for m in COMPARED),
         ),
         ("eigenvalues, analytic vs mjd_transitionFD (max gap)", f"{gap:.1e}"),
         ("controllability rank at upright", str(lin["controllability_rank_upright"])),
@@ -207,7 +207,7 @@ def _control_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ),
         (
             "minimum time, explicit Euler / semi-implicit / RK4 [decisions at 0.2 s]",
-            _joined(mt["decisions_frame_skip_4_by_integrator"][m] for m in METHODS),
+            _joined(mt["decisions_frame_skip_4_by_integrator"][m] for m in COMPARED),
         ),
     ]
 

@@ -27,7 +27,7 @@ RESUME_MAY_DIFFER = ("checkpoint_every",)
 StateNow = dict[str, np.ndarray]
 
 
-FORMAT, VERSION = "acrobot_mj.checkpoint", 1
+CHECKPOINT_FORMAT, VERSION = "acrobot_mj.checkpoint", 1
 
 
 _RESERVED = ("format", "version", "meta", "sha256")
@@ -56,7 +56,7 @@ def save_checkpoint(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[
     if any(value.dtype == object for value in payload.values()):
         raise ValueError("checkpoints hold plain numeric or string arrays only (no objects)")
     payload |= {
-        "format": np.array(FORMAT),
+        "format": np.array(CHECKPOINT_FORMAT),
         "version": np.array(VERSION),
         "meta": np.array(json.dumps(meta, sort_keys=True)),
     }
@@ -103,8 +103,10 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
     missing = [name for name in _RESERVED if name not in data]
     if missing:
         raise CheckpointError(f"{path} is not an acrobot_mj checkpoint: it lacks {missing}")
-    if str(data["format"]) != FORMAT:
-        raise CheckpointError(f"{path} has format {str(data['format'])!r}, expected {FORMAT!r}")
+    if str(data["format"]) != CHECKPOINT_FORMAT:
+        raise CheckpointError(
+            f"{path} has format {str(data['format'])!r}, expected {CHECKPOINT_FORMAT!r}"
+        )
     version = data["version"]
     if version.shape != () or version.dtype.kind not in "iu" or int(version) != VERSION:
         raise CheckpointError(

@@ -1,5 +1,6 @@
 """How a run goes, whatever it trains (:class:`RunOptions`, given by the caller), and where one
-learner of it writes and what watches it (:class:`Run`, handed to :meth:`~acrobot_mj.train.learners.Learner.learn`)."""
+learner of it writes and what watches it (:class:`Run`, handed to
+:meth:`~acrobot_mj.train.learners.Learner.learn`)."""
 
 from __future__ import annotations
 

@@ -41,7 +41,7 @@ from acrobot_mj.train.run import PLAIN, RunOptions
 from acrobot_mj.train.trainer import train
 
 #: A seed's run record and its held-out evaluation (None: not evaluated where it trained).
-Run = tuple[dict[str, Any], dict[str, Any] | None]
+SeedResult = tuple[dict[str, Any], dict[str, Any] | None]
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,9 @@ class SeedRuns:
     protocol: Protocol | None = DEFAULT
     tensorboard: str | Path | None = None
 
-    def one(self, seed: int, progress: bool | Monitor = False, board: str | None = None) -> Run:
+    def one(
+        self, seed: int, progress: bool | Monitor = False, board: str | None = None
+    ) -> SeedResult:
         """One seed's run and (``protocol``) its held-out evaluation, where it trained. Resuming,
         a seed that never reached a checkpoint starts from its first episode."""
         run_dir = seed_dir(self.out, seed)
@@ -63,7 +65,7 @@ class SeedRuns:
         record = train(self.config, seed, run_dir, options)
         return record, None if self.protocol is None else evaluate_run(run_dir, self.protocol)
 
-    def group(self, seeds: list[int], board: str | None = None) -> list[Run]:
+    def group(self, seeds: list[int], board: str | None = None) -> list[SeedResult]:
         """One lockstep group of seeds, then each one's held-out evaluation, where it trained."""
         dirs = [seed_dir(self.out, s) for s in seeds]
         options = RunOptions(self.resume, tensorboard=board)
@@ -110,7 +112,7 @@ def train_seeds(
 
 def _train_all(
     config: TrainConfig, seeds: list[int], out: Path, options: RunOptions, protocol: Protocol | None
-) -> list[Run]:
+) -> list[SeedResult]:
     """Every seed's run, in lockstep or apart, here or in worker processes."""
     jobs = min(options.jobs or 1, len(seeds))
     lockstep = options.lockstep

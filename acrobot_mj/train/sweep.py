@@ -35,7 +35,7 @@ from acrobot_mj.train.run import PLAIN, RunOptions
 from acrobot_mj.train.sweep_file import SweepSpec, Trial
 from acrobot_mj.train.trainer import train
 
-BACKENDS, ERROR_FILE = ("local", "ray"), "error.json"
+SWEEP_BACKENDS, ERROR_FILE = ("local", "ray"), "error.json"
 
 
 def trial_dir(out: Path, trial: Trial) -> Path:
@@ -267,8 +267,8 @@ def run_sweep(
     ``ray_num_cpus``."""
     options.only("a sweep", "progress", "jobs", "lockstep")
     jobs, lockstep = options.jobs, options.lockstep
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend not in SWEEP_BACKENDS:
+        raise ValueError(f"backend must be one of {SWEEP_BACKENDS}, got {backend!r}")
     if lockstep and backend != "local":
         raise ValueError("lockstep sweeps run on the local backend (Ray runs one task a trial)")
     given = {"--address": address, "--num-cpus": ray_num_cpus, "--jobs": jobs}
