@@ -14,7 +14,7 @@ from acrobot_mj.files import versions, write_json
 from acrobot_mj.pool import WorkerPool
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
-from acrobot_mj.train.learners import DEFAULT, Protocol
+from acrobot_mj.train.learners import DEFAULT, HeldOut
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
 from acrobot_mj.train.progress import LogFollower, Progress, run_total, summary_writer, watching
@@ -42,7 +42,7 @@ class SeedRuns:
     config: TrainConfig
     out: Path
     resume: bool = False
-    protocol: Protocol | None = DEFAULT
+    protocol: HeldOut | None = DEFAULT
     tensorboard: str | Path | None = None
 
     def one(self, seed: int, progress: Any = False, board: str | None = None) -> Run:
@@ -82,7 +82,7 @@ def train_seeds(
     resume: bool = False,
     progress: bool = False,
     overwrite: bool = False,
-    protocol: Protocol | None = DEFAULT,
+    protocol: HeldOut | None = DEFAULT,
     tensorboard: str | Path | None = None,
     lockstep: bool | None = None,
 ) -> dict[str, Any]:
