@@ -1,8 +1,8 @@
-"""Settings declared once: a config is a frozen dataclass whose fields are :func:`setting`\\ s
-(default, help, unit, range or choices). From that one declaration come the config's check
-(:func:`check`: types from the annotations, ranges, choices; one line naming the setting), its
-record (:func:`to_dict`, :func:`from_dict`, :func:`replace`), its command-line options
-(:func:`add_arguments`, :func:`parse`) and the docs' tables (:func:`table`)."""
+"""Settings declared once: a config is a frozen dataclass whose fields are declared with
+:func:`setting` (default, help, unit, range or choices). From that declaration come the config's
+check (:func:`check`: types from the annotations, ranges, choices; one line naming the
+setting), its record (:func:`to_dict`, :func:`from_dict`, :func:`replace`), its command-line
+options (:func:`add_arguments`, :func:`parse`) and the docs' tables (:func:`table`)."""
 
 from __future__ import annotations
 
@@ -36,6 +36,12 @@ def setting(default: Any, help: str, unit: str = "", **rules: Any) -> Any:
 def declared(cls: type) -> dict[str, dataclasses.Field]:
     """The settings of config class ``cls`` by name (fields declared with :func:`setting`)."""
     return {f.name: f for f in dataclasses.fields(cls) if "help" in f.metadata}
+
+
+def _field(cls: type, name: str) -> dataclasses.Field:
+    """Field ``name`` of ``cls``, declared with :func:`setting` or not (a plain field has no
+    help, unit or range)."""
+    return next(f for f in dataclasses.fields(cls) if f.name == name)
 
 
 def _hints(cls: type) -> dict[str, Any]:
@@ -134,14 +140,14 @@ def _choice(label: str, choices: Iterable[Any], value: Any) -> Any:
 
 def _in_range(name: str, meta: Mapping[str, Any], kind: Any, value: Any) -> None:
     low, high = meta.get("low"), meta.get("high")
-    below = low is not None and value < low
-    if below or (high is not None and value > high):
-        words = _requirement(meta, kind)
-        raise SettingError(f"{_label(name, meta)} must be {words}, got {value:g}")
+    got = value if isinstance(value, int) else f"{value:g}"
+    label = _label(name, meta)
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise SettingError(f"{label} must be {_requirement(meta, kind)}, got {got}")
     if meta.get("low_open") and value == low:
-        raise SettingError(f"{_label(name, meta)} must be > {low:g}, got {value:g}")
+        raise SettingError(f"{label} must be > {low:g}, got {got}")
     if meta.get("high_open") and value == high:
-        raise SettingError(f"{_label(name, meta)} must be < {high:g}, got {value:g}")
+        raise SettingError(f"{label} must be < {high:g}, got {got}")
 
 
 def _sequence(name: str, meta: Mapping[str, Any], kind: Any, value: Any) -> tuple:
@@ -178,7 +184,7 @@ def _sequence_words(meta: Mapping[str, Any], fixed: int | None) -> str:
 def checked(cls: type, name: str, value: Any) -> Any:
     """``value`` of setting ``name`` of ``cls``, checked and converted (lists to tuples, numpy
     scalars to Python's, a dict to a nested config)."""
-    meta = dict(declared(cls)[name].metadata)
+    meta = _field(cls, name).metadata
     kind, optional = _parts(_hints(cls)[name])
     if value is None and optional:
         return None
@@ -231,7 +237,7 @@ def replace(config: Any, changes: dict[str, Any], what: str) -> Any:
 
 def flag(cls: type, name: str) -> str:
     """The command-line flag of setting ``name``: ``--name-with-dashes``."""
-    meta = declared(cls)[name].metadata
+    meta = _field(cls, name).metadata
     return "--" + meta.get("flag", name).replace("_", "-")
 
 
@@ -243,7 +249,7 @@ def cli_names(cls: type) -> tuple[str, ...]:
 def parse(cls: type, name: str, text: str) -> Any:
     """``text`` as setting ``name``'s type: floats may be fractions (``0.2/48``), bools ``true``
     or ``false``, tuples ``START:STOP:STEP`` or ``1,4`` (by the setting's ``sep``)."""
-    meta = declared(cls)[name].metadata
+    meta = _field(cls, name).metadata
     kind, _ = _parts(_hints(cls)[name])
     if typing.get_origin(kind) is tuple:
         try:
@@ -278,11 +284,11 @@ def _text(value: Any) -> str:
 
 def help_text(cls: type, name: str, *, default: bool = True) -> str:
     """``HELP [UNIT] (default D)`` of setting ``name`` (without the default: ``default=False``)."""
-    f = declared(cls)[name]
-    unit = f" [{f.metadata['unit']}]" if f.metadata["unit"] else ""
+    f = _field(cls, name)
+    unit = f" [{f.metadata['unit']}]" if f.metadata.get("unit") else ""
     value = f.default
     shown = "" if not default or value is None or value is False else f" (default {_text(value)})"
-    return f"{f.metadata['help']}{unit}{shown}"
+    return f"{f.metadata.get('help', '')}{unit}{shown}"
 
 
 def _parser(cls: type, name: str) -> Callable[[str], Any]:
@@ -309,7 +315,7 @@ def add_arguments(
     and checked (else the text, for the caller to parse), defaulting to the declared default
     (``given``: to None, where the caller fills in what was not given)."""
     for name in names:
-        f = declared(cls)[name]
+        f = _field(cls, name)
         kind, _ = _parts(_hints(cls)[name])
         options: dict[str, Any] = {"dest": name, "help": help_text(cls, name, default=defaults)}
         if kind is bool and f.default is False:

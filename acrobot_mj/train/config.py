@@ -197,7 +197,7 @@ _OWN = tuple(declared(TrainConfig))
 
 
 def _names(kind: type) -> set[str]:
-    return set(declared(kind))
+    return {f.name for f in fields(kind)}
 
 
 def _all_names(table: dict[str, Any]) -> set[str]:
@@ -233,7 +233,9 @@ def _check_names(task: str, algorithm: str, features: str) -> None:
 
 def owner(name: str) -> type:
     """The config class that declares setting ``name``: the run's, an algorithm's or features'."""
-    for kind in (TrainConfig, *(s.config for s in AGENTS.values()), *FEATURES.values()):
+    if name in _OWN:
+        return TrainConfig
+    for kind in (*(s.config for s in AGENTS.values()), *FEATURES.values()):
         if name in _names(kind):
             return kind
     raise ValueError(f"unknown config key {name!r}; known: {sorted(field_names())}")
