@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import math
 import types
 import typing
@@ -35,15 +36,21 @@ def setting(default: Any, help: str, unit: str = "", **rules: Any) -> Any:
 
 def declared(cls: type) -> dict[str, dataclasses.Field]:
     """The settings of config class ``cls`` by name (fields declared with :func:`setting`)."""
-    return {f.name: f for f in dataclasses.fields(cls) if "help" in f.metadata}
+    return {n: f for n, f in _fields(cls).items() if "help" in f.metadata}
 
 
 def _field(cls: type, name: str) -> dataclasses.Field:
     """Field ``name`` of ``cls``, declared with :func:`setting` or not (a plain field has no
     help, unit or range)."""
-    return next(f for f in dataclasses.fields(cls) if f.name == name)
+    return _fields(cls)[name]
 
 
+@functools.cache
+def _fields(cls: type) -> dict[str, dataclasses.Field]:
+    return {f.name: f for f in dataclasses.fields(cls)}
+
+
+@functools.cache
 def _hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
 
@@ -294,7 +301,7 @@ def help_text(cls: type, name: str, *, default: bool = True) -> str:
 def _parser(cls: type, name: str) -> Callable[[str], Any]:
     def parsed(text: str) -> Any:
         try:
-            return checked(cls, name, parse(cls, name, text))
+            return parse(cls, name, text)
         except SettingError as error:
             raise argparse.ArgumentTypeError(str(error)) from None
 
@@ -312,8 +319,9 @@ def add_arguments(
 ) -> None:
     """A flag of each setting ``names`` of ``cls`` in argparse ``group``, with its declared help
     (and default, unless not ``defaults``). A bool off by default is a switch. ``typed``: parsed
-    and checked (else the text, for the caller to parse), defaulting to the declared default
-    (``given``: to None, where the caller fills in what was not given)."""
+    as the declared type (else the text, for the caller to parse), defaulting to the declared
+    default (``given``: to None, where the caller fills in what was not given); whatever takes
+    the value checks its range."""
     for name in names:
         f = _field(cls, name)
         kind, _ = _parts(_hints(cls)[name])

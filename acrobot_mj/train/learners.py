@@ -90,7 +90,7 @@ class HeldOut:
     :class:`~acrobot_mj.envs.disturbances.Disturbances` (which checks them): all drawn from
     ``seed``."""
 
-    episodes: int = setting(100, "held-out episodes", low=1)
+    episodes: int = setting(100, "held-out episodes", low=1, metavar="N")
     start_noise: float = setting(
         0.05,
         "half-width of the start noise (a balance-preset run's own: 0.01)",
@@ -108,7 +108,7 @@ class HeldOut:
     )
     seconds: float | None = setting(
         None,
-        "simulated seconds per episode (default: the run's own)",
+        "simulated seconds per episode (none: the run's own)",
         "s",
         low=0.0,
         low_open=True,
@@ -116,7 +116,7 @@ class HeldOut:
         metavar="T",
     )
     push_every: float | None = setting(
-        None, "push every P seconds (default: no pushes)", "s", metavar="P"
+        None, "push every P seconds (none: no pushes)", "s", metavar="P"
     )
     push_size: float = setting(
         0.0, "each push adds U(-V, V) to each joint velocity", "rad/s", metavar="V"
