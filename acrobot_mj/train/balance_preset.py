@@ -31,6 +31,11 @@ from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
 KIND = "identify_and_plan"
 
 
+def discrete_torques() -> bool:
+    """The ``discrete`` setting of a controller: {-1, 0, +1} N m torques or continuous ones."""
+    return setting(False, "{-1, 0, +1} N m torques (sigma-delta), not continuous")
+
+
 @dataclass(frozen=True)
 class PlanConfig:
     """The balance preset's settings; ``targets`` are indices of
@@ -50,7 +55,7 @@ class PlanConfig:
         high=1.0,
         metavar="U",
     )
-    discrete: bool = setting(False, "{-1, 0, +1} N m torques (sigma-delta), not continuous")
+    discrete: bool = discrete_torques()
     horizons: tuple[int, int, int] | None = setting(
         None, "start horizons of the search, START:STOP:STEP", "physics steps", low=1, sep=":"
     )

@@ -61,7 +61,9 @@ class TrainConfig:
     population: int = setting(
         1, "learners trained; the best by its last 20 episodes is kept", low=1
     )
-    max_decisions: int = setting(0, "a cap on the decisions of training (0: none)", low=0)
+    max_decisions: int = setting(
+        0, "a cap on the decisions of training (0: none; else at least population)"
+    )
     identify_decisions: int = setting(
         0, "decisions of data to identify a model first, then learn in it", low=0
     )
@@ -91,7 +93,7 @@ class TrainConfig:
                 f"config noise_until has no effect with start_noise="
                 f"{self.start_noise!r} (it applies when start_noise > 0)"
             )
-        if 0 < self.max_decisions < self.population:
+        if self.max_decisions < 0 or 0 < self.max_decisions < self.population:
             raise ValueError(
                 f"config max_decisions must be 0 (no cap) or >= population "
                 f"({self.population}), got {self.max_decisions}"

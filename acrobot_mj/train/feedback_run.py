@@ -22,6 +22,7 @@ from acrobot_mj.envs.rollout import Actor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.settings import check, from_dict, setting, to_dict
+from acrobot_mj.train.balance_preset import discrete_torques
 from acrobot_mj.train.learners import HeldOut, Learner, Run
 from acrobot_mj.train.records import RUN_FILE, TRAJECTORY_FILE, read_kind
 
@@ -40,7 +41,7 @@ class FeedbackConfig:
     seconds of each episode, and whether it identifies the model and replans in each episode
     (:class:`~acrobot_mj.control.feedback.AdaptiveFunnel`)."""
 
-    discrete: bool = setting(False, "{-1, 0, +1} torques (sigma-delta), not continuous")
+    discrete: bool = discrete_torques()
     reserve: float = setting(
         0.8, "torque bound of the shipped swing-up it follows", "N m", choices=tuple(SWING_UPS)
     )
