@@ -1,6 +1,6 @@
 """Checks before work: arguments (each error names the argument, what it must be and what it
-got), memory and open files; and where a stop (Ctrl-C, SIGTERM) may land: between episodes
-(:class:`SafePoints`), or raised again where a C callback dropped it (:func:`check_stop`)."""
+got), memory and open files. Where a stop may land is :mod:`acrobot_mj.stops`'; a config's
+settings are checked by :mod:`acrobot_mj.settings`."""
 
 from __future__ import annotations
 

@@ -34,7 +34,7 @@ def setting(default: Any, help: str, unit: str = "", **rules: Any) -> Any:
     return dataclasses.field(default=default, metadata={"help": help, "unit": unit, **rules})
 
 
-def declared(cls: type) -> dict[str, dataclasses.Field]:
+def declared(cls: type) -> dict[str, Any]:
     """The settings of config class ``cls`` by name (fields declared with :func:`setting`)."""
     return {n: f for n, f in _fields(cls).items() if "help" in f.metadata}
 
