@@ -1,6 +1,6 @@
 """Checks before work: arguments (each error names the argument, what it must be and what it
-got), memory and open files; and where a stop (Ctrl-C, SIGTERM) may land: between episodes
-(:class:`SafePoints`), or raised again where a C callback dropped it (:func:`check_stop`)."""
+got), memory and open files. Where a stop may land is :mod:`acrobot_mj.stops`'; a config's
+settings are checked by :mod:`acrobot_mj.settings`."""
 
 from __future__ import annotations
 
@@ -32,14 +32,6 @@ def check_float(
         raise ValueError(f"{name} must be finite, got {value}")
     if not minimum <= value <= maximum:
         raise ValueError(f"{name} must be in [{minimum:g}, {maximum:g}], got {value:g}")
-    return value
-
-
-def check_step_size(alpha: Any) -> float:
-    """A learning rate ``alpha`` in (0, 1]: zero learns nothing."""
-    value = check_float("alpha", alpha)  # a finite real number
-    if not 0.0 < value <= 1.0:
-        raise ValueError(f"alpha must be in (0, 1], got {value:g}")
     return value
 
 
@@ -98,14 +90,3 @@ def check_memory(what: str, nbytes: float) -> None:
         raise ValueError(
             f"{what} needs {_size(nbytes)} of memory; this machine has {_size(available)} free"
         )
-
-
-def check_settings(config: type, data: Any, what: str) -> None:
-    """Refuse keys of ``data`` that are not fields of the dataclass ``config``, naming them and
-    the known ones (``what``: the settings' name in the error)."""
-    import dataclasses
-
-    names = sorted(f.name for f in dataclasses.fields(config))
-    unknown = sorted(set(data) - set(names))
-    if unknown:
-        raise ValueError(f"unknown {what} settings {unknown}; known: {names}")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from heldout_sb3 import Protocol, evaluate_heldout, make_env, parse_args, report, set_up_torch
+from heldout_sb3 import HeldOut, evaluate_heldout, make_env, parse_args, report, set_up_torch
 
 HYPERPARAMETERS = {
     "learning_rate": 6.3e-4,
@@ -54,7 +54,7 @@ def main(argv: list[str] | None = None) -> dict:
     def act(obs):
         return model.predict(obs, deterministic=True)[0]
 
-    record = evaluate_heldout(act, protocol=Protocol(episodes=args.episodes))
+    record = evaluate_heldout(act, protocol=HeldOut(episodes=args.episodes))
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")
     return report("DQN", args, record, HYPERPARAMETERS, train_seconds, started, model.num_timesteps)

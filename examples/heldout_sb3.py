@@ -3,7 +3,7 @@ held-out evaluation of a deterministic SB3 policy (one definition for every exam
 
 Not part of the package (the package never imports ``examples``). The evaluation follows
 ``acrobot_mj.train.evaluate``: an episode from rest (reported apart), then one episode from each
-of ``Protocol().starts(rest)`` (100 starts: rest plus U(-0.05, 0.05) on each of q1, q2, dq1, dq2,
+of ``HeldOut().starts(rest)`` (100 starts: rest plus U(-0.05, 0.05) on each of q1, q2, dq1, dq2,
 drawn from the held-out seed branch that no training draw uses), each started exactly with
 ``env.reset(options={"state": s})``. The record (``eval.json``) holds ``start_states``,
 ``actions``, ``episode_lengths`` and ``episode_successes``, so every episode can be replayed.
@@ -24,7 +24,7 @@ import acrobot_mj  # registers acrobot_mj/Acrobot-v0
 from acrobot_mj.envs.wrappers import CosSinObservation
 from acrobot_mj.files import write_json
 from acrobot_mj.train.evaluate import compare, stored_minima
-from acrobot_mj.train.learners import DEFAULT, Protocol
+from acrobot_mj.train.learners import DEFAULT, HeldOut
 from acrobot_mj.train.records import spread
 
 ENV_ID = acrobot_mj.ENV_ID
@@ -74,7 +74,7 @@ def set_up_torch() -> None:
 def evaluate_heldout(
     act: Callable[[np.ndarray], Any],
     continuous: bool = False,
-    protocol: Protocol = DEFAULT,
+    protocol: HeldOut = DEFAULT,
 ) -> dict[str, Any]:
     """``act`` (observation -> action, deterministic) from rest and from every held-out start of
     ``protocol``: per-episode start states, actions, lengths (decisions; 1000 = goal not

@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from heldout_sb3 import (
     ENV_ID,
     CosSin,
-    Protocol,
+    HeldOut,
     env_kwargs,
     evaluate_heldout,
     parse_args,
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> dict:
     def act(obs):
         return model.predict(venv.normalize_obs(obs), deterministic=True)[0]
 
-    record = evaluate_heldout(act, protocol=Protocol(episodes=args.episodes))
+    record = evaluate_heldout(act, protocol=HeldOut(episodes=args.episodes))
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")
         venv.save(str(Path(args.out) / "vecnormalize.pkl"))

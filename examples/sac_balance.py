@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from heldout_sb3 import CosSin, Protocol, parse_args, report, set_up_torch
+from heldout_sb3 import CosSin, HeldOut, parse_args, report, set_up_torch
 from sac_acrobot import HYPERPARAMETERS
 
 from acrobot_mj.envs.tasks import Balance
@@ -67,7 +67,7 @@ def episode(env: gym.Env, act, start: np.ndarray) -> dict:
     }
 
 
-def evaluate(act, protocol: Protocol) -> dict:
+def evaluate(act, protocol: HeldOut) -> dict:
     env = make_env(0.0)
     rest = episode(env, act, np.array([-np.pi / 2, 0.0, 0.0, 0.0]))
     starts = protocol.starts(np.array(rest["start_state"]))
@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> dict:
     def act(obs):
         return model.predict(obs, deterministic=True)[0]
 
-    protocol = Protocol(episodes=args.episodes, start_noise=PlanLearner.protocol.start_noise)
+    protocol = HeldOut(episodes=args.episodes, start_noise=PlanLearner.protocol.start_noise)
     record = evaluate(act, protocol)
     if args.out is not None:
         model.save(Path(args.out) / "model.zip")

@@ -20,7 +20,7 @@ from acrobot_mj.envs.disturbances import model_parameters, set_model_parameters
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.dynamics import UPRIGHT
 from acrobot_mj.train.black_box import BlackBoxConfig, BlackBoxLearner, black_box_env, explore
-from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.run import Run
 from acrobot_mj.train.trainer import load_learner
 
@@ -162,7 +162,7 @@ def test_the_preset_trains_balances_held_out_starts_and_replays(tmp_path, capsys
     assert max(record["model"]["held_out_errors"]["rms"]) < 1e-3
     assert record["greedy_from_rest"]["balanced_at_end"]
     assert record["data"] == {"decisions": 20000, "simulated_seconds": 1000.0, "held_out": 2000}
-    protocol = Protocol(episodes=3, seed=0, start_noise=0.01, seconds=100.0)
+    protocol = HeldOut(episodes=3, seed=0, start_noise=0.01, seconds=100.0)
     from acrobot_mj.train.evaluate import evaluate
 
     evaluated = evaluate(out, protocol)

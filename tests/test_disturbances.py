@@ -17,7 +17,7 @@ from acrobot_mj.envs.tasks import Balance, HeightGoal
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.feedback_run import FeedbackConfig
-from acrobot_mj.train.learners import DEFAULT, Protocol
+from acrobot_mj.train.learners import DEFAULT, HeldOut
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.trainer import train
 
@@ -60,7 +60,7 @@ def replays(record: dict, task: type) -> None:
 
 
 def test_uniform_starts_are_at_rest_with_both_angles_anywhere() -> None:
-    starts = Protocol(episodes=2000, starts_from="uniform").starts(HANGING)
+    starts = HeldOut(episodes=2000, starts_from="uniform").starts(HANGING)
     assert np.all(starts[:, 2:] == 0.0) and np.all(np.abs(starts[:, :2]) <= np.pi)
     # Uniform on the circle: each quarter of each angle's range holds about a quarter of 2000
     # (binomial sd 19; 100 is over 5 sd).
@@ -68,14 +68,14 @@ def test_uniform_starts_are_at_rest_with_both_angles_anywhere() -> None:
         counts = np.histogram(starts[:, angle], bins=4, range=(-np.pi, np.pi))[0]
         assert np.all(np.abs(counts - 500) < 100), counts
     assert not np.array_equal(
-        starts, Protocol(episodes=2000, starts_from="uniform", seed=1).starts(HANGING)
+        starts, HeldOut(episodes=2000, starts_from="uniform", seed=1).starts(HANGING)
     )
 
 
 def test_a_protocol_of_the_old_settings_reads_as_before() -> None:
     # The stored per-start minima and earlier eval.json records hold these three keys only.
     assert DEFAULT.to_dict() == {"episodes": 100, "start_noise": 0.05, "seed": 0}
-    assert Protocol(seconds=30.0, push_every=5.0, push_size=0.1).to_dict() == {
+    assert HeldOut(seconds=30.0, push_every=5.0, push_size=0.1).to_dict() == {
         "episodes": 100,
         "start_noise": 0.05,
         "seed": 0,
@@ -99,7 +99,7 @@ def test_a_protocol_of_the_old_settings_reads_as_before() -> None:
 )
 def test_bad_settings_are_refused_by_name(settings, words) -> None:
     with pytest.raises(ValueError, match=words):
-        Protocol(**settings)
+        HeldOut(**settings)
 
 
 def test_pushes_land_on_decision_boundaries() -> None:
@@ -157,7 +157,7 @@ def test_catches_falls_and_recoveries_by_hand() -> None:
 
 
 def test_a_pushed_and_perturbed_evaluation_replays_in_mujoco(book_run) -> None:
-    protocol = Protocol(
+    protocol = HeldOut(
         episodes=3, seed=5, seconds=20.0, push_every=1.0, push_size=0.3, perturb=0.05
     )
     record = evaluate(book_run, protocol, minima="none")
@@ -172,16 +172,14 @@ def test_a_pushed_and_perturbed_evaluation_replays_in_mujoco(book_run) -> None:
     assert sum(len(p) for p in record["pushes"]) > 0
     replays(record, HeightGoal)
     # The evaluation leaves the run's own model as it was: its episode from rest is the same.
-    plain = evaluate(book_run, Protocol(episodes=3, seed=5, seconds=20.0), minima="none")
+    plain = evaluate(book_run, HeldOut(episodes=3, seed=5, seconds=20.0), minima="none")
     assert plain["rest"] == record["rest"] and "pushes" not in plain
 
 
 def test_pushes_and_perturbations_come_from_the_evaluation_seed_only(book_run, tmp_path) -> None:
     other = tmp_path / "other_seed"
     train(TINY_BOOK, seed=3, out_dir=other)
-    protocol = Protocol(
-        episodes=2, seed=1, seconds=10.0, push_every=2.0, push_size=0.2, perturb=0.1
-    )
+    protocol = HeldOut(episodes=2, seed=1, seconds=10.0, push_every=2.0, push_size=0.2, perturb=0.1)
     first, again = (evaluate(book_run, protocol, minima="none") for _ in range(2))
     elsewhere = evaluate(other, protocol, minima="none")
     for key in ("start_states", "parameters"):
@@ -192,7 +190,7 @@ def test_pushes_and_perturbations_come_from_the_evaluation_seed_only(book_run, t
     for ours, theirs in zip(first["pushes"], elsewhere["pushes"], strict=True):
         n = min(len(ours), len(theirs))
         assert n > 0 and ours[:n] == theirs[:n]
-    reseeded = evaluate(book_run, Protocol(**{**protocol.__dict__, "seed": 2}), minima="none")
+    reseeded = evaluate(book_run, HeldOut(**{**protocol.__dict__, "seed": 2}), minima="none")
     assert reseeded["parameters"] != first["parameters"]
     assert reseeded["start_states"] != first["start_states"]
 
@@ -202,7 +200,7 @@ def test_the_feedback_controller_from_uniform_starts_and_pushes(feedback_run) ->
     # U(-0.5, 0.5) rad/s every 75 s. The controller catches its balance from rest in 23.55 s
     # along the shipped swing-up; from anywhere within about 60 s (100 of 100 uniform starts of
     # the docs' evaluation).
-    protocol = Protocol(
+    protocol = HeldOut(
         episodes=3, seed=0, starts_from="uniform", seconds=150.0, push_every=75.0, push_size=0.5
     )
     record = evaluate(feedback_run, protocol)

@@ -45,15 +45,14 @@ def test_an_example_trains_and_writes_a_replayable_record(name, tmp_path, capsys
 
 def test_the_helper_replays_a_record_exactly() -> None:
     helper = load("heldout_sb3")
-    from acrobot_mj.train.learners import Protocol
+    from acrobot_mj.train.learners import HeldOut
 
     def act(obs):  # a fixed law: pump against the shoulder's velocity
         return 0 if obs[4] > 0 else 2
 
-    record = helper.evaluate_heldout(act, protocol=Protocol(episodes=3))
+    record = helper.evaluate_heldout(act, protocol=HeldOut(episodes=3))
     assert (
-        record["start_states"]
-        == Protocol(episodes=3).starts(record["rest"]["start_state"]).tolist()
+        record["start_states"] == HeldOut(episodes=3).starts(record["rest"]["start_state"]).tolist()
     )
     env = helper.make_env(start_noise=0.0)
     for start, actions, length in zip(

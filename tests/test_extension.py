@@ -16,7 +16,7 @@ from acrobot_mj.envs.spaces import observation_space
 from acrobot_mj.report.video import RenderSettings
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate, render_run
-from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.seeds import train_seeds
@@ -117,7 +117,7 @@ def test_the_new_agent_trains_checkpoints_resumes_and_evaluates(tmp_path) -> Non
     for key in ("episode_lengths", "episode_returns", "greedy_from_rest"):
         assert resumed[key] == whole[key], key
     assert (
-        evaluate(tmp_path / "whole", Protocol(episodes=2))["rest"]["length"]
+        evaluate(tmp_path / "whole", HeldOut(episodes=2))["rest"]["length"]
         == (whole["greedy_from_rest"]["length"])
     )
     # Its hyperparameters are the ones its spec declares: lam does not apply to it.

@@ -18,7 +18,7 @@ from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
 from acrobot_mj.train.evaluate import evaluate
 from acrobot_mj.train.feedback_run import FeedbackConfig, FeedbackLearner
-from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.trainer import load_learner, train
 
 RESERVE = shipped("reserve")
@@ -104,7 +104,7 @@ def test_it_enters_the_funnel_where_its_own_rollout_reaches_upright(controller) 
 @pytest.mark.parametrize("discrete", [False, True])
 def test_it_swings_up_and_balances_from_uniform_starts(discrete, tmp_path) -> None:
     train(FeedbackConfig(discrete=discrete), seed=0, out_dir=tmp_path)
-    record = evaluate(tmp_path, Protocol(episodes=4, seed=3, starts_from="uniform", seconds=90))
+    record = evaluate(tmp_path, HeldOut(episodes=4, seed=3, starts_from="uniform", seconds=90))
     # Measured over 100 uniform starts (seed 0): every one caught within 60 s and held to the
     # end of 120 s, both kinds of torque; 90 s here leaves a margin on each of these four.
     assert record["balanced_at_end"] == [True] * 4 and record["falls"] == [0] * 4
@@ -137,7 +137,7 @@ def test_the_constrained_lqr_holds_more_kicks_than_the_saturated_one(tmp_path) -
     # Measured over 100 (seed 0): the saturated LQR holds 43 without a fall, the constrained
     # one 59, every one still inside the null-controllable region after the step the kick
     # lands in. The first 30 are 14 and 18, and no kick the LQR holds is lost.
-    protocol = Protocol(
+    protocol = HeldOut(
         episodes=30, seed=0, start_noise=0.01, seconds=45, push_every=30, push_size=0.05
     )
     held = {}
@@ -194,7 +194,7 @@ def test_the_adaptive_controller_replans_on_the_model_it_identifies(tmp_path) ->
     # Masses and inertias off by up to 5 %: the nominal funnel balanced 15 of 100 uniform
     # starts, the adaptive one (3 s of its own transitions identify the five lumped parameters;
     # a replan warm-started from the nominal swing-up) 97 of 100.
-    protocol = Protocol(episodes=1, seed=3, starts_from="uniform", seconds=90, perturb=0.05)
+    protocol = HeldOut(episodes=1, seed=3, starts_from="uniform", seconds=90, perturb=0.05)
     for adaptive, balanced in ((False, False), (True, True)):  # this start and model: measured
         out = tmp_path / str(adaptive)
         train(FeedbackConfig(adaptive=adaptive), seed=0, out_dir=out)

@@ -16,7 +16,7 @@ import pytest
 
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.presets import PRESETS, TUNED_0_2
 from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.seeds import train_seeds
@@ -84,7 +84,7 @@ def test_run_directories_written_before_still_load_and_evaluate(name, tmp_path) 
     assert applied == {k: old_eval["config"][k] for k in applied}
     assert None in config.to_dict().values() and seed == 0
     assert {"eval_episodes", "eval_noise"} <= old_eval["config"].keys()
-    record = evaluate(run, Protocol(episodes=2))
+    record = evaluate(run, HeldOut(episodes=2))
     rest = record["rest"]
     assert [rest["length"], rest["return"], rest["success"]] == [old_eval[k][0] for k in LISTS]
     greedy = json.loads((run / "run.json").read_text())["greedy_from_rest"]

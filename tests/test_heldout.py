@@ -13,7 +13,7 @@ from acrobot_mj.cli import main
 from acrobot_mj.envs.rollout import SequenceActor, run_episode
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.train.evaluate import STORED, compute_minima, stored_minima
-from acrobot_mj.train.learners import DEFAULT, HELDOUT_BRANCH, Protocol, episode_seed, make_env
+from acrobot_mj.train.learners import DEFAULT, HELDOUT_BRANCH, HeldOut, episode_seed, make_env
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.seeds import train_seeds
 from acrobot_mj.train.trainer import train
@@ -33,9 +33,9 @@ def trained(tmp_path_factory):
 def test_held_out_starts_are_their_own_stream() -> None:
     starts = DEFAULT.starts(HANGING)
     assert starts.shape == (100, 4)
-    np.testing.assert_array_equal(starts, Protocol().starts(HANGING))  # the same every time
+    np.testing.assert_array_equal(starts, HeldOut().starts(HANGING))  # the same every time
     assert np.all(np.abs(starts - HANGING) <= 0.05) and len(np.unique(starts, axis=0)) == 100
-    assert not np.array_equal(starts, Protocol(seed=1).starts(HANGING))
+    assert not np.array_equal(starts, HeldOut(seed=1).starts(HANGING))
     # Disjoint by construction: evaluation draws from a spawned branch of the seed tree, which
     # training never creates; a training episode seeded with the protocol's seed value (0), or
     # any other, starts elsewhere.
@@ -55,11 +55,11 @@ def test_held_out_starts_are_their_own_stream() -> None:
 
 def test_protocol_refuses_bad_settings() -> None:
     with pytest.raises(ValueError, match=r"start_noise must be in \[0, 1\], got 2"):
-        Protocol(start_noise=2.0)
+        HeldOut(start_noise=2.0)
     with pytest.raises(ValueError, match="episodes must be >= 1"):
-        Protocol(episodes=0)
+        HeldOut(episodes=0)
     with pytest.raises(TypeError, match="seed must be an integer"):
-        Protocol(seed=1.5)
+        HeldOut(seed=1.5)
 
 
 def test_evaluate_twice_gives_the_same_record_and_its_actions_replay(trained, capsys) -> None:
@@ -100,7 +100,7 @@ def test_stored_minima_are_swing_ups_in_the_env() -> None:
     stored = json.loads(STORED.read_text())
     env = make_env(BOOK)
     assert stored_minima(env, DEFAULT) == [s["decisions"] for s in stored["starts"]]
-    assert stored_minima(env, Protocol(seed=1)) is None  # another protocol: none apply
+    assert stored_minima(env, HeldOut(seed=1)) is None  # another protocol: none apply
     assert stored_minima(make_env(BOOK.replace(frame_skip=2)), DEFAULT) is None
     np.testing.assert_array_equal(
         np.array([s["state"] for s in stored["starts"]]), DEFAULT.starts(HANGING)
@@ -125,8 +125,8 @@ def test_stored_minima_are_the_search_result() -> None:
 
 def test_the_held_out_starts_cannot_change_which_learner_a_population_keeps(tmp_path) -> None:
     config = TINY.replace(population=3, episodes=3, start_noise=0.1)
-    a = train_seeds(config, [0, 1], tmp_path / "a", protocol=Protocol(episodes=3, seed=1))
-    b = train_seeds(config, [0, 1], tmp_path / "b", protocol=Protocol(episodes=4, seed=2))
+    a = train_seeds(config, [0, 1], tmp_path / "a", protocol=HeldOut(episodes=3, seed=1))
+    b = train_seeds(config, [0, 1], tmp_path / "b", protocol=HeldOut(episodes=4, seed=2))
     for seed in (0, 1):
         runs = [
             json.loads((d / f"seed_{seed}" / "run.json").read_text())
@@ -140,7 +140,7 @@ def test_the_held_out_starts_cannot_change_which_learner_a_population_keeps(tmp_
 def test_seed_summaries_count_distinct_greedy_behaviours(tmp_path) -> None:
     # The book learner's only randomness is its tie-breaks: seeds collapse onto few behaviours.
     summary = train_seeds(
-        TINY.replace(episodes=2), [0, 1, 2, 3], tmp_path, protocol=Protocol(episodes=3)
+        TINY.replace(episodes=2), [0, 1, 2, 3], tmp_path, protocol=HeldOut(episodes=3)
     )
     evaluations = [json.loads((tmp_path / f"seed_{s}" / "eval.json").read_text()) for s in range(4)]
     held = summary["held_out"]

@@ -15,7 +15,7 @@ from acrobot_mj.physics.integrators import Stepping, step_states
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train import model_based
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.run import RunOptions
@@ -139,7 +139,7 @@ def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) 
     # rewards as the unshaped ones (returns like -565.0118).
     assert record["episode_returns"] == [-float(n) for n in record["episode_lengths"]]
     # Evaluation is in the env, from the run's checkpoint; the rest episode is the record's.
-    evaluation = evaluate(tmp_path, Protocol(episodes=3))
+    evaluation = evaluate(tmp_path, HeldOut(episodes=3))
     assert evaluation["rest"]["length"] == record["greedy_from_rest"]["length"]
     # Deterministic and resumable: the same data, the same model, the same run.
     again = train(SMALL, seed=3, out_dir=tmp_path, options=RunOptions(resume=True))

@@ -22,7 +22,7 @@ from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train import balance_preset as plan
 from acrobot_mj.train.balance_preset import PlanConfig, PlanLearner
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import Protocol
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.trainer import train
 
 TRUTH = AcrobotParams().lumped
@@ -117,9 +117,9 @@ def test_the_preset_swings_up_and_balances_at_a_tiny_budget(run) -> None:
 @pytest.mark.slow
 def test_the_evaluation_record_replays_in_the_env(run) -> None:
     out, _ = run
-    evaluation = evaluate(out, Protocol(episodes=3, start_noise=0.01, seed=4))
+    evaluation = evaluate(out, HeldOut(episodes=3, start_noise=0.01, seed=4))
     assert evaluation["summary"]["episodes"] == 3
-    starts = Protocol(episodes=3, start_noise=0.01, seed=4).starts(np.array([-np.pi / 2, 0, 0, 0]))
+    starts = HeldOut(episodes=3, start_noise=0.01, seed=4).starts(np.array([-np.pi / 2, 0, 0, 0]))
     np.testing.assert_array_equal(evaluation["start_states"], starts)
     env = gym.make(Balance.env_id, continuous=True, max_episode_steps=TINY_STEPS + 100)
     acrobot = env.unwrapped

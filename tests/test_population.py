@@ -13,7 +13,7 @@ from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.episode_log import read_rows
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import Protocol, learner_seed, train_one
+from acrobot_mj.train.learners import HeldOut, learner_seed, train_one
 from acrobot_mj.train.lockstep import can_lockstep
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_median
@@ -63,7 +63,7 @@ def test_population_run_keeps_the_best_learner(tmp_path):
     assert (tmp_path / "learning_curve.png").is_file()
     assert not list(tmp_path.glob("learner_*/learning_curve.png"))
     # evaluate's rest episode is the record's greedy run from rest.
-    ev = evaluate(tmp_path, Protocol(episodes=1))
+    ev = evaluate(tmp_path, HeldOut(episodes=1))
     assert ev["rest"]["length"] == record["greedy_from_rest"]["length"]
 
 

@@ -13,7 +13,7 @@ from acrobot_mj.envs.wrappers import make_gymnasium_acrobot
 from acrobot_mj.train.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from acrobot_mj.train.config import TrainConfig, parse_value
 from acrobot_mj.train.evaluate import evaluate, evaluate_learner
-from acrobot_mj.train.learners import DEFAULT, AgentLearner, Protocol, make_env
+from acrobot_mj.train.learners import DEFAULT, AgentLearner, HeldOut, make_env
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import CHECKPOINT_FILE
 from acrobot_mj.train.run import Run, RunOptions
@@ -127,7 +127,7 @@ def test_train_writes_run_record_checkpoint_and_curve(tmp_path) -> None:
     learner = load_learner(tmp_path)
     assert learner.config == TINY_BOOK and learner.seed == 0
     # Evaluate: held-out starts of the protocol, and the run's greedy episode from rest apart.
-    result = evaluate(tmp_path, Protocol(episodes=3))
+    result = evaluate(tmp_path, HeldOut(episodes=3))
     assert json.loads((tmp_path / "eval.json").read_text()) == json.loads(json.dumps(result))
     assert result["protocol"] == {"episodes": 3, "start_noise": 0.05, "seed": 0}
     assert len(result["start_states"]) == len(result["actions"]) == 3
@@ -197,7 +197,7 @@ def test_train_seeds_summary(tmp_path) -> None:
         TINY_BOOK.replace(episodes=3),
         [0, 1],
         tmp_path,
-        protocol=Protocol(episodes=3),
+        protocol=HeldOut(episodes=3),
         options=RunOptions(jobs=1),
     )
     assert summary["seeds"] == [0, 1]

@@ -11,8 +11,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from acrobot_mj.checks import check_bool, check_float, check_int, check_memory
+from acrobot_mj.checks import check_memory
 from acrobot_mj.compiled import compiled, jitable
+from acrobot_mj.settings import check, setting
 
 
 @jitable
@@ -224,15 +225,14 @@ class GridConfig:
     """The report's grid: cells per angle and per velocity, the outermost velocity centre
     [rad/s]."""
 
-    angle_bins: int = 5
-    velocity_bins: int = 3
-    velocity_centre_max: float = math.pi / 4
+    angle_bins: int = setting(5, "grid: bins per angle", low=1)
+    velocity_bins: int = setting(3, "grid: bins per angular velocity", low=1)
+    velocity_centre_max: float = setting(
+        math.pi / 4, "grid: half-width of the velocity bins' range", "rad/s", low=0.0, low_open=True
+    )
 
     def __post_init__(self) -> None:
-        check_int("angle_bins", self.angle_bins, 1)
-        check_int("velocity_bins", self.velocity_bins, 1)
-        if not check_float("velocity_centre_max", self.velocity_centre_max) > 0:
-            raise ValueError("config velocity_centre_max must be > 0")
+        check(self)
 
     def build(self, space: Any) -> StateGrid:
         v = self.velocity_centre_max
@@ -243,15 +243,15 @@ class GridConfig:
 class TilesConfig:
     """Sutton and Barto's tile coding (:func:`book_tile_coder`)."""
 
-    tilings: int = 12
-    subset_tilings: bool = True
-    angle_tiles: int = 6
-    velocity_tiles: int = 7
+    tilings: int = setting(12, "tiles: number of tilings", low=1)
+    subset_tilings: bool = setting(
+        True, "tiles: add tilings over subsets of the state (true or false)"
+    )
+    angle_tiles: int = setting(6, "tiles: tiles per angle in each tiling", low=1)
+    velocity_tiles: int = setting(7, "tiles: tiles per velocity in each tiling", low=1)
 
     def __post_init__(self) -> None:
-        for name in ("tilings", "angle_tiles", "velocity_tiles"):
-            check_int(name, getattr(self, name), 1)
-        check_bool("subset_tilings", self.subset_tilings)
+        check(self)
 
     def build(self, space: Any) -> TileCoder:
         return book_tile_coder(space, **asdict(self))

@@ -12,22 +12,37 @@ import numpy as np
 
 from acrobot_mj.agents.base import BLOCK, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import StateGrid, grid_cell
-from acrobot_mj.checks import check_float, check_memory, check_step_size
+from acrobot_mj.checks import check_memory
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
+from acrobot_mj.settings import check, setting
+
+
+def step_size(default: float) -> float:
+    """The ``alpha`` setting of a learner (zero learns nothing)."""
+    help = "step size; a fraction is allowed, e.g. 0.2/48"
+    return setting(default, help, low=0.0, low_open=True, high=1.0)
+
+
+def discount(default: float) -> float:
+    """The ``gamma`` setting of a learner."""
+    return setting(default, "discount factor", low=0.0, high=1.0)
+
+
+def exploration(default: float) -> float:
+    """The ``epsilon`` setting of a learner."""
+    return setting(default, "exploration: the probability of a random action", low=0.0, high=1.0)
 
 
 @dataclass(frozen=True)
 class SarsaConfig:
     """Tabular SARSA's hyperparameters (the report's)."""
 
-    alpha: float = 0.5
-    gamma: float = 1.0
-    epsilon: float = 0.001
+    alpha: float = step_size(0.5)
+    gamma: float = discount(1.0)
+    epsilon: float = exploration(0.001)
 
     def __post_init__(self) -> None:
-        check_step_size(self.alpha)
-        for name in ("gamma", "epsilon"):
-            check_float(name, getattr(self, name), 0.0, 1.0)
+        check(self)
 
 
 @jitable

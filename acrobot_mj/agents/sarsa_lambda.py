@@ -14,8 +14,10 @@ import numpy as np
 
 from acrobot_mj.agents.base import DivergenceError, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import TileCoder, tile_active
-from acrobot_mj.checks import check_float, check_memory, check_step_size
+from acrobot_mj.agents.sarsa import discount, exploration, step_size
+from acrobot_mj.checks import check_memory
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
+from acrobot_mj.settings import check, setting
 
 TRACES = ("replacing", "accumulating")
 #: numpy's pairwise block: up to this many values it sums in one unrolled pass.
@@ -26,21 +28,17 @@ PAIRWISE_BLOCK = 128
 class SarsaLambdaConfig:
     """Sarsa(lambda)'s hyperparameters (the book's); a ``trace_cutoff`` of 0 keeps every trace."""
 
-    alpha: float = 0.2 / 48
-    gamma: float = 1.0
-    epsilon: float = 0.0
-    lam: float = 0.9
-    traces: str = "replacing"
-    trace_cutoff: float = 1e-3
+    alpha: float = step_size(0.2 / 48)
+    gamma: float = discount(1.0)
+    epsilon: float = exploration(0.0)
+    lam: float = setting(0.9, "sarsa_lambda: trace decay lambda", low=0.0, high=1.0)
+    traces: str = setting("replacing", "sarsa_lambda: replacing or accumulating", choices=TRACES)
+    trace_cutoff: float = setting(
+        1e-3, "sarsa_lambda: traces below this are dropped", low=0.0, high=1.0, high_open=True
+    )
 
     def __post_init__(self) -> None:
-        check_step_size(self.alpha)
-        for name in ("gamma", "lam", "epsilon"):
-            check_float(name, getattr(self, name), 0.0, 1.0)
-        if self.traces not in TRACES:
-            raise ValueError(f"traces must be one of {TRACES}, got {self.traces!r}")
-        if not 0.0 <= check_float("trace_cutoff", self.trace_cutoff) < 1.0:
-            raise ValueError(f"trace_cutoff must be in [0, 1), got {self.trace_cutoff}")
+        check(self)
 
 
 @jitable

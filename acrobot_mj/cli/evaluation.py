@@ -8,12 +8,13 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.cli import tools
-from acrobot_mj.cli.tools import add_command, positive_int, seed
+from acrobot_mj.cli.tools import add_command, seed
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.report.plots import compare_curves, figure_format
+from acrobot_mj.settings import add_arguments, declared, help_text
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import evaluate
-from acrobot_mj.train.learners import DEFAULT, STARTS
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, read_record
 
 
@@ -29,48 +30,10 @@ def add_evaluate(commands: tools.Commands) -> None:
         "anywhere.",
     )
     p.add_argument("run_dir", help="a directory written by acrobot-mj train")
-    p.add_argument("--episodes", type=positive_int, help=f"default {DEFAULT.episodes}")
-    p.add_argument(
-        "--start-noise",
-        type=float,
-        metavar="S",
-        help=f"start noise [rad, rad/s] (default {DEFAULT.start_noise:g}; for a "
-        "balance-preset run 0.01)",
-    )
-    p.add_argument(
-        "--seed",
-        type=seed,
-        help="seed of the held-out starts, pushes and perturbations (default 0)",
-    )
-    p.add_argument(
-        "--starts",
-        choices=STARTS,
-        help="noise: rest plus U(-S, S) (the default); "
-        "uniform: both angles uniform on the circle, at rest",
-    )
-    p.add_argument(
-        "--seconds",
-        type=float,
-        metavar="T",
-        help="simulated seconds per episode (default: the run's own)",
-    )
-    p.add_argument(
-        "--push-every", type=float, metavar="P", help="push every P seconds (default: no pushes)"
-    )
-    p.add_argument(
-        "--push-size",
-        type=float,
-        metavar="V",
-        help="each push adds U(-V, V) rad/s to each joint velocity",
-    )
-    p.add_argument(
-        "--perturb",
-        type=float,
-        metavar="F",
-        help="scale each link's mass and "
-        "inertia by U(1-F, 1+F) per episode; the controller keeps its model "
-        "(default 0)",
-    )
+    add_arguments(p, HeldOut, ("episodes", "start_noise"), given=True)
+    p.add_argument("--seed", type=seed, help=help_text(HeldOut, "seed"))
+    names = ("starts_from", "seconds", "push_every", "push_size", "perturb")
+    add_arguments(p, HeldOut, names, given=True)
     p.add_argument(
         "--minima",
         action="store_true",
@@ -80,21 +43,12 @@ def add_evaluate(commands: tools.Commands) -> None:
 
 
 def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
-    starts = args.starts
+    starts = args.starts_from
     if args.start_noise is not None:  # noise starts, whatever the run's own protocol starts
         if starts == "uniform":
             raise ValueError("--start-noise is for --starts noise, not uniform")
         starts = "noise"
-    given = {
-        "episodes": args.episodes,
-        "start_noise": args.start_noise,
-        "seed": args.seed,
-        "starts_from": starts,
-        "seconds": args.seconds,
-        "push_every": args.push_every,
-        "push_size": args.push_size,
-        "perturb": args.perturb,
-    }
+    given = {name: getattr(args, name) for name in declared(HeldOut)} | {"starts_from": starts}
     protocol = {k: v for k, v in given.items() if v is not None}
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
     path = Path(args.run_dir) / EVAL_FILE

@@ -10,9 +10,10 @@ from acrobot_mj.checks import check_memory
 from acrobot_mj.cli import tools
 from acrobot_mj.cli.tools import add_command, add_progress, positive_int, seed, show_progress
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.settings import add_arguments, cli_names, parse
 from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.black_box import BlackBoxConfig
-from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, parse_value
+from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, owner, parse_value
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.run import RunOptions
@@ -21,53 +22,17 @@ from acrobot_mj.train.sweep import run_sweep, summary_table
 from acrobot_mj.train.sweep_file import load_sweep
 from acrobot_mj.train.trainer import train
 
-#: The balance preset's options: flag, PlanConfig field, help.
-PLAN_OPTIONS = (
-    ("--reserve", "reserve", "nominal torque bound of the plan [N m] (default 0.8)"),
-    ("--hold", "hold", "seconds of balance after the swing-up (default 60)"),
-    ("--data-noise", "data_noise", "start noise of the data episodes (default 1.0)"),
-    ("--horizons", "horizons", "start horizons of the search, START:STOP:STEP physics steps"),
-    ("--targets", "targets", "upright poses the search tries, indices 0-5, e.g. 1,4"),
-    ("--starts", "starts", "warm starts of the search: rest (default) or pumping"),
-)
-
-
-#: Help for each setting (a config field); every default is the preset's.
-SETTING_HELP = {
-    "task": "what counts as success: height_goal (the report's) or balance",
-    "algorithm": "sarsa (tabular) or sarsa_lambda (linear, tile coding)",
-    "features": "grid (the report's table) or tiles (tile coding)",
-    "alpha": "step size; a fraction is allowed, e.g. 0.2/48",
-    "epsilon": "exploration: the probability of a random action",
-    "gamma": "discount factor",
-    "lam": "sarsa_lambda: trace decay lambda",
-    "trace_cutoff": "sarsa_lambda: traces below this are dropped",
-    "traces": "sarsa_lambda: replacing or accumulating",
-    "angle_bins": "grid: bins per angle",
-    "velocity_bins": "grid: bins per angular velocity",
-    "velocity_centre_max": "grid: half-width of the velocity bins' range [rad/s]",
-    "tilings": "tiles: number of tilings",
-    "subset_tilings": "tiles: add tilings over subsets of the state (true or false)",
-    "angle_tiles": "tiles: tiles per angle in each tiling",
-    "velocity_tiles": "tiles: tiles per velocity in each tiling",
-    "frame_skip": "physics steps of 0.05 s per decision, 1 to 1000",
-    "integrator": "euler (semi-implicit, the report's) or rk4",
-    "max_episode_steps": "decisions before an episode is truncated",
-    "start_noise": "half-width of the uniform noise on the start state, 0 to 1",
-    "noise_until": "fraction of the episodes that start with noise, 0 to 1",
-    "step_reward": "reward of each step (the report's: -1)",
-    "goal_reward": "reward on reaching the goal (the report's: +100)",
-    "energy_shaping": "weight of a potential-based energy shaping term (0: none)",
-    "episodes": "training episodes",
-    "population": "learners trained; the best by its last 20 episodes is kept",
-    "max_decisions": "a cap on the decisions of training (0: none)",
-    "identify_decisions": "decisions of data to identify a model first, then learn in it",
-    "checkpoint_every": "episodes between checkpoints",
-}
+#: The settings of the presets other than TrainConfig's, in the order of their help.
+PRESET_KINDS = (PlanConfig, BlackBoxConfig)
 
 
 def _flag(name: str) -> str:
     return f"--{name.replace('_', '-')}"
+
+
+def _takes(kind: type) -> tuple[str, ...]:
+    """The settings a preset of config class ``kind`` takes on the command line."""
+    return field_names() if kind is TrainConfig else cli_names(kind)
 
 
 def add_train(commands: tools.Commands) -> None:
@@ -105,26 +70,16 @@ def add_train(commands: tools.Commands) -> None:
     )
     group = p.add_argument_group("settings (defaults: the preset's)")
     for name in field_names():
-        group.add_argument(_flag(name), dest=name, metavar="VALUE", help=SETTING_HELP[name])
+        add_arguments(group, owner(name), [name], typed=False, defaults=False)
     for name in RETIRED:
         group.add_argument(_flag(name), dest=name, help=argparse.SUPPRESS)
-    plan = p.add_argument_group("balance preset (identify, plan, TVLQR)")
-    for flag, dest, text in PLAN_OPTIONS:
-        plan.add_argument(flag, dest=f"plan_{dest}", metavar="VALUE", help=text)
-    plan.add_argument(
-        "--discrete",
-        dest="plan_discrete",
-        action="store_true",
-        help="{-1, 0, +1} N m torques (sigma-delta), not continuous",
+    titles = (
+        "balance preset (identify, plan, TVLQR)",
+        "black_box preset (told nothing of the equations)",
     )
-    box = p.add_argument_group("black_box preset (told nothing of the equations)")
-    box.add_argument(
-        "--decisions",
-        dest="box_decisions",
-        type=positive_int,
-        metavar="N",
-        help="decisions of random exploration (default 20000)",
-    )
+    for kind, title in zip(PRESET_KINDS, titles, strict=True):
+        names = [n for n in cli_names(kind) if n not in field_names()]
+        add_arguments(p.add_argument_group(title), kind, names, typed=False)
 
 
 def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxConfig:
@@ -132,51 +87,28 @@ def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxCo
     for name in RETIRED:
         if getattr(args, name) is not None:
             raise ValueError(f"{_flag(name)} was removed: {RETIRED[name]}")
-    given = [name for name in field_names() if getattr(args, name) is not None]
-    plan = [flag for flag, dest, _ in PLAN_OPTIONS if getattr(args, f"plan_{dest}") is not None]
-    plan += ["--discrete"] if args.plan_discrete else []
     preset = PRESETS[args.preset]
-    if isinstance(preset, BlackBoxConfig):
-        refused = [_flag(name) for name in given] + plan
-        if refused:
-            raise ValueError(
-                f"{', '.join(refused)}: not a setting of the black_box preset (it "
-                "takes --decisions)"
-            )
-        decisions = args.box_decisions
-        return preset if decisions is None else preset.replace(decisions=decisions)
-    if args.box_decisions is not None:
-        raise ValueError("--decisions: only the black_box preset takes it")
-    if isinstance(preset, TrainConfig):
-        if plan:
-            raise ValueError(f"{', '.join(plan)}: only the balance preset takes these")
-        return preset.replace(**{name: parse_value(name, getattr(args, name)) for name in given})
-    refused = [_flag(name) for name in given if name != "identify_decisions"]
-    if refused:
-        raise ValueError(
-            f"{', '.join(refused)}: not a setting of the balance preset (a planner, "
-            "not a tabular or tile-coded learner)"
-        )
-    overrides: dict[str, Any] = {"discrete": True} if args.plan_discrete else {}
-    texts = {"identify_decisions": args.identify_decisions}
-    texts.update((dest, getattr(args, f"plan_{dest}")) for _, dest, _ in PLAN_OPTIONS)
-    for dest, text in texts.items():
-        if text is not None and dest in ("horizons", "targets"):
-            parts = text.split(":" if dest == "horizons" else ",")
-            overrides[dest] = tuple(_number(v, int, _flag(dest)) for v in parts)
-        elif text is not None and dest == "starts":
-            overrides[dest] = text
-        elif text is not None:
-            kind = int if dest == "identify_decisions" else float
-            overrides[dest] = _number(text, kind, _flag(dest))
-    return preset.replace(**overrides)
+    kind = type(preset)
+    names = dict.fromkeys([*field_names(), *(n for k in PRESET_KINDS for n in cli_names(k))])
+    given = {n: getattr(args, n) for n in names if getattr(args, n) not in (None, False)}
+    if refused := [n for n in given if n not in _takes(kind)]:
+        raise ValueError(_refusal(args.preset, refused))
+    if kind is TrainConfig:
+        return preset.replace(**{n: parse_value(n, text) for n, text in given.items()})
+    values = {n: v if isinstance(v, bool) else parse(kind, n, v) for n, v in given.items()}
+    return preset.replace(**values)
 
 
-def _number(text: str, kind: type, flag: str) -> Any:
-    try:
-        return kind(text)
-    except ValueError:
-        raise ValueError(f"{flag} needs {kind.__name__} values, got {text!r}") from None
+def _refusal(preset: str, refused: list[str]) -> str:
+    """Why ``preset`` takes none of the settings ``refused``: the one preset that takes them
+    all, or the settings it takes."""
+    flags = ", ".join(_flag(n) for n in refused)
+    owners = {name for name, p in PRESETS.items() if all(n in _takes(type(p)) for n in refused)}
+    if len(owners) == 1:
+        them = "it" if len(refused) == 1 else "these"
+        return f"{flags}: only the {owners.pop()} preset takes {them}"
+    takes = ", ".join(_flag(n) for n in _takes(type(PRESETS[preset])))
+    return f"{flags}: not a setting of the {preset} preset (it takes {takes})"
 
 
 def train_command(args: argparse.Namespace) -> dict[str, Any]:

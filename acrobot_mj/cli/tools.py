@@ -19,6 +19,8 @@ from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import check_regular, versions, write_json
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import RenderSettings, render_policy, watch_policy
+from acrobot_mj.settings import add_arguments
+from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.evaluate import render_run, watch_run
 from acrobot_mj.train.records import History, output_into
 
@@ -377,16 +379,7 @@ def add_balance(commands: Commands) -> None:
         "model from the first 3 s of each episode and replan the swing-up on it "
         "(CasADi)",
     )
-    p.add_argument("--discrete", action="store_true", help="torques {-1, 0, +1} (sigma-delta)")
-    p.add_argument(
-        "--reserve",
-        type=float,
-        default=0.8,
-        metavar="U",
-        help="nominal torque bound |u| <= U N m of the trajectory, in (0, 1]; the rest "
-        "is the feedback's (default 0.8; 1: minimum time, no reserve)",
-    )
-    p.add_argument("--hold", type=float, default=60.0, help="seconds to balance after it")
+    add_arguments(p, PlanConfig, ("discrete", "reserve", "hold"))
     p.add_argument(
         "--out",
         help="folder for balance.json and the video (default runs/balance; "
@@ -409,7 +402,7 @@ def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
     from acrobot_mj.train.feedback_run import FeedbackConfig
     from acrobot_mj.train.trainer import train
 
-    if args.optimise or args.hold != 60.0:
+    if args.optimise or args.hold != PlanConfig.hold:
         raise ValueError(
             "--feedback follows a shipped swing-up for as long as an episode "
             "lasts: give no --optimise or --hold"

@@ -7,18 +7,18 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
 import numpy as np
 
-from acrobot_mj.checks import check_float
 from acrobot_mj.control.lqr import LQR, MPC, Jacobians, tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.integrators import Stepping
+from acrobot_mj.settings import check, setting
 
 
 @dataclass(frozen=True)
@@ -34,19 +34,22 @@ class FunnelSettings:
     upright of seeds other than the evaluation's; 40 steps (2 s) hold every kick of
     ``U(-0.05, 0.05)`` rad/s that 80 hold in MuJoCo (100 kicks, evaluation seed 0)."""
 
-    upright: float = 100.0
-    track: float = 200.0
-    entry: float = 20.0
-    damping: float = 1.0
-    horizon: int = 40
+    upright: float = setting(
+        100.0, "LQR cost level at upright below which it balances", low=0.0, low_open=True
+    )
+    track: float = setting(
+        200.0, "TVLQR cost level below which it keeps its funnel point", low=0.0, low_open=True
+    )
+    entry: float = setting(
+        20.0, "TVLQR cost level below which it enters the funnel", low=0.0, low_open=True
+    )
+    damping: float = setting(
+        1.0, "gain of the energy removal elsewhere", "N m s/rad", low=0.0, low_open=True
+    )
+    horizon: int = setting(40, "constrained LQR's horizon (0: the saturated LQR)", "steps", low=0)
 
     def __post_init__(self) -> None:
-        for name, value in asdict(self).items():
-            if name == "horizon":
-                if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                    raise ValueError(f"horizon must be a whole number of steps >= 0, got {value!r}")
-            elif check_float(name, value, 0.0) <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {value:g}")
+        check(self)
         if self.entry > self.track:
             raise ValueError(f"entry ({self.entry:g}) must be at most track ({self.track:g})")
 

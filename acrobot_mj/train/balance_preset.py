@@ -14,7 +14,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int, check_settings
 from acrobot_mj.control.identification import realise
 from acrobot_mj.control.lqr import SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
@@ -22,7 +21,8 @@ from acrobot_mj.envs.control_loop import BalanceActor, balance_env, closed_loop
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.train.learners import Learner, Protocol
+from acrobot_mj.settings import check, from_dict, replace, setting, to_dict
+from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
@@ -31,58 +31,63 @@ from acrobot_mj.train.run import Run
 KIND = "identify_and_plan"
 
 
+def discrete_torques() -> bool:
+    """The ``discrete`` setting of a controller: {-1, 0, +1} N m torques or continuous ones."""
+    return setting(False, "{-1, 0, +1} N m torques (sigma-delta), not continuous")
+
+
 @dataclass(frozen=True)
 class PlanConfig:
-    """The balance preset's settings: decisions of data and their start noise [rad, rad/s], the
-    plan's torque bound [N m], {-1, 0, +1} torques, the search's horizons ``(start, stop, step)``
-    [physics steps] and upright targets (indices of :data:`~acrobot_mj.control.trajopt.TARGETS`;
-    None: the defaults), the seconds of balance after the swing-up, and the search's warm starts
-    (:data:`~acrobot_mj.control.trajopt.STARTS`)."""
+    """The balance preset's settings; ``targets`` are indices of
+    :data:`~acrobot_mj.control.trajopt.TARGETS`, ``starts`` one of
+    :data:`~acrobot_mj.control.trajopt.STARTS` (None: the search's defaults)."""
 
-    identify_decisions: int = 200
-    data_noise: float = 1.0
-    reserve: float = 0.8
-    discrete: bool = False
-    horizons: tuple[int, int, int] | None = None
-    targets: tuple[int, ...] | None = None
-    hold: float = 60.0
-    starts: str = "rest"
+    identify_decisions: int = setting(200, "decisions of random-torque data", "decisions", low=3)
+    data_noise: float = setting(
+        1.0, "start noise of the data episodes", "rad, rad/s", low=0.0, high=1.0
+    )
+    reserve: float = setting(
+        0.8,
+        "nominal torque bound of the plan (1: minimum time, no reserve)",
+        "N m",
+        low=0.0,
+        low_open=True,
+        high=1.0,
+        metavar="U",
+    )
+    discrete: bool = discrete_torques()
+    horizons: tuple[int, int, int] | None = setting(
+        None, "start horizons of the search, START:STOP:STEP", "physics steps", low=1, sep=":"
+    )
+    targets: tuple[int, ...] | None = setting(
+        None, "upright poses the search tries, e.g. 1,4", low=0, high=5, sep=","
+    )
+    hold: float = setting(
+        60.0,
+        "seconds of balance after the swing-up",
+        "s",
+        low=0.05,
+        high=3600.0,
+        metavar="SECONDS",
+    )
+    starts: str = setting(
+        "rest", "warm starts of the search: rest or pumping", choices=("rest", "pumping")
+    )
 
     def __post_init__(self) -> None:
-        check_int("identify_decisions", self.identify_decisions, 3)
-        check_float("data_noise", self.data_noise, 0.0, 1.0)
-        if not check_float("reserve", self.reserve, 0.0, 1.0) > 0:
-            raise ValueError("reserve must be > 0 N m (the plan's torque bound)")
-        if not isinstance(self.discrete, bool):
-            raise TypeError(f"discrete must be True or False, got {self.discrete!r}")
-        check_float("hold", self.hold, 0.05, 3600.0)
-        if self.horizons is not None:
-            h = tuple(self.horizons)
-            if len(h) != 3 or not all(isinstance(v, int) and v > 0 for v in h) or h[1] <= h[0]:
-                raise ValueError(f"horizons must be (start, stop, step) steps > 0, got {h!r}")
-            object.__setattr__(self, "horizons", h)
-        if self.starts not in ("rest", "pumping"):
-            raise ValueError(f"starts must be 'rest' or 'pumping', got {self.starts!r}")
-        if self.targets is not None:
-            t = tuple(self.targets)
-            if not t or not all(isinstance(v, int) and 0 <= v < 6 for v in t):
-                raise ValueError(f"targets must be indices 0-5 of the six upright poses, got {t!r}")
-            object.__setattr__(self, "targets", t)
+        check(self)
 
     def replace(self, **changes: Any) -> PlanConfig:
-        check_settings(PlanConfig, changes, "balance-preset")
-        return dataclasses.replace(self, **changes)
+        return replace(self, changes, "balance-preset")
 
     def to_dict(self) -> dict[str, Any]:
-        data = dataclasses.asdict(self)
-        return data | {
-            k: None if data[k] is None else list(data[k]) for k in ("horizons", "targets")
-        }
+        return to_dict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PlanConfig:
-        data = {k: tuple(v) if k in ("horizons", "targets") and v else v for k, v in data.items()}
-        return cls().replace(**{"starts": "pumping", **data})  # before 0.5: pumping starts
+        return from_dict(
+            cls, {"starts": "pumping", **data}, "balance-preset"
+        )  # before 0.5: pumping starts
 
 
 class PlanLearner(Learner):
@@ -90,7 +95,7 @@ class PlanLearner(Learner):
 
     kind, kind_name = KIND, "balance-preset"
     describes = "identified model + TVLQR"
-    protocol = Protocol(episodes=100, start_noise=0.01, seed=0)
+    protocol = HeldOut(episodes=100, start_noise=0.01, seed=0)
 
     def __init__(self, config: PlanConfig, seed: int, trajectory: Trajectory | None = None):
         super().__init__(config, seed)

@@ -16,7 +16,6 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int, check_settings
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
 from acrobot_mj.control.lqr import LQR
@@ -27,7 +26,8 @@ from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.train.learners import Learner, Protocol
+from acrobot_mj.settings import check, from_dict, replace, setting, to_dict
+from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import MODEL_FILE
 from acrobot_mj.train.run import Run
 
@@ -52,38 +52,47 @@ class BlackBoxConfig:
     the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
     [decisions] and the seconds of each evaluation episode."""
 
-    decisions: int = 20_000
-    episode_decisions: int = 100
-    harmonics: int = HARMONICS
-    threshold: float = THRESHOLD
-    reserve: float = 0.8
-    horizons: tuple[int, int, int] = (440, 800, 40)
-    seconds: float = 100.0
+    decisions: int = setting(20_000, "decisions of random exploration", low=100, metavar="N")
+    episode_decisions: int = setting(100, "decisions of each exploration episode", low=1, cli=False)
+    harmonics: int = setting(
+        HARMONICS, "Fourier harmonics of each angle in the library", low=1, high=8, cli=False
+    )
+    threshold: float = setting(
+        THRESHOLD, "library terms below this are dropped (SINDy)", low=0.0, high=1.0, cli=False
+    )
+    reserve: float = setting(
+        0.8,
+        "share of the action bound the plan may use",
+        low=0.0,
+        low_open=True,
+        high=1.0,
+        cli=False,
+    )
+    horizons: tuple[int, int, int] = setting(
+        (440, 800, 40), "horizons the plan tries", "decisions", low=1, sep=":", cli=False
+    )
+    seconds: float = setting(
+        100.0,
+        "simulated seconds of each evaluation episode",
+        "s",
+        low=0.0,
+        low_open=True,
+        high=86_400.0,
+        cli=False,
+    )
 
     def __post_init__(self) -> None:
-        check_int("decisions", self.decisions, 100)
-        check_int("episode_decisions", self.episode_decisions, 1)
-        check_int("harmonics", self.harmonics, 1, 8)
-        check_float("threshold", self.threshold, 0.0, 1.0)
-        if not check_float("reserve", self.reserve, 0.0, 1.0) > 0:
-            raise ValueError("reserve must be > 0 (the plan's share of the action bound)")
-        h = tuple(self.horizons)
-        if len(h) != 3 or not all(isinstance(v, int) and v > 0 for v in h) or h[1] <= h[0]:
-            raise ValueError(f"horizons must be (start, stop, step) decisions > 0, got {h!r}")
-        object.__setattr__(self, "horizons", h)
-        if check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
-            raise ValueError(f"seconds must be > 0, got {self.seconds:g}")
+        check(self)
 
     def replace(self, **changes: Any) -> BlackBoxConfig:
-        return dataclasses.replace(self, **changes)
+        return replace(self, changes, "black-box")
 
     def to_dict(self) -> dict[str, Any]:
-        return {**dataclasses.asdict(self), "horizons": list(self.horizons)}
+        return to_dict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> BlackBoxConfig:
-        check_settings(cls, data, "black-box")
-        return cls(**{**data, "horizons": tuple(data.get("horizons", cls.horizons))})
+        return from_dict(cls, data, "black-box")
 
 
 def black_box_env(**kwargs: Any) -> gym.Env:
@@ -159,7 +168,7 @@ class BlackBoxLearner(Learner):
 
     kind, kind_name = KIND, "black-box"
     describes = "black box: learnt model, planned funnel, constrained LQR"
-    protocol = Protocol(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
+    protocol = HeldOut(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
 
     def __init__(
         self,

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-import math
-import typing
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -17,6 +15,7 @@ import gymnasium as gym
 from acrobot_mj.agents import AGENTS, FEATURES, agent_spec
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
+from acrobot_mj.settings import SettingError, check, declared, parse, setting
 
 #: Settings of the task that are config fields (where the task takes them).
 TASK_OPTIONS = ("step_reward", "goal_reward")
@@ -33,35 +32,52 @@ class TrainConfig:
     """Everything that defines a training run except the seed; the defaults are the report's.
     ``agent`` and ``encoding``: the algorithm's and the features' configs (None: defaults)."""
 
-    task: str = "height_goal"
-    algorithm: str = "sarsa"
-    features: str = "grid"
+    task: str = setting(
+        "height_goal", "what counts as success: height_goal (the report's) or balance"
+    )
+    algorithm: str = setting("sarsa", "sarsa (tabular) or sarsa_lambda (linear, tile coding)")
+    features: str = setting("grid", "grid (the report's table) or tiles (tile coding)")
     agent: Any = None
     encoding: Any = None
-    frame_skip: int = 1
-    integrator: str = "euler"
-    max_episode_steps: int = 1000
-    start_noise: float = 0.0
-    noise_until: float | None = None
-    step_reward: float | None = None
-    goal_reward: float | None = None
-    energy_shaping: float = 0.0
-    episodes: int = 200
-    population: int = 1
-    max_decisions: int = 0
-    identify_decisions: int = 0
-    checkpoint_every: int = 50
+    frame_skip: int = setting(
+        1, "length of a decision", "0.05 s physics steps per decision", low=1, high=MAX_FRAME_SKIP
+    )
+    integrator: str = setting(
+        "euler", "euler (semi-implicit, the report's) or rk4", choices=("euler", "rk4")
+    )
+    max_episode_steps: int = setting(1000, "decisions before an episode is truncated", low=1)
+    start_noise: float = setting(
+        0.0, "half-width of the uniform noise on the start state", "rad, rad/s", low=0.0, high=1.0
+    )
+    noise_until: float | None = setting(
+        None, "fraction of the episodes that start with noise", low=0.0, high=1.0
+    )
+    step_reward: float | None = setting(None, "reward of each step (the report's: -1)")
+    goal_reward: float | None = setting(None, "reward on reaching the goal (the report's: +100)")
+    energy_shaping: float = setting(
+        0.0, "weight of a potential-based energy shaping term (0: none)", low=0.0
+    )
+    episodes: int = setting(200, "training episodes", low=1)
+    population: int = setting(
+        1, "learners trained; the best by its last 20 episodes is kept", low=1
+    )
+    max_decisions: int = setting(
+        0, "a cap on the decisions of training (0: none; else at least population)"
+    )
+    identify_decisions: int = setting(
+        0, "decisions of data to identify a model first, then learn in it", low=0
+    )
+    checkpoint_every: int = setting(50, "episodes between checkpoints", low=1)
 
     def __post_init__(self) -> None:
-        for name, kind in _TOP_TYPES.items():
-            _check_type(name, kind, getattr(self, name))
+        check(self)
         _check_names(self.task, self.algorithm, self.features)
         for name, kind in _part_kinds(self.algorithm, self.features).items():
             value = getattr(self, name)
             if value is None:
                 object.__setattr__(self, name, kind())
             elif not isinstance(value, kind):
-                raise TypeError(f"config {name} must be a {kind.__name__}, got {value!r}")
+                raise SettingError(f"config {name} must be a {kind.__name__}, got {value!r}")
         options = get_task(self.task).options
         for name in TASK_OPTIONS:
             value = getattr(self, name)
@@ -77,7 +93,11 @@ class TrainConfig:
                 f"config noise_until has no effect with start_noise="
                 f"{self.start_noise!r} (it applies when start_noise > 0)"
             )
-        _check_ranges(self)
+        if self.max_decisions < 0 or 0 < self.max_decisions < self.population:
+            raise ValueError(
+                f"config max_decisions must be 0 (no cap) or >= population "
+                f"({self.population}), got {self.max_decisions}"
+            )
 
     def __getattr__(self, name: str) -> Any:
         """A setting of the agent's or the features' config; None for one that does not apply."""
@@ -95,7 +115,7 @@ class TrainConfig:
         unknown = sorted(set(changes) - set(field_names()))
         if unknown:
             raise ValueError(f"unknown config keys {unknown}; known: {sorted(field_names())}")
-        top = {k: v for k, v in changes.items() if k in _TOP_TYPES}
+        top = {k: v for k, v in changes.items() if k in _OWN}
         named = ("task", "algorithm", "features")
         task, algorithm, features = (top.get(k, getattr(self, k)) for k in named)
         _check_names(task, algorithm, features)
@@ -104,7 +124,7 @@ class TrainConfig:
         for name, kind in kinds.items():
             values = {**dataclasses.asdict(getattr(self, name)), **changes}
             parts[name] = kind(**{k: v for k, v in values.items() if k in _names(kind)})
-        bad = set(changes) - set(_TOP_TYPES) - _names(kinds["agent"]) - _names(kinds["encoding"])
+        bad = set(changes) - set(_OWN) - _names(kinds["agent"]) - _names(kinds["encoding"])
         for name in bad:
             owner = "algorithm" if name in _all_names(AGENTS) else "features"
             value = top.get(owner, getattr(self, owner))
@@ -130,7 +150,7 @@ class TrainConfig:
         task = data.get("task", "height_goal")
         _check_names(task, algorithm, features)
         kinds = _part_kinds(algorithm, features)
-        applies = set(_TOP_TYPES) | _names(kinds["agent"]) | _names(kinds["encoding"])
+        applies = set(_OWN) | _names(kinds["agent"]) | _names(kinds["encoding"])
         applies -= {k for k in TASK_OPTIONS if k not in get_task(task).options}
         if not data.get("start_noise"):
             applies.discard("noise_until")
@@ -174,10 +194,8 @@ class TrainConfig:
         return spec.build(self.encoding.build(space), self.agent, seed, n_actions)
 
 
-#: The run's own settings and their types (the agent's and the features' are in their configs).
-_TOP_TYPES = {
-    k: v for k, v in typing.get_type_hints(TrainConfig).items() if k not in ("agent", "encoding")
-}
+#: The run's own settings (the agent's and the features' are in their configs).
+_OWN = tuple(declared(TrainConfig))
 
 
 def _names(kind: type) -> set[str]:
@@ -194,7 +212,7 @@ def _part_kinds(algorithm: str, features: str) -> dict[str, type]:
 
 def field_names() -> tuple[str, ...]:
     """Every setting's flat name: the run's, every algorithm's and every kind of features'."""
-    top = list(_TOP_TYPES)
+    top = list(_OWN)
     parts = [name for table in (AGENTS, FEATURES) for name in sorted(_all_names(table))]
     return (*top[:3], *dict.fromkeys(n for n in parts if n not in top[:3]), *top[3:])
 
@@ -215,67 +233,16 @@ def _check_names(task: str, algorithm: str, features: str) -> None:
         )
 
 
-def field_type(name: str) -> type:
-    """The type of setting ``name`` (without the None of settings that may not apply)."""
-    for kind in (TrainConfig, *(s.config for s in AGENTS.values()), *FEATURES.values()):
-        hints = typing.get_type_hints(kind)
-        if name in hints and name not in ("agent", "encoding"):
-            args = [a for a in typing.get_args(hints[name]) if a is not type(None)]
-            return args[0] if args else hints[name]
+def owner(name: str) -> type:
+    """The config class that declares setting ``name``: the run's, an algorithm's or features'."""
+    if name in _OWN:
+        return TrainConfig
+    for kind in (*(s.config for s in AGENTS.values()), *FEATURES.values()):
+        if name in _names(kind):
+            return kind
     raise ValueError(f"unknown config key {name!r}; known: {sorted(field_names())}")
-
-
-def _check_type(name: str, kind: Any, value: Any) -> None:
-    if value is None and type(None) in typing.get_args(kind):
-        return
-    kind = field_type(name)
-    ok = isinstance(value, kind) and not (kind is not bool and isinstance(value, bool))
-    if kind is float:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        ok = ok and math.isfinite(value)
-    if not ok:
-        raise TypeError(f"config {name} must be a {kind.__name__}, got {value!r}")
-
-
-def _check_ranges(c: TrainConfig) -> None:
-    for name in ("max_episode_steps", "episodes", "population", "checkpoint_every"):
-        if getattr(c, name) < 1:
-            raise ValueError(f"config {name} must be >= 1, got {getattr(c, name)}")
-    if not 1 <= c.frame_skip <= MAX_FRAME_SKIP:
-        raise ValueError(
-            f"config frame_skip must be in [1, {MAX_FRAME_SKIP}] (0.05 s physics "
-            f"steps per decision), got {c.frame_skip}"
-        )
-    for name in ("noise_until", "start_noise"):
-        value = getattr(c, name)
-        if value is not None and not 0.0 <= value <= 1.0:
-            raise ValueError(f"config {name} must be in [0, 1], got {value}")
-    if c.integrator not in ("euler", "rk4"):
-        raise ValueError(f"config integrator must be one of ('euler', 'rk4'), got {c.integrator!r}")
-    if c.max_decisions < 0 or 0 < c.max_decisions < c.population:
-        raise ValueError(
-            f"config max_decisions must be 0 (no cap) or >= population "
-            f"({c.population}), got {c.max_decisions}"
-        )
-    for name in ("identify_decisions", "energy_shaping"):
-        if getattr(c, name) < 0:
-            raise ValueError(f"config {name} must be >= 0, got {getattr(c, name)}")
 
 
 def parse_value(name: str, text: str) -> Any:
     """``text`` as setting ``name``'s type (floats may be written ``0.2/48``)."""
-    kind = field_type(name)
-    try:
-        if kind is bool:
-            if text.lower() not in ("true", "false", "1", "0"):
-                raise ValueError(text)
-            return text.lower() in ("true", "1")
-        if kind is int:
-            return int(text)
-        if kind is float:
-            numerator, _, denominator = text.partition("/")
-            return float(numerator) / float(denominator or 1.0)
-    except (ValueError, ZeroDivisionError) as error:
-        article = "an" if kind is int else "a"
-        raise ValueError(f"config {name} needs {article} {kind.__name__}, got {text!r}") from error
-    return text
+    return parse(owner(name), name, text)

@@ -19,7 +19,7 @@ from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
-from acrobot_mj.train.learners import PERTURB, PUSHES, Learner, Protocol
+from acrobot_mj.train.learners import PERTURB, PUSHES, HeldOut, Learner
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
@@ -55,7 +55,7 @@ def run_lock(run_dir: str | Path, command: str) -> RunLock:
 
 
 def evaluate(
-    run_dir: str | Path, protocol: Protocol | dict | None = None, minima: str = "stored"
+    run_dir: str | Path, protocol: HeldOut | dict | None = None, minima: str = "stored"
 ) -> dict[str, Any]:
     """Greedy episodes of a run from the held-out starts of ``protocol`` (default: its
     learner's; a dict changes some of its settings) and from rest; writes and returns
@@ -68,7 +68,7 @@ def evaluate(
 
 def evaluate_run(
     run_dir: str | Path,
-    protocol: Protocol | dict | None = None,
+    protocol: HeldOut | dict | None = None,
     minima: str = "stored",
     write: bool = True,
 ) -> dict[str, Any]:
@@ -93,7 +93,7 @@ def evaluate_run(
     return record
 
 
-def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored") -> dict:
+def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored") -> dict:
     """The held-out evaluation of ``learner`` (see the module docstring)."""
     env = episode_env(learner, protocol)
     disturbances, nominal = protocol.disturbances(), model_parameters(env)
@@ -146,7 +146,7 @@ def evaluate_learner(learner: Learner, protocol: Protocol, minima: str = "stored
     return record
 
 
-def episode_env(learner: Learner, protocol: Protocol) -> Pushed:
+def episode_env(learner: Learner, protocol: HeldOut) -> Pushed:
     """``learner``'s env for ``protocol``'s episodes: ``seconds`` long where it says, pushed
     where it pushes."""
     env = learner.env()
@@ -275,7 +275,7 @@ def compute_minima(
     return [{"decisions": r.decisions, "actions": r.actions} for r in results]
 
 
-def stored_minima(env: gym.Env, protocol: Protocol) -> list[int] | None:
+def stored_minima(env: gym.Env, protocol: HeldOut) -> list[int] | None:
     """The stored per-start minima if they are for ``protocol`` and ``env``'s settings."""
     stored = json.loads(STORED.read_text())
     if stored["protocol"] != protocol.to_dict() or stored["env"] != env_settings(env):
@@ -283,7 +283,7 @@ def stored_minima(env: gym.Env, protocol: Protocol) -> list[int] | None:
     return [entry["decisions"] for entry in stored["starts"]]
 
 
-def references_for(env: gym.Env, protocol: Protocol, starts: np.ndarray, minima: str):
+def references_for(env: gym.Env, protocol: HeldOut, starts: np.ndarray, minima: str):
     """The per-start minima an evaluation compares with (None: none apply, or none asked)."""
     if minima == "none" or env_settings(env) is None:
         return None

@@ -6,22 +6,22 @@ It is built on the report's model (it is told the equations), along the shipped 
 
 from __future__ import annotations
 
-import dataclasses
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
-from acrobot_mj.checks import check_float, check_settings
 from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest, balance_env
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.train.learners import Learner, Protocol
+from acrobot_mj.settings import check, from_dict, setting, to_dict
+from acrobot_mj.train.balance_preset import discrete_torques
+from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
 
@@ -29,43 +29,38 @@ from acrobot_mj.train.run import Run
 KIND = "state_feedback"
 #: The shipped swing-ups by torque bound [N m].
 SWING_UPS = {0.8: "reserve", 1.0: "min_time"}
+#: The funnel's levels by default.
+FUNNEL = FunnelSettings()
 
 
 @dataclass(frozen=True)
 class FeedbackConfig:
-    """{-1, 0, +1} torques (sigma-delta) or continuous, the shipped swing-up whose funnel it
-    follows (by its torque bound ``reserve`` [N m]), the
-    :class:`~acrobot_mj.control.feedback.FunnelSettings`, the seconds
-    of each episode, and whether it identifies the model and replans in each episode
+    """The state-feedback run's settings: its torques, the shipped swing-up whose funnel it
+    follows, the funnel's levels (:class:`~acrobot_mj.control.feedback.FunnelSettings`), the
+    seconds of each episode, and whether it identifies the model and replans in each episode
     (:class:`~acrobot_mj.control.feedback.AdaptiveFunnel`)."""
 
-    discrete: bool = False
-    reserve: float = 0.8
-    funnel: FunnelSettings = field(default_factory=FunnelSettings)
-    seconds: float = 120.0
-    adaptive: bool = False
+    discrete: bool = discrete_torques()
+    reserve: float = setting(
+        0.8, "torque bound of the shipped swing-up it follows", "N m", choices=tuple(SWING_UPS)
+    )
+    funnel: FunnelSettings = setting(FUNNEL, "the funnel's levels", cli=False)
+    seconds: float = setting(
+        120.0, "simulated seconds of each episode", "s", low=0.0, low_open=True, high=86_400.0
+    )
+    adaptive: bool = setting(
+        False, "identify the model from each episode's first 3 s and replan the swing-up on it"
+    )
 
     def __post_init__(self) -> None:
-        for name in ("discrete", "adaptive"):
-            if not isinstance(getattr(self, name), bool):
-                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
-        if self.reserve not in SWING_UPS:
-            raise ValueError(
-                f"reserve must be one of the shipped swing-ups' {sorted(SWING_UPS)} "
-                f"N m, got {self.reserve!r}"
-            )
-        if isinstance(self.funnel, dict):
-            object.__setattr__(self, "funnel", FunnelSettings(**self.funnel))
-        if check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
-            raise ValueError(f"seconds must be > 0, got {self.seconds:g}")
+        check(self)
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        return to_dict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> FeedbackConfig:
-        check_settings(cls, data, "state-feedback")
-        return cls(**data)
+        return from_dict(cls, data, "state-feedback")
 
 
 class FeedbackLearner(Learner):
@@ -73,9 +68,7 @@ class FeedbackLearner(Learner):
 
     kind, kind_name = KIND, "state-feedback"
     describes = "state feedback: TVLQR funnel, constrained LQR, energy removal"
-    protocol = Protocol(
-        episodes=100, start_noise=0.01, seed=0, starts_from="uniform", seconds=120.0
-    )
+    protocol = HeldOut(episodes=100, start_noise=0.01, seed=0, starts_from="uniform", seconds=120.0)
 
     def __init__(self, config: FeedbackConfig, seed: int, trajectory: Trajectory | None = None):
         super().__init__(config, seed)

@@ -17,12 +17,12 @@ import numpy as np
 
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
-from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.envs.disturbances import Disturbances
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
 from acrobot_mj.files import versions, write_json
+from acrobot_mj.settings import check, setting
 from acrobot_mj.stops import SafePoints
 from acrobot_mj.train.bookkeeping import Books
 from acrobot_mj.train.checkpoint import (
@@ -65,31 +65,54 @@ HELDOUT_BRANCH = 0xE7A1
 
 
 @dataclass(frozen=True)
-class Protocol:
-    """Held-out evaluation: ``episodes`` starts from a stream no training seed gives, either
-    rest plus ``U(-start_noise, start_noise)`` [rad, rad/s] on each state variable
-    (``starts="noise"``) or both angles uniform on the circle at rest (``"uniform"``);
-    ``seconds`` of simulated time per episode (None: the env's own limit), and the
-    :class:`~acrobot_mj.envs.disturbances.Disturbances` ``push_every`` [s], ``push_size``
-    [rad/s] and ``perturb`` (a fraction), each drawn from ``seed`` as well."""
+class HeldOut:
+    """The held-out evaluation protocol: ``episodes`` starts from a stream no training seed
+    gives, either rest plus ``U(-start_noise, start_noise)`` on each state variable
+    (``starts_from="noise"``) or both angles uniform on the circle at rest (``"uniform"``), each
+    episode ``seconds`` long (None: the env's own limit), with the
+    :class:`~acrobot_mj.envs.disturbances.Disturbances` (which checks them): all drawn from
+    ``seed``."""
 
-    episodes: int = 100
-    start_noise: float = 0.05
-    seed: int = 0
-    starts_from: str = "noise"
-    seconds: float | None = None
-    push_every: float | None = None
-    push_size: float = 0.0
-    perturb: float = 0.0
+    episodes: int = setting(100, "held-out episodes", low=1, metavar="N")
+    start_noise: float = setting(
+        0.05,
+        "half-width of the start noise (a balance-preset run's own: 0.01)",
+        "rad, rad/s",
+        low=0.0,
+        high=1.0,
+        metavar="S",
+    )
+    seed: int = setting(0, "seed of the held-out starts, pushes and perturbations", low=0)
+    starts_from: str = setting(
+        "noise",
+        "noise: rest plus U(-S, S); uniform: both angles uniform on the circle, at rest",
+        choices=("noise", "uniform"),
+        flag="starts",
+    )
+    seconds: float | None = setting(
+        None,
+        "simulated seconds per episode (none: the run's own)",
+        "s",
+        low=0.0,
+        low_open=True,
+        high=86_400.0,
+        metavar="T",
+    )
+    push_every: float | None = setting(
+        None, "push every P seconds (none: no pushes)", "s", metavar="P"
+    )
+    push_size: float = setting(
+        0.0, "each push adds U(-V, V) to each joint velocity", "rad/s", metavar="V"
+    )
+    perturb: float = setting(
+        0.0,
+        "scale each link's mass and inertia by U(1-F, 1+F) per episode; the controller keeps "
+        "its model",
+        metavar="F",
+    )
 
     def __post_init__(self) -> None:
-        check_int("episodes", self.episodes, 1)
-        check_float("start_noise", self.start_noise, 0.0, 1.0)
-        check_int("seed", self.seed, 0)
-        if self.starts_from not in STARTS:
-            raise ValueError(f"starts must be one of {STARTS}, got {self.starts_from!r}")
-        if self.seconds is not None and check_float("seconds", self.seconds, 0.0, 86_400.0) <= 0:
-            raise ValueError(f"seconds must be > 0, got {self.seconds:g}")
+        check(self)
         self.disturbances()  # checks the rest
 
     def disturbances(self) -> Disturbances:
@@ -120,12 +143,10 @@ class Protocol:
 
 #: What every protocol record holds; the later settings appear where they are not the default.
 BASIC = ("episodes", "start_noise", "seed")
-#: Where held-out episodes start.
-STARTS = ("noise", "uniform")
 #: The purposes of an evaluation's draws besides the noise starts (spawn keys).
 UNIFORM, PUSHES, PERTURB = 1, 2, 3
 #: The protocol of the README's learning results: 100 starts of U(-0.05, 0.05), seed 0.
-DEFAULT = Protocol()
+DEFAULT = HeldOut()
 
 
 class Learner(ABC):
@@ -137,7 +158,7 @@ class Learner(ABC):
     kind_name: ClassVar[str] = "agent"
     #: What acts in its episodes, in a video's record.
     describes: ClassVar[str] = "greedy"
-    protocol: ClassVar[Protocol] = DEFAULT
+    protocol: ClassVar[HeldOut] = DEFAULT
     #: Physics steps its plan swings up in (None: none planned), for the task's assessment.
     swing_up: int | None = None
 

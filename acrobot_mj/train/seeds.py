@@ -15,7 +15,7 @@ from acrobot_mj.files import versions, write_json
 from acrobot_mj.pool import WorkerPool
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
-from acrobot_mj.train.learners import DEFAULT, Protocol
+from acrobot_mj.train.learners import DEFAULT, HeldOut
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.lockstep import check_lockstep, lockstep_pays, train_lockstep
 from acrobot_mj.train.monitor import (
@@ -51,7 +51,7 @@ class SeedRuns:
     config: TrainConfig
     out: Path
     resume: bool = False
-    protocol: Protocol | None = DEFAULT
+    protocol: HeldOut | None = DEFAULT
     tensorboard: str | Path | None = None
 
     def one(
@@ -82,7 +82,7 @@ def train_seeds(
     out_dir: str | Path,
     options: RunOptions = PLAIN,
     *,
-    protocol: Protocol | None = DEFAULT,
+    protocol: HeldOut | None = DEFAULT,
 ) -> dict[str, Any]:
     """Train one run per seed into ``out_dir/seed_S`` (``options.jobs`` processes), evaluate each
     on ``protocol`` (None: not), then write ``out_dir/summary.json`` and the learning curve
@@ -111,7 +111,7 @@ def train_seeds(
 
 
 def _train_all(
-    config: TrainConfig, seeds: list[int], out: Path, options: RunOptions, protocol: Protocol | None
+    config: TrainConfig, seeds: list[int], out: Path, options: RunOptions, protocol: HeldOut | None
 ) -> list[SeedResult]:
     """Every seed's run, in lockstep or apart, here or in worker processes."""
     jobs = min(options.jobs or 1, len(seeds))

@@ -1,0 +1,60 @@
+"""Write the docs' settings tables from the configs' declarations (acrobot_mj.settings.table).
+
+A table sits between ``<!-- settings: MODULE.CLASS -->`` and ``<!-- end settings -->`` in a page
+of docs/guide; this rewrites every such block. tests/test_settings.py checks that the committed
+pages equal what this writes.
+
+    python scripts/settings_tables.py           # rewrite the pages
+    python scripts/settings_tables.py --check   # exit 1 where a page differs
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import re
+import sys
+from pathlib import Path
+
+from acrobot_mj.settings import table
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGES = sorted((ROOT / "docs" / "guide").glob("*.md"))
+BLOCK = re.compile(r"(<!-- settings: ([\w.]+) -->\n)(.*?)(<!-- end settings -->)", re.S)
+
+
+def config_class(dotted: str) -> type:
+    """The class ``module.Class`` a block names."""
+    module, _, name = dotted.rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
+def rendered(text: str) -> str:
+    """``text`` with each settings block holding its class's table."""
+
+    def block(match: re.Match) -> str:
+        start, dotted, _, end = match.groups()
+        return f"{start}\n{table(config_class(dotted))}\n{end}"
+
+    return BLOCK.sub(block, text)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--check", action="store_true", help="exit 1 where a page differs")
+    args = parser.parse_args(argv)
+    stale = []
+    for page in PAGES:
+        text = page.read_text()
+        new = rendered(text)
+        if new != text:
+            stale.append(page.relative_to(ROOT))
+            if not args.check:
+                page.write_text(new)
+    for page in stale:
+        print(f"{'differs' if args.check else 'wrote'}: {page}")
+    return 1 if args.check and stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
