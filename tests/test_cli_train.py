@@ -102,7 +102,7 @@ def test_resume_continues_a_run(tmp_path, capsys) -> None:
         (["evaluate", "nowhere"], "'nowhere' holds no run (no run.json or checkpoint.npz)"),
         (["evaluate", ""], "'' holds no run"),  # and no .lock is created in the cwd
         # Removed: the kernel choice (one compiled Sarsa(lambda)) and lockstep populations.
-        (["train", "--preset", "book", "--kernel", "numba"], "--kernel was removed: Sarsa(lambda)"),
+        (["train", "--preset", "book", "--kernel", "numba"], "unrecognized arguments: --kernel"),
         (["train", "--population", "3", "--lockstep"], "--lockstep trains several seeds together"),
         (["train", "--population", "2", "--seeds", "2", "--lockstep"], "one learner per run"),
         (["train", "--preset", "book", "--seeds", "2", "--lockstep"], "got sarsa_lambda"),

@@ -9,7 +9,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from acrobot_mj.cli import evaluation, learning, tools
 from acrobot_mj.envs.gl import GLBackendError
@@ -53,8 +53,16 @@ DESCRIPTION = (
 EPILOG = "Each command has its own help: acrobot-mj COMMAND --help."
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors are one line that names the command's help (a usage
+    block of 30 lines hides the one that says what is wrong)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="acrobot-mj", description=DESCRIPTION, epilog=EPILOG)
+    parser = Parser(prog="acrobot-mj", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=__version__)
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMANDS:

@@ -13,7 +13,7 @@ from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.settings import add_arguments, cli_names, parse
 from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.black_box import BlackBoxConfig
-from acrobot_mj.train.config import RETIRED, TrainConfig, field_names, owner, parse_value
+from acrobot_mj.train.config import TrainConfig, field_names, owner, parse_value
 from acrobot_mj.train.presets import PRESETS
 from acrobot_mj.train.records import recent_score
 from acrobot_mj.train.run import RunOptions
@@ -71,8 +71,6 @@ def add_train(commands: tools.Commands) -> None:
     group = p.add_argument_group("settings (defaults: the preset's)")
     for name in field_names():
         add_arguments(group, owner(name), [name], typed=False, defaults=False)
-    for name in RETIRED:
-        group.add_argument(_flag(name), dest=name, help=argparse.SUPPRESS)
     titles = (
         "balance preset (identify, plan, TVLQR)",
         "black_box preset (told nothing of the equations)",
@@ -84,9 +82,6 @@ def add_train(commands: tools.Commands) -> None:
 
 def config_of(args: argparse.Namespace) -> TrainConfig | PlanConfig | BlackBoxConfig:
     """The preset with the settings given on the command line."""
-    for name in RETIRED:
-        if getattr(args, name) is not None:
-            raise ValueError(f"{_flag(name)} was removed: {RETIRED[name]}")
     preset = PRESETS[args.preset]
     kind = type(preset)
     names = dict.fromkeys([*field_names(), *(n for k in PRESET_KINDS for n in cli_names(k))])
