@@ -27,9 +27,6 @@ from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
 
-#: ``run.json``'s ``kind`` of a balance-preset run.
-KIND = "identify_and_plan"
-
 
 def discrete_torques() -> bool:
     """The ``discrete`` setting of a controller: {-1, 0, +1} N m torques or continuous ones."""
@@ -93,7 +90,7 @@ class PlanConfig:
 class PlanLearner(Learner):
     """The balance preset's learner: ``learn`` identifies and plans; it acts through TVLQR."""
 
-    kind, kind_name = KIND, "balance-preset"
+    kind, kind_name = "identify_and_plan", "balance-preset"
     describes = "identified model + TVLQR"
     protocol = HeldOut(episodes=100, start_noise=0.01, seed=0)
 

@@ -31,9 +31,7 @@ from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import MODEL_FILE
 from acrobot_mj.train.run import Run
 
-#: ``run.json``'s ``kind`` of a black-box run.
-KIND = "black_box"
-FORMAT = "acrobot_mj.black_box_model"
+MODEL_FORMAT = "acrobot_mj.black_box_model"
 #: What the learner is told, in the run record and the docs.
 TOLD = (
     "the env's spaces: a Box action (a number in [-1, 1]) and four observations, the first two "
@@ -42,7 +40,7 @@ TOLD = (
     "it may reset the env to a state it names (angles uniform on the circle, at rest)",
 )
 #: Seed-tree branch of the exploration's draws.
-DATA_BRANCH = 0xB1AC
+EXPLORATION_BRANCH = 0xB1AC
 
 
 @dataclass(frozen=True)
@@ -103,7 +101,7 @@ def black_box_env(**kwargs: Any) -> gym.Env:
 def explore(env: gym.Env, config: BlackBoxConfig, seed: int) -> dict[str, np.ndarray]:
     """``decisions`` random actions, ``U(low, high)``, in episodes from both angles uniform on the
     circle at rest: ``states``, ``actions``, ``next_states`` (observations) and ``rewards``."""
-    rng = np.random.default_rng(np.random.SeedSequence([seed, DATA_BRANCH]))
+    rng = np.random.default_rng(np.random.SeedSequence([seed, EXPLORATION_BRANCH]))
     box = env.action_space
     if not isinstance(box, gym.spaces.Box) or box.shape != (1,):
         raise ValueError(f"the black-box learner needs a Box action of one number, got {box}")
@@ -166,7 +164,7 @@ class BlackBoxLearner(Learner):
     """Learns a model from the env's observations, actions and rewards only, then plans and
     follows a funnel on it (``learn``); acts through that state feedback, with no clock."""
 
-    kind, kind_name = KIND, "black-box"
+    kind, kind_name = "black_box", "black-box"
     describes = "black box: learnt model, planned funnel, constrained LQR"
     protocol = HeldOut(episodes=100, start_noise=0.01, seed=0, seconds=100.0)
 
@@ -254,7 +252,7 @@ class BlackBoxLearner(Learner):
         assert self.model is not None and self.trajectory is not None
         t = self.trajectory
         return {
-            "format": FORMAT,
+            "format": MODEL_FORMAT,
             "library": self.model.to_dict(),
             "limits": dataclasses.asdict(t.params),
             "u_max": t.u_max,
@@ -277,7 +275,7 @@ class BlackBoxLearner(Learner):
         path = Path(run_dir) / MODEL_FILE
         try:
             data = read_json(path)
-            if data.get("format") != FORMAT:
+            if data.get("format") != MODEL_FORMAT:
                 raise ValueError(f"not a black-box model (format {data.get('format')!r})")
             model = LibraryModel.from_dict(data["library"])
             limits = AcrobotParams(**data["limits"])

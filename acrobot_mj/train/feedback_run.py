@@ -25,8 +25,6 @@ from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
 
-#: ``run.json``'s ``kind`` of a state-feedback run.
-KIND = "state_feedback"
 #: The shipped swing-ups by torque bound [N m].
 SWING_UPS = {0.8: "reserve", 1.0: "min_time"}
 #: The funnel's levels by default.
@@ -66,7 +64,7 @@ class FeedbackConfig:
 class FeedbackLearner(Learner):
     """Builds the controller (``learn``); acts through it from any start, with no clock."""
 
-    kind, kind_name = KIND, "state-feedback"
+    kind, kind_name = "state_feedback", "state-feedback"
     describes = "state feedback: TVLQR funnel, constrained LQR, energy removal"
     protocol = HeldOut(episodes=100, start_noise=0.01, seed=0, starts_from="uniform", seconds=120.0)
 

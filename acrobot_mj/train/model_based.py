@@ -23,7 +23,7 @@ from acrobot_mj.train.records import greedy_result, write_run
 from acrobot_mj.train.run import Run
 
 #: Seed-tree branches of the data's draws and of the judging episodes' starts.
-DATA_BRANCH, JUDGE_BRANCH = 0xDA7A, 0x7D6E
+IDENTIFY_BRANCH, JUDGE_BRANCH = 0xDA7A, 0x7D6E
 #: Decisions per data episode at most (short: the data should cover many starts).
 DATA_EPISODE = 100
 #: Greedy episodes in the model that judge a population's learners.
@@ -57,7 +57,7 @@ def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Trans
     """``decisions`` transitions of uniformly random actions in ``env`` (unwrapped states, and
     the torque [N m] MuJoCo applied)."""
     acrobot, space = acrobot_of(env), env.action_space
-    tree = np.random.SeedSequence([seed, DATA_BRANCH])
+    tree = np.random.SeedSequence([seed, IDENTIFY_BRANCH])
     rng = np.random.default_rng(tree)
     data: list[Transition] = []
     for child in tree.spawn(decisions):  # at least one decision per episode: enough
