@@ -11,6 +11,7 @@ from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -123,6 +124,8 @@ class AcrobotVectorEnv(VectorEnv):
         self._next_step = mode == AutoresetMode.NEXT_STEP
         self._same_step = mode == AutoresetMode.SAME_STEP
         self._pending = np.zeros(self.num_envs, dtype=bool)  # reset at the next step
+        # step refuses to run before every sub-env's first reset, as a single env's does.
+        self._never_reset, self._was_reset = np.ones(self.num_envs, dtype=bool), False
         self._rngs, self._rng_seeds = map(
             list, zip(*(seeding.np_random() for _ in range(self.num_envs)), strict=True)
         )
@@ -145,6 +148,8 @@ class AcrobotVectorEnv(VectorEnv):
         state.setdefault("backend", "mujoco")  # pickled before there were backends
         state.setdefault("_same_step", False)  # pickled before SAME_STEP
         state.setdefault("_cos_sin", False)  # pickled before observation kinds
+        state.setdefault("_was_reset", True)  # pickled before step checked for a reset
+        state.setdefault("_never_reset", np.zeros(state["num_envs"], dtype=bool))
         self.__dict__.update(state)
         self._build_batch()
         self.physics.restore(rows)
@@ -181,6 +186,8 @@ class AcrobotVectorEnv(VectorEnv):
                 if s is not None:
                     self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
+        self._never_reset &= ~mask
+        self._was_reset = not self._never_reset.any()
         obs = self._observe()  # raises on a bad state
         _, _, info = self.task.outcomes(*self.physics.columns)
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
@@ -200,6 +207,11 @@ class AcrobotVectorEnv(VectorEnv):
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if not self._was_reset:
+            never = np.flatnonzero(self._never_reset).tolist()
+            raise ResetNeeded(
+                f"Cannot call env.step() before calling env.reset() (sub-envs {never} never were)"
+            )
         physics = self.physics
         write_torques(actions, self._continuous, self._ctrl)  # raises, writing nothing
         physics.step(self._frame_skip)
