@@ -17,7 +17,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int, check_memory
-from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions
+from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions, drawn_start
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
 
@@ -112,7 +112,7 @@ class AcrobotVectorEnv(VectorEnv):
         self._nthread = None if nthread is None else check_int("nthread", nthread, 0)
         self._build_batch()
         start = self.model.key(self.task.start_keyframe)
-        self._start_qpos, self._start_qvel = start.qpos.copy(), start.qvel.copy()
+        self._rest = np.concatenate((start.qpos, start.qvel))  # the task's start, at rest
         self.single_action_space = self._template.action_space
         self.single_observation_space = self._template.observation_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -148,6 +148,8 @@ class AcrobotVectorEnv(VectorEnv):
         state.setdefault("backend", "mujoco")  # pickled before there were backends
         state.setdefault("_same_step", False)  # pickled before SAME_STEP
         state.setdefault("_cos_sin", False)  # pickled before observation kinds
+        if "_rest" not in state:  # pickled when the start was two arrays
+            state["_rest"] = np.concatenate((state.pop("_start_qpos"), state.pop("_start_qvel")))
         state.setdefault("_was_reset", True)  # pickled before step checked for a reset
         state.setdefault("_never_reset", np.zeros(state["num_envs"], dtype=bool))
         self.__dict__.update(state)
@@ -156,14 +158,10 @@ class AcrobotVectorEnv(VectorEnv):
 
     def _reset_envs(self, mask: np.ndarray, noise: float) -> None:
         ids = np.flatnonzero(mask)
-        self._qpos[ids] = self._start_qpos
-        self._qvel[ids] = self._start_qvel
         self._ctrl[ids] = 0.0
         for i in ids:  # the single env's draws
-            offsets = self.task.start_offsets(self._rngs[i], noise)
-            if offsets is not None:
-                self._qpos[i] += offsets[0]
-                self._qvel[i] += offsets[1]
+            start = drawn_start(self.task, self._rest, self._rngs[i], noise)
+            self._qpos[i], self._qvel[i] = start[:2], start[2:]
         self._began[ids] = self._steps
         self._first = int(self._began.min())  # the oldest episode's start
         self._pending[ids] = False
