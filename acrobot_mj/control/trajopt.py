@@ -380,7 +380,7 @@ def min_time(
     ``starts``: the warm starts (:data:`STARTS`). From rest it tries the three targets with
     ``q1 = pi/2``: the swing-ups to the other three are their mirror images. Where the default
     horizons find none, it tries :data:`LONGER` ranges after them, each as long. Times and
-    lengths found: docs/results.md."""
+    lengths found: docs/guide/balance.md."""
     if starts not in STARTS:
         raise ValueError(f"starts must be one of {STARTS}, got {starts!r}")
     optimiser = Optimiser(u_max, method, p)
