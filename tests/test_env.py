@@ -342,3 +342,38 @@ def test_a_copy_from_before_the_window_and_cos_sin_is_refused_in_one_line() -> N
     with pytest.raises(ValueError, match=r"pickled by acrobot_mj before 0\.4\.0") as error:
         old.__setstate__(state)
     assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    "state",
+    [
+        (0.0, 0.0, math.inf, 0.0),
+        (0.0, 0.0, 0.0, -math.inf),
+        (0.0, 0.0, math.nan, 0.0),
+        (2e6, 0.0, 0.0, 0.0),
+        (0.0, math.nan, 0.0, 0.0),
+    ],
+)
+def test_every_env_refuses_to_observe_a_non_finite_state_by_one_rule(state) -> None:
+    # The single and identified envs let infinite velocities through (v == v), the vector env
+    # did not (|v| < 1e10): a Gymnasium user expects finite observations, so none is observed.
+    from acrobot_mj.compiled import compiled
+    from acrobot_mj.envs.acrobot import observation, sound
+    from acrobot_mj.envs.batch import observe
+    from acrobot_mj.envs.identified import IdentifiedEnv
+
+    assert not sound(*state) and observation(*state) is None
+    assert not compiled(sound)(*state)
+    rows = np.array([state, (4.0, -4.0, 1.0, 1.0)])
+    with pytest.raises(RuntimeError, match=r"sub-envs \[0\]"):
+        observe(rows[:, :2], rows[:, 2:])
+    model = IdentifiedEnv(REPORT.lumped, AcrobotEnv().task)
+    model._x = state
+    with pytest.raises(RuntimeError, match="non-finite state"):
+        model._observe()
+    assert observation(4.0, -4.0, 1.0, 1.0).tolist() == [
+        4.0 - 2 * math.pi,
+        2 * math.pi - 4.0,
+        1.0,
+        1.0,
+    ]

@@ -241,6 +241,85 @@ def test_the_balance_command_stops_within_seconds_while_it_optimises(tmp_path, s
     assert child.returncode == 128 + sig and len(err.strip().splitlines()) == 1, err
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(("sig", "moment"), [(signal.SIGINT, 8.0), (signal.SIGTERM, 3.0)])
+def test_the_swing_up_search_stopped_from_its_group_ends_within_2_s_in_one_line(
+    tmp_path, sig, moment
+) -> None:
+    # A terminal's stop reaches the workers too: they ran the CLI's stop handler while idle in
+    # the pool's queue (two tracebacks), and the stop took 13-25 s or hung.
+    pytest.importorskip("casadi")
+    out = str(tmp_path / "search")
+    child = start(["balance", "--no-video", "--reserve", "0.5", "--out", out], tmp_path, True)
+    try:
+        time.sleep(moment)
+        stopped = time.monotonic()
+        os.killpg(child.pid, sig)
+        _, err = child.communicate(timeout=60)
+    finally:  # a hung driver and its workers do not outlive the test
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+    assert time.monotonic() - stopped < 2, err
+    assert child.returncode == 128 + sig and len(err.strip().splitlines()) == 1, err
+    assert "Traceback" not in err
+    time.sleep(0.5)
+    assert processes_with(out) == []  # no worker left behind
+
+
+def _double(x: int, seconds: float) -> int:
+    time.sleep(seconds)
+    return 2 * x
+
+
+def _die(code: int) -> None:
+    os._exit(code)
+
+
+def _deaf(seconds: float) -> None:
+    """As a call in C code: no stop handler runs until it returns."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, [signal.SIGUSR1, signal.SIGTERM])
+    time.sleep(seconds)
+
+
+class _Alarm(Exception):
+    pass
+
+
+def _alarm(signum, frame) -> None:
+    raise _Alarm
+
+
+def test_a_pool_maps_in_order_and_a_worker_that_dies_fails_only_its_call() -> None:
+    from concurrent.futures.process import BrokenProcessPool
+
+    from acrobot_mj.pool import WorkerPool
+
+    with WorkerPool(2) as pool:
+        assert list(pool.map(_double, [(1, 0.3), (2, 0.0), (3, 0.0)])) == [2, 4, 6]
+        futures = list(pool.run(_die, [(3,)]))
+        with pytest.raises(BrokenProcessPool, match="exit code 3"):
+            futures[0].result()
+        # The other worker holds no lock the dead one took: the pool goes on.
+        assert list(pool.map(_double, [(4, 0.0), (5, 0.0)])) == [8, 10]
+
+
+def test_a_terminating_pool_stops_calls_stuck_in_c_code_at_once() -> None:
+    from acrobot_mj.pool import WorkerPool
+
+    before = signal.signal(signal.SIGALRM, _alarm)
+    pool = WorkerPool(2, terminate=True)
+    stopped = time.monotonic()
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
+        with pytest.raises(_Alarm), pool:
+            list(pool.map(_deaf, [(30.0,), (30.0,)]))
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, before)
+    assert time.monotonic() - stopped < 2
+    assert all(not w.process.is_alive() for w in pool._workers)
+
+
 def test_a_lockstep_resume_starts_a_seed_that_never_reached_a_checkpoint(tmp_path) -> None:
     # Seed 0 stopped after 2 of 4 episodes, seed 1 never started: resumed together, both end as
     # the uninterrupted lockstep run of both (their Q tables equal, bit for bit).

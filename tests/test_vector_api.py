@@ -277,3 +277,20 @@ def test_the_balance_threshold_separates_balancing_from_falling(name, discrete, 
     assert len(rewards) == gym.spec(Balance.env_id).max_episode_steps == 2000
     assert result["balanced"] is solved
     assert (sum(rewards) >= Balance.reward_threshold) is solved
+
+
+@pytest.mark.parametrize("backend", ["mujoco", "analytic"])
+def test_the_vector_env_refuses_to_step_before_reset_as_the_single_env(backend) -> None:
+    # It returned observations from an unseeded start, different on every run.
+    vec = gym.make_vec("acrobot_mj/AcrobotRLContinuous-v0", num_envs=2, backend=backend)
+    actions = np.zeros((2, 1), dtype=np.float32)
+    with pytest.raises(gym.error.ResetNeeded, match=r"before calling env.reset\(\)"):
+        vec.step(actions)
+    vec.reset(seed=0, options={"reset_mask": np.array([True, False])})
+    with pytest.raises(gym.error.ResetNeeded, match=r"sub-envs \[1\]"):
+        vec.step(actions)
+    vec.reset(seed=0)
+    assert vec.step(actions)[0].shape == (2, 6)
+    single = gym.make("acrobot_mj/AcrobotRLContinuous-v0")
+    with pytest.raises(gym.error.ResetNeeded):
+        single.step(actions[0])

@@ -4,13 +4,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import signal
 import sys
 import threading
-from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
+from itertools import starmap
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,7 @@ from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, state_error
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.physics.xp import symbolic
+from acrobot_mj.pool import WorkerPool
 
 #: Largest gap [rad, rad/s] between a stored state and the step of the one before (far above
 #: rounding, far below any modelling difference).
@@ -342,8 +343,24 @@ def default_horizons(u_max: float, starts: str = "rest") -> range:
     return range(start, start + 100, 4)
 
 
-def _candidates(job: tuple[Optimiser, int, np.ndarray, str]) -> list[Arrays]:
-    optimiser, horizon, target, starts = job
+#: Longer ranges of start horizons a search with the default ones tries before it gives up.
+LONGER = 3
+
+
+def longer_horizons(u_max: float, starts: str = "rest") -> list[range]:
+    """The default start horizons [steps], then :data:`LONGER` ranges after them, each as
+    long."""
+    first = default_horizons(u_max, starts)
+    shift = len(first) * first.step
+    return [
+        range(first.start + k * shift, first.stop + k * shift, first.step)
+        for k in range(LONGER + 1)
+    ]
+
+
+def _candidates(
+    optimiser: Optimiser, horizon: int, target: np.ndarray, starts: str
+) -> list[Arrays]:
     return optimiser.candidates(horizon, target, starts)
 
 
@@ -372,49 +389,47 @@ def min_time(
     progress: bool = False,
     jobs: int = 2,
 ) -> Trajectory:
-    """The shortest swing-up found from every :class:`WarmStarts` (ties: the least effort), an
-    upper bound on the minimum, over ``jobs`` processes; ``progress``: a bar on stderr."""
+    """The shortest swing-up found from every :class:`WarmStarts` (start, horizon and target;
+    ties: the least effort), an upper bound on the minimum, over ``jobs`` processes;
+    ``progress``: a bar on stderr. From rest it tries the three targets with ``q1 = pi/2``: the
+    swing-ups to the other three are their mirror images. Where the default horizons find none,
+    it tries :data:`LONGER` ranges after them, each as long. Times and lengths found:
+    docs/guide/balance.md."""
     starts, horizons, targets = warm.starts, warm.horizons, warm.targets
     optimiser = Optimiser(u_max, method, p)
-    horizons = default_horizons(u_max, starts) if horizons is None else horizons
+    tries = [horizons] if horizons is not None else longer_horizons(u_max, starts)
     if targets is None:
         targets = TARGETS[:3] if starts == "rest" else TARGETS
+    for tried in tries:
+        work = [(optimiser, horizon, target, starts) for horizon in tried for target in targets]
+        best = _search(work, jobs, progress)
+        if best is not None:
+            return optimiser.trajectory(best)
+    raise ValueError(
+        f"no swing-up to upright found with u_max={u_max} N m over horizons "
+        f"{tries[0].start}..{tries[-1].stop - 1}: give longer ones (WarmStarts' horizons; "
+        "train --preset balance --horizons START:STOP:STEP)"
+    )
+
+
+def _search(work: list[tuple[Optimiser, int, np.ndarray, str]], jobs: int, progress: bool) -> Any:
+    """The best of each start's candidates (None if there are none), on ``jobs`` processes
+    where there are several; a bar on stderr with ``progress``."""
     best = None
-    work = [(optimiser, horizon, target, starts) for horizon in horizons for target in targets]
-    with Steps(len(work), "swing-up search", progress, "warm starts") as bar:
-        for found_here in _mapped(work, jobs):  # in order: the same best every time
+    jobs = min(jobs, len(work))
+    # A stop kills the workers: an IPOPT solve runs in C for seconds and has nothing to save.
+    pool = WorkerPool(jobs, terminate=True) if jobs > 1 else None
+    with (
+        pool or contextlib.nullcontext(),
+        Steps(len(work), "swing-up search", progress, "warm starts") as bar,
+    ):
+        found_each = starmap(_candidates, work) if pool is None else pool.map(_candidates, work)
+        for found_here in found_each:  # in order: the same best every time
             for found in found_here:
                 if best is None or _cost(found) < _cost(best):
                     best = found
             bar.done("" if best is None else f"best {len(best[1])} steps")
-    if best is None:
-        raise ValueError(
-            f"no swing-up to upright found with u_max={u_max} N m over horizons "
-            f"{horizons.start}..{horizons.stop - 1}: try longer horizons"
-        )
-    return optimiser.trajectory(best)
-
-
-def _mapped(work: list[tuple[Optimiser, int, np.ndarray, str]], jobs: int) -> Iterator[Any]:
-    """Each start's candidates, in order: on ``jobs`` processes where there are several."""
-    if jobs <= 1 or len(work) <= 1:
-        yield from map(_candidates, work)
-        return
-    pool = ProcessPoolExecutor(min(jobs, len(work)))
-    try:
-        yield from pool.map(_candidates, work)
-    except BaseException:
-        # Interrupted (Ctrl-C, SIGTERM): stop the workers' IPOPT solves now, not when they end.
-        # Python 3.14 has terminate_workers(); before it, the processes are only in _processes.
-        stop = getattr(pool, "terminate_workers", None)
-        if stop is not None:
-            stop()
-        else:
-            for process in list(getattr(pool, "_processes", {}).values()):
-                process.terminate()
-        raise
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    return best
 
 
 def _cost(path: Arrays) -> tuple[int, float]:

@@ -8,13 +8,14 @@ import sys
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import gymnasium as gym
 import mujoco
 import numpy as np
 
 from acrobot_mj.checks import check_bool, check_int
+from acrobot_mj.compiled import jitable
 from acrobot_mj.envs.assets import link_lengths, load_model
 from acrobot_mj.envs.gl import close_viewer, make_renderer, open_viewer
 from acrobot_mj.envs.spaces import (
@@ -48,9 +49,45 @@ MAX_ANGLE = 1e6
 MAX_FRAME_SKIP = 1000  # physics steps per action: 50 s
 # Globals are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
-_MIN_Q, _MIN_VEL1, _MIN_VEL2 = -MAX_ANGLE, -MAX_VEL1, -MAX_VEL2
+_MIN_VEL1, _MIN_VEL2 = -MAX_VEL1, -MAX_VEL2
 _MAX_VEL = (MAX_VEL1, MAX_VEL2)
 _PI, _MIN_PI = math.pi, -math.pi
+
+
+@jitable
+def sound(q1, q2, v1, v2, max_angle=MAX_ANGLE, huge=HUGE) -> bool:
+    """Whether a state [rad, rad/s] may be observed: angles within +-``max_angle``, velocities
+    finite and within +-``huge`` (False for NaN and infinities)."""
+    return abs(q1) < max_angle and abs(q2) < max_angle and abs(v1) < huge and abs(v2) < huge
+
+
+def observation(q1: float, q2: float, v1: float, v2: float) -> np.ndarray | None:
+    """The observation ``(q1, q2, dq1, dq2)`` of a state, angles wrapped into ``[-pi, pi)``
+    [rad, rad/s]; None if the state is not :func:`sound` (the env raises)."""
+    if not sound(q1, q2, v1, v2):
+        return None
+    return np.array((wrap(q1), wrap(q2), v1, v2))
+
+
+def drawn_start(task: Task, rest: np.ndarray, rng: np.random.Generator, noise: float) -> np.ndarray:
+    """``rest`` ``(q1, q2, dq1, dq2)`` [rad, rad/s] plus ``task``'s start offsets drawn from
+    ``rng`` at start noise ``noise``: a new array."""
+    offsets = task.start_offsets(rng, noise)
+    if offsets is None:
+        return rest.copy()
+    return np.concatenate((rest[:2] + offsets[0], rest[2:] + offsets[1]))
+
+
+def start_state(
+    task: Task, rest: np.ndarray, rng: np.random.Generator, options: Any
+) -> tuple[np.ndarray, bool]:
+    """The state a reset with ``options`` starts from, and whether ``options`` gave it
+    (``"state"``); else :func:`drawn_start` at their ``"start_noise"`` (or the task's)."""
+    start = reset_state(options)
+    noise = reset_noise(options, task.start_noise, known=RESET_OPTIONS)
+    if start is not None:
+        return start, True
+    return drawn_start(task, rest, rng, noise), False
 
 
 def make_task(
@@ -253,18 +290,16 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        start = reset_state(options)
-        noise = reset_noise(options, self.task.start_noise, known=RESET_OPTIONS)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
-        if start is not None:
-            self.set_state(start[:2], start[2:])
-        elif (offsets := self.task.start_offsets(self.np_random, noise)) is not None:
-            self._qpos += offsets[0]
-            self._qvel += offsets[1]
+        start, given = start_state(self.task, self.state, self.np_random, options)
+        if given:
+            self.set_state(start[:2], start[2:])  # validated
+        else:
+            self._qpos[:], self._qvel[:] = start[:2], start[2:]
         q1, q2 = self._qpos.tolist()
         v1, v2 = self._qvel.tolist()
         values = self._rule(q1, q2, v1, v2)[3]
-        obs = np.array((wrap(q1), wrap(q2), v1, v2))
+        obs = self._observe(q1, q2, v1, v2)
         if self._human:
             self._show()
         return (cos_sin(obs) if self._cos_sin else obs), self._info(values, False)  # no success
@@ -279,21 +314,26 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             if not (_MIN_VEL1 <= v1 <= MAX_VEL1 and _MIN_VEL2 <= v2 <= MAX_VEL2):  # or NaN
                 v1, v2 = qvel[0], qvel[1] = limit_velocities(v1, v2, _MAX_VEL)
         q1, q2 = self._qpos.tolist()
-        # False for NaN, infinities and runaway angles (MuJoCo's autoreset is off).
-        if not (_MIN_Q < q1 < MAX_ANGLE and _MIN_Q < q2 < MAX_ANGLE and v1 == v1 and v2 == v2):
-            self._raise_bad_state()
+        # Angles in [-pi, pi) and velocities within the limits (not NaN) are observed as they
+        # are; anything else takes the one rule (MuJoCo's autoreset is off).
+        if _MIN_PI <= q1 < _PI and _MIN_PI <= q2 < _PI and v1 == v1 and v2 == v2:
+            obs = np.array((q1, q2, v1, v2))
+        else:
+            obs = self._observe(q1, q2, v1, v2)
         reward, terminated, success, values = self._rule(q1, q2, v1, v2)
-        # Angles in [-pi, pi) are observed as they are (wrap's first case, inlined).
-        w1 = q1 if _MIN_PI <= q1 < _PI else wrap(q1)
-        w2 = q2 if _MIN_PI <= q2 < _PI else wrap(q2)
-        obs = np.array((w1, w2, v1, v2))
         if self._cos_sin:
             obs = cos_sin(obs)
         if self._human:
             self._show()
         return obs, reward, terminated, False, self._info(values, success)
 
-    def _raise_bad_state(self) -> None:
+    def _observe(self, q1: float, q2: float, v1: float, v2: float) -> np.ndarray:
+        obs = observation(q1, q2, v1, v2)
+        if obs is None:
+            self._raise_bad_state()
+        return obs
+
+    def _raise_bad_state(self) -> NoReturn:
         kinds = mujoco.mjtWarning
         reported = [
             f"{w.name.removeprefix('mjWARN_')} (last at index {self.data.warning[w].lastinfo})"

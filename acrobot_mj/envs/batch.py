@@ -14,7 +14,7 @@ from mujoco.batch import Batch
 
 from acrobot_mj.checks import check_int
 from acrobot_mj.compiled import available_threads, compiled, jitable, set_threads
-from acrobot_mj.envs.acrobot import HUGE, MAX_ANGLE
+from acrobot_mj.envs.acrobot import HUGE, MAX_ANGLE, sound
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics import xp
 from acrobot_mj.physics.dynamics import forward_dynamics
@@ -38,12 +38,12 @@ def limit_rows(qvel, lim1, lim2) -> None:
 
 @jitable
 def observe_rows(qpos, qvel, obs, max_angle, huge) -> bool:
-    """Each row's observation (angles wrapped) into ``obs``; False if a row has an angle beyond
-    ``max_angle``, a velocity beyond ``huge`` or a NaN."""
+    """Each row's observation (angles wrapped) into ``obs``; False if a row is not
+    :func:`~acrobot_mj.envs.acrobot.sound` with limits ``max_angle`` and ``huge``."""
     ok = True
     for i in range(qpos.shape[0]):
         q1, q2, v1, v2 = qpos[i, 0], qpos[i, 1], qvel[i, 0], qvel[i, 1]
-        if not (abs(q1) < max_angle and abs(q2) < max_angle and abs(v1) < huge and abs(v2) < huge):
+        if not sound(q1, q2, v1, v2, max_angle, huge):
             ok = False
         obs[i, 0], obs[i, 1], obs[i, 2], obs[i, 3] = xp.wrap(q1), xp.wrap(q2), v1, v2
     return ok
@@ -54,9 +54,9 @@ def observe(qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
     obs = np.empty((len(qpos), 4))
     if compiled(observe_rows)(qpos, qvel, obs, MAX_ANGLE, HUGE):
         return obs
-    bad = ~((np.abs(qpos) < MAX_ANGLE).all(1) & (np.abs(qvel) < HUGE).all(1))
+    bad = [i for i, row in enumerate(np.concatenate((qpos, qvel), 1)) if not sound(*row)]
     raise RuntimeError(
-        f"sub-envs {np.flatnonzero(bad).tolist()} reached a non-finite state or angles "
+        f"sub-envs {bad} reached a non-finite state or angles "
         f"beyond +-{MAX_ANGLE:g} rad; reset them before stepping again"
     )
 

@@ -17,7 +17,7 @@ from acrobot_mj.control.feedback import Feedback
 from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.disturbances import Perturbation, scale_links
-from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode
+from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
 
@@ -75,7 +75,7 @@ class BalanceActor:
 
 def assess_from_rest(env: gym.Env, actor: BalanceActor, seed: int) -> dict[str, Any]:
     """The task's assessment of ``actor``'s episode on ``env`` from rest (no start noise)."""
-    run_episode(env, actor, seed, {"start_noise": 0.0})
+    run_from_rest(env, actor, seed)
     acrobot = acrobot_of(env)
     return acrobot.task.assess(np.array(actor.states), acrobot.dt)
 

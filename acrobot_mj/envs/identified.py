@@ -11,19 +11,15 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.compiled import compiled
-from acrobot_mj.envs.acrobot import MAX_ANGLE
+from acrobot_mj.envs.acrobot import MAX_ANGLE, observation, start_state
 from acrobot_mj.envs.spaces import (
-    RESET_OPTIONS,
     action_space,
     action_torque,
     observation_space,
-    reset_noise,
-    reset_state,
 )
 from acrobot_mj.envs.tasks import Task
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.integrators import Stepping, method_code, step_one
-from acrobot_mj.physics.xp import wrap
 
 
 class IdentifiedEnv(gym.Env[np.ndarray, Any]):
@@ -64,12 +60,7 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        start = reset_state(options)
-        noise = reset_noise(options, self.task.start_noise, known=RESET_OPTIONS)
-        x = HANGING.copy() if start is None else start
-        if start is None and (offsets := self.task.start_offsets(self.np_random, noise)):
-            x[:2] += offsets[0]
-            x[2:] += offsets[1]
+        x = start_state(self.task, HANGING, self.np_random, options)[0]
         self._x, self._t = tuple(x.tolist()), 0
         values = self._rule(*self._x)[3]
         return self._observe(), self._info(values, False)
@@ -83,12 +74,10 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
         return obs, float(reward), bool(terminated), truncated, self._info(values, success)
 
     def _observe(self) -> np.ndarray:
-        q1, q2, v1, v2 = self._x
-        # As the MuJoCo env: a bad state raises instead of reaching the learner.
-        inside = -MAX_ANGLE < q1 < MAX_ANGLE and -MAX_ANGLE < q2 < MAX_ANGLE
-        if not (inside and v1 == v1 and v2 == v2):
+        obs = observation(*self._x)
+        if obs is None:  # as the MuJoCo env: a bad state raises instead of reaching the learner
             raise RuntimeError(
                 f"the model reached a non-finite state or angles beyond +-{MAX_ANGLE:g} rad: "
-                f"{[q1, q2, v1, v2]}; call reset() before stepping again"
+                f"{list(self._x)}; call reset() before stepping again"
             )
-        return np.array((wrap(q1), wrap(q2), v1, v2))
+        return obs

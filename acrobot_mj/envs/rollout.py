@@ -118,3 +118,13 @@ def run_episode(
         if terminated or truncated:
             success = bool(info.get("is_success", terminated))
             return Episode(length, float(total), success, bool(env_truncated), info)
+
+
+#: The reset options of an episode from rest: the task's start, without start noise.
+FROM_REST = {"start_noise": 0.0}
+
+
+def run_from_rest(env: gym.Env, actor: Actor, seed: int | None = None, **hooks: Any) -> Episode:
+    """:func:`run_episode` of ``actor`` on ``env`` from rest (:data:`FROM_REST`): the greedy
+    episode a run records, assesses and evaluates from rest."""
+    return run_episode(env, actor, seed, dict(FROM_REST), **hooks)

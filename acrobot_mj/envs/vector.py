@@ -11,12 +11,13 @@ from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from acrobot_mj.checks import check_int, check_memory
-from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions, check_copy
+from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions, check_copy, drawn_start
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
 from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
 
@@ -111,7 +112,7 @@ class AcrobotVectorEnv(VectorEnv):
         self._nthread = None if nthread is None else check_int("nthread", nthread, 0)
         self._build_batch()
         start = self.model.key(self.task.start_keyframe)
-        self._start_qpos, self._start_qvel = start.qpos.copy(), start.qvel.copy()
+        self._rest = np.concatenate((start.qpos, start.qvel))  # the task's start, at rest
         self.single_action_space = self._template.action_space
         self.single_observation_space = self._template.observation_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -123,6 +124,8 @@ class AcrobotVectorEnv(VectorEnv):
         self._next_step = mode == AutoresetMode.NEXT_STEP
         self._same_step = mode == AutoresetMode.SAME_STEP
         self._pending = np.zeros(self.num_envs, dtype=bool)  # reset at the next step
+        # step refuses to run before every sub-env's first reset, as a single env's does.
+        self._never_reset, self._was_reset = np.ones(self.num_envs, dtype=bool), False
         self._rngs, self._rng_seeds = map(
             list, zip(*(seeding.np_random() for _ in range(self.num_envs)), strict=True)
         )
@@ -143,20 +146,18 @@ class AcrobotVectorEnv(VectorEnv):
         check_copy("AcrobotVectorEnv", state, ("backend", "_same_step", "_cos_sin"))
         state = dict(state)
         rows = state.pop("batch_state")
+        state.setdefault("_was_reset", True)  # pickled by 0.4.0, whose step checked no reset
+        state.setdefault("_never_reset", np.zeros(state["num_envs"], dtype=bool))
         self.__dict__.update(state)
         self._build_batch()
         self.physics.restore(rows)
 
     def _reset_envs(self, mask: np.ndarray, noise: float) -> None:
         ids = np.flatnonzero(mask)
-        self._qpos[ids] = self._start_qpos
-        self._qvel[ids] = self._start_qvel
         self._ctrl[ids] = 0.0
         for i in ids:  # the single env's draws
-            offsets = self.task.start_offsets(self._rngs[i], noise)
-            if offsets is not None:
-                self._qpos[i] += offsets[0]
-                self._qvel[i] += offsets[1]
+            start = drawn_start(self.task, self._rest, self._rngs[i], noise)
+            self._qpos[i], self._qvel[i] = start[:2], start[2:]
         self._began[ids] = self._steps
         self._first = int(self._began.min())  # the oldest episode's start
         self._pending[ids] = False
@@ -179,6 +180,8 @@ class AcrobotVectorEnv(VectorEnv):
                 if s is not None:
                     self._rngs[i], self._rng_seeds[i] = seeding.np_random(s)
         self._reset_envs(mask, noise)
+        self._never_reset &= ~mask
+        self._was_reset = not self._never_reset.any()
         obs = self._observe()  # raises on a bad state
         _, _, info = self.task.outcomes(*self.physics.columns)
         info["is_success"] = np.zeros(self.num_envs, dtype=bool)  # a reset is no success
@@ -198,6 +201,11 @@ class AcrobotVectorEnv(VectorEnv):
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if not self._was_reset:
+            never = np.flatnonzero(self._never_reset).tolist()
+            raise ResetNeeded(
+                f"Cannot call env.step() before calling env.reset() (sub-envs {never} never were)"
+            )
         physics = self.physics
         write_torques(actions, self._continuous, self._ctrl)  # raises, writing nothing
         physics.step(self._frame_skip)

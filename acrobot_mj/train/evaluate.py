@@ -14,7 +14,7 @@ import numpy as np
 
 from acrobot_mj.control.search import Beam, min_time_search
 from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_parameters
-from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode
+from acrobot_mj.envs.rollout import FROM_REST, Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import steps_in
@@ -98,7 +98,7 @@ def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored"
     env = episode_env(learner, protocol)
     disturbances, nominal = protocol.disturbances(), model_parameters(env)
     try:
-        rest = play(env, learner, 0, {"start_noise": 0.0}, seed=learner.seed)
+        rest = play(env, learner, 0, dict(FROM_REST), seed=learner.seed)
         starts = protocol.starts(np.array(rest["start_state"]))
         episodes = []
         for k, start in enumerate(starts):
@@ -217,7 +217,7 @@ def render_run(
             learner.actor(env, 0),
             out,
             settings,
-            reset_options={"start_noise": 0.0},
+            reset_options=dict(FROM_REST),
             hooks=Hooks(keep, keep),
         )
         record.update(
@@ -235,7 +235,7 @@ def watch_run(run_dir: str | Path, settings: RenderSettings = _RENDER) -> dict[s
     with run_lock(run_dir, "render"):
         learner = load_learner(run_dir)
     env = learner.env(render_mode="human", camera=settings.camera)
-    return watch(env, learner.actor(env, 0), settings, {"start_noise": 0.0})
+    return watch(env, learner.actor(env, 0), settings, dict(FROM_REST))
 
 
 def env_settings(env: gym.Env) -> dict[str, Any] | None:

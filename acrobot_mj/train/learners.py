@@ -18,7 +18,7 @@ import numpy as np
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
 from acrobot_mj.envs.disturbances import Disturbances
-from acrobot_mj.envs.rollout import Actor, Episode, run_episode
+from acrobot_mj.envs.rollout import Actor, Episode, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
 from acrobot_mj.files import versions, write_json
@@ -250,7 +250,7 @@ def check_spaces(env: gym.Env) -> None:
 
 def greedy_from_rest(env: gym.Env, agent: Agent, run_seed: int) -> Episode:
     """The greedy episode from rest that a run records."""
-    return run_episode(env, Greedy(agent, tie_stream(run_seed)), run_seed, {"start_noise": 0.0})
+    return run_from_rest(env, Greedy(agent, tie_stream(run_seed)), run_seed)
 
 
 class AgentLearner(Learner):
