@@ -24,7 +24,7 @@ import mujoco
 from acrobot_mj.envs import gl as render
 from acrobot_mj.envs.assets import model_path
 
-BACKENDS = ("egl", "osmesa")
+GL_BACKENDS = ("egl", "osmesa")
 W, H = 240, 240
 
 # Renders the two keyframes with env.render() and writes a 40-step pump-policy video, both
@@ -57,7 +57,7 @@ def run_python(code: str, cwd, **env_vars) -> subprocess.CompletedProcess:
     )
 
 
-@pytest.fixture(scope="module", params=BACKENDS)
+@pytest.fixture(scope="module", params=GL_BACKENDS)
 def rendered(request, tmp_path_factory):
     folder = tmp_path_factory.mktemp(request.param)
     result = run_python(PROBE, folder, MUJOCO_GL=request.param)

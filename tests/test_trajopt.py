@@ -56,7 +56,7 @@ def test_bad_optimisation_requests_are_refused(call, message) -> None:
 def test_the_warm_start_from_rest_is_the_same_every_time() -> None:
     from acrobot_mj.control.trajopt import Optimiser
 
-    (states, torques), (again, _) = Optimiser().rest(200), Optimiser(0.8).rest(200)
+    (states, torques), (again, _) = Optimiser().tiny_torques(200), Optimiser(0.8).tiny_torques(200)
     # Drawn from the horizon alone, whatever the bound; 0.01 N m: a few tenths of a degree.
     assert np.array_equal(states, again) and np.abs(torques).max() < 0.05
     assert 1e-4 < np.abs(states[:, :2] - states[0, :2]).max() < 0.02

@@ -294,7 +294,7 @@ class Optimiser:
                 return found
         return None
 
-    def rest(self, horizon: int) -> Arrays:
+    def tiny_torques(self, horizon: int) -> Arrays:
         """A rollout from ``start`` of ``horizon`` steps of torques ``N(0, 0.01^2)`` N m, drawn from
         the horizon alone, on the model: almost at rest, a warm start that commits to no way of
         swinging."""
@@ -309,7 +309,7 @@ class Optimiser:
     def candidates(self, horizon: int, target: np.ndarray, starts: str = "rest") -> list[Arrays]:
         """The exact and shortened trajectories from the ``starts`` rollout (``"rest"`` or
         ``"pumping"``) of ``horizon`` steps."""
-        warm = self.rest(horizon) if starts == "rest" else self.pumping(horizon)
+        warm = self.tiny_torques(horizon) if starts == "rest" else self.pumping(horizon)
         near, exact = self.approach(target, warm)
         if near is None:
             return []

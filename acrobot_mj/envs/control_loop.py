@@ -19,9 +19,7 @@ from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.disturbances import Perturbation, scale_links
 from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.physics.integrators import steps_in
-
-INTEGRATOR_OF = {"semi_implicit_euler": "euler", "rk4": "rk4"}
+from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
 
 
 class BalanceActor:
@@ -88,7 +86,7 @@ def balance_env(trajectory: Trajectory, discrete: bool, hold: float, **kwargs: A
     return gym.make(
         Balance.env_id,
         continuous=not discrete,
-        integrator=INTEGRATOR_OF[trajectory.method],
+        integrator={m: e for e, m in ENV_INTEGRATORS.items()}[trajectory.method],
         **kwargs,
     )
 

@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
-BACKENDS = ("egl", "osmesa")
+GL_BACKENDS = ("egl", "osmesa")
 INSTALL_HINTS = {
     "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri, Mesa's software EGL, or a GPU "
     "driver with EGL",
@@ -127,8 +127,9 @@ def user_problem(value: str) -> str | None:
     name = value.strip().lower()
     if name in NO_GL or name in WINDOWED:
         return None
-    if name not in BACKENDS or platform.system() != "Linux":
-        return f"MUJOCO_GL={value!r} is not a backend MuJoCo knows (headless: {list(BACKENDS)})"
+    if name not in GL_BACKENDS or platform.system() != "Linux":
+        known = list(GL_BACKENDS)
+        return f"MUJOCO_GL={value!r} is not a backend MuJoCo knows (headless: {known})"
     reason = PROBES[name]() if name in PROBES else None
     return None if reason is None else f"MUJOCO_GL={value} cannot work here: {reason}"
 
@@ -144,7 +145,7 @@ def configure_gl() -> str | None:
         PROBLEM = inherited or user_problem(user)
         if PROBLEM is None:
             CHOICE = "user"
-            if user.lower() not in BACKENDS and "mujoco" not in sys.modules:
+            if user.lower() not in GL_BACKENDS and "mujoco" not in sys.modules:
                 # For rendering's error; probed now: after MuJoCo opens EGL a probe would
                 # close its display.
                 ATTEMPTS.update(probe_all())
@@ -171,7 +172,7 @@ def backend_error(attempts: dict[str, str | None], detail: str = "") -> GLBacken
     """Why there is no headless backend: what was asked, each backend tried and why it failed
     (with what to install), and what to set instead."""
     parts = [f"no headless OpenGL backend for MuJoCo{': ' + detail if detail else ''}"]
-    tried = [name for name in BACKENDS if name in attempts]
+    tried = [name for name in GL_BACKENDS if name in attempts]
     for name in tried:
         hint = f" (to install: {INSTALL_HINTS[name]})" if attempts[name] else ""
         parts.append(f"tried {name}: {attempts[name] or 'works'}{hint}")
@@ -271,7 +272,7 @@ def make_renderer(model, width: int, height: int):
             renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as error:
             attempts = dict(ATTEMPTS)
-            if backend in BACKENDS:
+            if backend in GL_BACKENDS:
                 attempts[backend] = f"{backend} failed to create a context: {error!r}"
             first = f" ({said[0].message})" if said else ""
             raise backend_error(attempts, f"MUJOCO_GL={backend} does not work{first}") from error

@@ -26,7 +26,7 @@ if sys.version_info >= (3, 11):
 else:
     from typing_extensions import Unpack
 
-BACKENDS: dict[str, type[BatchPhysics | AnalyticPhysics]] = {
+PHYSICS_BACKENDS: dict[str, type[BatchPhysics | AnalyticPhysics]] = {
     "mujoco": BatchPhysics,
     "analytic": AnalyticPhysics,
 }
@@ -53,7 +53,7 @@ SHARED = (
     "observation_space",
 )
 #: The sub-env methods call runs on every sub-env.
-METHODS = ("set_state", "render")
+SUB_ENV_METHODS = ("set_state", "render")
 
 
 class AcrobotVectorEnv(VectorEnv):
@@ -84,8 +84,8 @@ class AcrobotVectorEnv(VectorEnv):
         backend: str = "mujoco",
         **env_kwargs: Unpack[EnvOptions],
     ) -> None:
-        if not isinstance(backend, str) or backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+        if not isinstance(backend, str) or backend not in PHYSICS_BACKENDS:
+            raise ValueError(f"backend must be one of {list(PHYSICS_BACKENDS)}, got {backend!r}")
         self.backend = backend
         self.num_envs = check_int("num_envs", num_envs, 1)
         # Each sub-env's MuJoCo state and rows (about 8 KB; mujoco.batch said std::bad_alloc).
@@ -133,7 +133,9 @@ class AcrobotVectorEnv(VectorEnv):
 
     def _build_batch(self) -> None:  # also on unpickling
         #: The backend's physics stepping the sub-envs.
-        self.physics = physics = BACKENDS[self.backend](self.model, self.num_envs, self._nthread)
+        self.physics = physics = PHYSICS_BACKENDS[self.backend](
+            self.model, self.num_envs, self._nthread
+        )
         self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
         self._qpos, self._qvel, self._ctrl = physics.qpos, physics.qvel, physics.ctrl
 
@@ -307,7 +309,8 @@ class AcrobotVectorEnv(VectorEnv):
             return (getattr(self._template, name),) * self.num_envs
         raise AttributeError(
             f"AcrobotVectorEnv's sub-envs have no attribute {name!r}; per sub-env: "
-            f"{list(PER_ENV)}, shared by all: {list(SHARED)}, methods (call): {list(METHODS)}"
+            f"{list(PER_ENV)}, shared by all: {list(SHARED)}, "
+            f"methods (call): {list(SUB_ENV_METHODS)}"
         )
 
     def set_attr(self, name: str, values: Any) -> None:
@@ -335,7 +338,7 @@ class AcrobotVectorEnv(VectorEnv):
         self._rngs, self._rng_seeds = list(values), [-1] * self.num_envs
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
-        """Run :data:`METHODS` ``name`` on every sub-env, or return attribute ``name``."""
+        """Run :data:`SUB_ENV_METHODS` ``name`` on every sub-env, or return attribute ``name``."""
         if name == "set_state":
             self._template.set_state(*args, **kwargs)  # validates
             self._qpos[...] = self._template.data.qpos

@@ -20,6 +20,8 @@ from acrobot_mj.physics.xp import ARRAY
 #: By the code :func:`step` takes: ``dq += dt ddq`` then ``q += dt dq`` (MuJoCo's Euler, the
 #: envs'); classical RK4; ``q += dt dq`` with ``dq += dt ddq`` (the report's, gaining energy).
 METHODS = ("semi_implicit_euler", "rk4", "explicit_euler")
+#: The envs' ``integrator`` names (MuJoCo's) and the methods they are.
+ENV_INTEGRATORS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 #: No velocity limits.
 UNLIMITED = (math.inf, math.inf)
 

@@ -146,13 +146,13 @@ def swing_up(
 ) -> Trajectory:
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
     from ``start``, over the config's horizons, each warm-started from the model's rollout of
-    tiny random actions (:meth:`~acrobot_mj.control.trajopt.Optimiser.rest`)."""
+    tiny random actions (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`)."""
     optimiser = Optimiser(
         config.reserve * limits.max_torque, "learned", limits, model, tuple(float(v) for v in start)
     )
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
     for horizon in range(*config.horizons):
-        warm = optimiser.rest(horizon)
+        warm = optimiser.tiny_torques(horizon)
         for target in goals:
             found = optimiser.approach(target, warm)[1]
             if found is not None:

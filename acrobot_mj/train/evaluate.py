@@ -17,7 +17,7 @@ from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_par
 from acrobot_mj.envs.rollout import FROM_REST, Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
-from acrobot_mj.physics.integrators import steps_in
+from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.learners import PERTURB, PUSHES, HeldOut, Learner
 from acrobot_mj.train.lock import RunLock
@@ -27,7 +27,6 @@ from acrobot_mj.train.trainer import load_learner
 MINIMA = ("stored", "compute", "none")
 STORED = Path(__file__).with_name("heldout_minima.json")
 #: The analytic model's integrator for each of the env's.
-METHODS = {"euler": "semi_implicit_euler", "rk4": "rk4"}
 _RENDER = RenderSettings()
 #: What eval.json lists per held-out episode besides the results (pushes and parameters where
 #: the protocol pushes or perturbs).
@@ -265,7 +264,7 @@ def compute_minima(
         min_time_search(
             frame_skip=settings["frame_skip"],
             beam=Beam(width),
-            method=METHODS[settings["integrator"]],
+            method=ENV_INTEGRATORS[settings["integrator"]],
             max_decisions=max_decisions,
             goal_height=settings["goal_height"],
             start=start,
