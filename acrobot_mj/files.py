@@ -92,16 +92,16 @@ def write_json(path: str | Path, data: Any) -> Path:
 def sealed(record: dict[str, Any]) -> dict[str, Any]:
     """``record`` with ``sha256``: the digest of the rest, as canonical JSON (see
     :func:`is_sealed`)."""
-    return {**record, "sha256": _digest(record)}
+    return {**record, "sha256": _record_digest(record)}
 
 
 def is_sealed(record: Any) -> bool:
     """Whether ``record`` is as :func:`sealed` made it: not edited since, by hand or otherwise."""
     if not isinstance(record, dict) or not isinstance(record.get("sha256"), str):
         return False
-    return record["sha256"] == _digest({k: v for k, v in record.items() if k != "sha256"})
+    return record["sha256"] == _record_digest({k: v for k, v in record.items() if k != "sha256"})
 
 
-def _digest(record: dict[str, Any]) -> str:
+def _record_digest(record: dict[str, Any]) -> str:
     text = json.dumps(record, sort_keys=True, allow_nan=False, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()

@@ -130,7 +130,7 @@ def robustness(
     return rows
 
 
-def table(rows: list[dict[str, Any]]) -> str:
+def robustness_table(rows: list[dict[str, Any]]) -> str:
     """The rows as a Markdown table."""
     lines = [
         "| case | trajectory | torques | balanced | hold [s] | largest error in the hold [rad] |",

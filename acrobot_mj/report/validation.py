@@ -17,7 +17,7 @@ from acrobot_mj.envs.control_loop import closed_loop
 from acrobot_mj.files import write_json, write_text
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.params import REPORT
-from acrobot_mj.report.balance_run import CASES, robustness, table
+from acrobot_mj.report.balance_run import CASES, robustness, robustness_table
 from acrobot_mj.report.crosscheck import COMPARED, cross_check, integrator_study, linearisation
 from acrobot_mj.report.plots import Labels, Series, line_plot
 from acrobot_mj.report.references import controllers, minimum_time
@@ -225,5 +225,5 @@ def markdown(report: dict[str, Any]) -> str:
         + "".join(f"## {title}\n\n![{title}]({figure})\n\n" for figure, title in titles.items())
         + "## Swing-up and balance: robustness\n\n"
         f"Closed loops in MuJoCo ({balance['min_time_note']}). {balance['bounds_mean']}.\n\n"
-        + table(balance["robustness"])
+        + robustness_table(balance["robustness"])
     )

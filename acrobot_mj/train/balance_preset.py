@@ -28,7 +28,7 @@ from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
 
 
-def discrete_torques() -> bool:
+def discrete_setting() -> bool:
     """The ``discrete`` setting of a controller: {-1, 0, +1} N m torques or continuous ones."""
     return setting(False, "{-1, 0, +1} N m torques (sigma-delta), not continuous")
 
@@ -52,7 +52,7 @@ class PlanConfig:
         high=1.0,
         metavar="U",
     )
-    discrete: bool = discrete_torques()
+    discrete: bool = discrete_setting()
     horizons: tuple[int, int, int] | None = setting(
         None, "start horizons of the search, START:STOP:STEP", "physics steps", low=1, sep=":"
     )

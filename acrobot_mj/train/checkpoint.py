@@ -37,7 +37,7 @@ class CheckpointError(ValueError):
     """A checkpoint file that cannot be used, and why."""
 
 
-def _digest(arrays: dict[str, np.ndarray]) -> str:
+def _array_digest(arrays: dict[str, np.ndarray]) -> str:
     """SHA-256 over every array's name, dtype, shape and bytes, in name order."""
     sha = hashlib.sha256()
     for name in sorted(arrays):
@@ -60,7 +60,7 @@ def save_checkpoint(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[
         "version": np.array(VERSION),
         "meta": np.array(json.dumps(meta, sort_keys=True)),
     }
-    payload["sha256"] = np.array(_digest(payload))
+    payload["sha256"] = np.array(_array_digest(payload))
     return write_atomic(path, lambda f: np.savez(f, **payload))
 
 
@@ -114,7 +114,7 @@ def load_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
             f"this acrobot_mj reads version {VERSION}"
         )
     stored = str(data.pop("sha256"))
-    if _digest(data) != stored:
+    if _array_digest(data) != stored:
         raise CheckpointError(f"{path} fails its checksum: the file was modified or damaged")
     try:
         meta = json.loads(str(data["meta"]))

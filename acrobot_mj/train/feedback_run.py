@@ -20,7 +20,7 @@ from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.settings import check, from_dict, setting, to_dict
-from acrobot_mj.train.balance_preset import discrete_torques
+from acrobot_mj.train.balance_preset import discrete_setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
@@ -38,7 +38,7 @@ class FeedbackConfig:
     seconds of each episode, and whether it identifies the model and replans in each episode
     (:class:`~acrobot_mj.control.feedback.AdaptiveFunnel`)."""
 
-    discrete: bool = discrete_torques()
+    discrete: bool = discrete_setting()
     reserve: float = setting(
         0.8, "torque bound of the shipped swing-up it follows", "N m", choices=tuple(SWING_UPS)
     )

@@ -8,7 +8,7 @@ from acrobot_mj.train.black_box import BlackBoxConfig
 from acrobot_mj.train.config import TrainConfig
 
 # The report: tabular SARSA on the 5x5x3x3 grid, 0.05 s decisions, 200 episodes.
-_REPORT = TrainConfig()
+_REPORT_CONFIG = TrainConfig()
 # Sutton and Barto's acrobot: Sarsa(lambda), 48 tilings, alpha 0.2/48, lambda 0.9, epsilon 0,
 # a decision every 0.2 s, 500 episodes, and -1 on every step, the last included (the report's
 # +100 leaves the zero weights not optimistic near the goal, and exploration dies there).
@@ -44,7 +44,7 @@ _TUNED = _MODEL_FREE.replace(
     checkpoint_every=250,
 )
 PRESETS: dict[str, TrainConfig | PlanConfig | BlackBoxConfig] = {
-    "report": _REPORT,
+    "report": _REPORT_CONFIG,
     "book": _BOOK,
     "tuned": _TUNED,
     "model_free": _MODEL_FREE,
