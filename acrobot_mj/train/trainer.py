@@ -70,7 +70,7 @@ def train(
     (one holding another run is refused unless ``options.overwrite``; ``options.resume``
     continues from its checkpoints exactly). ``env``: any env with ``Discrete(3)`` actions and
     ``(q1, q2, dq1, dq2)`` observations (default: the config's). ``options``: the
-    :class:`~acrobot_mj.train.learners.RunOptions` of one run (no ``jobs`` or ``lockstep``)."""
+    :class:`~acrobot_mj.train.run.RunOptions` of one run (no ``jobs`` or ``lockstep``)."""
     options.only("one run", "resume", "overwrite", "progress", "tensorboard", "on_episode")
     learner = learner_for(config, seed, env)
     if type(config) in BUILT and options.resume:
