@@ -98,13 +98,13 @@ def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored"
     env = episode_env(learner, protocol)
     disturbances, nominal = protocol.disturbances(), model_parameters(env)
     try:
+        kicks = disturbances.push_steps(env.physics_steps, env.frame_skip, env.physics_dt)
         rest = play(env, learner, 0, {"start_noise": 0.0}, seed=learner.seed)
         starts = protocol.starts(np.array(rest["start_state"]))
         episodes = []
         for k, start in enumerate(starts):
             parameters = disturbances.perturbed(nominal, protocol.stream(PERTURB, k))
             set_model_parameters(env, parameters)
-            kicks = disturbances.push_steps(env.physics_steps, env.frame_skip, env.physics_dt)
             env.begin(kicks, disturbances.push_size, protocol.stream(PUSHES, k))
             episode = play(env, learner, k + 1, {"state": start})
             episode["parameters"] = parameters
@@ -151,9 +151,14 @@ def episode_env(learner: Learner, protocol: HeldOut) -> Pushed:
     where it pushes."""
     env = learner.env()
     if protocol.seconds is not None:
-        decisions = steps_in(protocol.seconds, acrobot_of(env).dt)
+        dt = acrobot_of(env).dt
         env.close()
-        env = learner.env(max_episode_steps=decisions)
+        if protocol.seconds < dt * (1.0 - 1e-9):  # steps_in's tolerance
+            raise ValueError(
+                f"seconds must be at least one decision of this run ({dt:g} s), "
+                f"got {protocol.seconds:g}"
+            )
+        env = learner.env(max_episode_steps=steps_in(protocol.seconds, dt))
     return Pushed(env)
 
 
