@@ -3,8 +3,13 @@ clear line or an exact result, nothing silently dropped, nothing written where r
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -99,3 +104,147 @@ def test_a_push_every_decision_pushes_every_decision(feedback_run, exits, capsys
     assert [k for k, *_ in record["pushes"][0]] == list(range(1, 40))  # 40 decisions, not at 0
     assert np.all(np.abs(np.array(record["pushes"][0])[:, 1:]) <= 0.5)
     os.remove(feedback_run / EVAL_FILE)
+
+
+# -- balance: outputs checked before any work, runs replaced on purpose -----------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@contextlib.contextmanager
+def held_by_another(directory: Path, command: str = "evaluate"):
+    """``directory``'s lock held by another live process while the block runs."""
+    code = (
+        "import sys, time; from acrobot_mj.train.lock import RunLock\n"
+        f"with RunLock({str(directory)!r}, {command!r}):\n"
+        "    print('held', flush=True); time.sleep(60)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("ACROBOT_MJ_LOCK_OWNERS", None)
+    child = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        assert child.stdout is not None and child.stdout.readline() == "held\n"
+        yield child.pid
+    finally:
+        child.kill()
+        child.communicate(timeout=30)
+
+
+@pytest.mark.parametrize("feedback", [[], ["--feedback"]])
+@pytest.mark.parametrize(
+    ("out", "says"),
+    [
+        ("", "argument --out: must name a path, got ''"),
+        (" ", "argument --out: must name a path"),
+        ("/dev/null", "--out /dev/null: /dev/null exists and is not a folder"),
+        ("/dev/null/b", "--out /dev/null/b: /dev/null exists and is not a folder"),
+    ],
+)
+def test_balance_refuses_an_output_that_cannot_be_a_folder(
+    feedback, out, says, tmp_path, exits, capsys
+) -> None:
+    os.chdir(tmp_path)
+    assert exits(["balance", *feedback, "--no-video", "--out", out]) == 2
+    assert says in one_line(capsys)
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize("feedback", [[], ["--feedback"]])
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["--width", "100000"], "width must be in [1, "),
+        (["--width", "101"], "an MP4's width and height must be even, got 101 x 480"),
+        (["--height", "99999"], "height must be in [1, "),
+    ],
+)
+def test_balance_refuses_a_video_it_cannot_write_before_any_work(
+    feedback, argv, says, tmp_path, exits, capsys
+) -> None:
+    out = tmp_path / "b"
+    assert exits(["balance", *feedback, "--out", str(out), *argv]) == 2
+    assert says in one_line(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("hold", ["60", "5"])
+def test_feedback_takes_no_hold_not_even_the_default(hold, tmp_path, exits, capsys) -> None:
+    assert exits(["balance", "--feedback", "--hold", hold, "--out", str(tmp_path / "f")]) == 2
+    says = "for as long as an episode lasts (evaluate --seconds): give no --optimise or --hold"
+    assert says in one_line(capsys)
+    assert not (tmp_path / "f").exists()
+
+
+def test_a_feedback_run_is_replaced_only_with_force(tmp_path, exits, capsys) -> None:
+    out = tmp_path / "f"
+    argv = ["balance", "--feedback", "--no-video", "--out", str(out)]
+    assert exits(argv) == 0
+    before = (out / "run.json").read_bytes()
+    assert exits(argv) == 2
+    assert "already holds a run (run.json)" in one_line(capsys)
+    assert exits([*argv, "--force"]) == 0
+    assert json.loads((out / "run.json").read_bytes())["config"] == json.loads(before)["config"]
+    assert exits(["balance", "--force", "--no-video", "--out", str(tmp_path / "p")]) == 2
+    assert "--force is for --feedback" in one_line(capsys)
+
+
+def test_balance_never_writes_into_a_run(feedback_run, exits, capsys) -> None:
+    before = {p.name: p.read_bytes() for p in feedback_run.iterdir() if p.is_file()}
+    assert exits(["balance", "--no-video", "--hold", "1", "--out", str(feedback_run)]) == 2
+    assert "holds a run (run.json): balance writes its own folder" in one_line(capsys)
+    assert {p.name: p.read_bytes() for p in feedback_run.iterdir() if p.is_file()} == before
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["balance", "--no-video", "--hold", "1"],
+        ["balance", "--hold", "1", "--width", "64", "--height", "64"],
+        ["balance", "--feedback", "--no-video", "--force"],
+    ],
+)
+def test_balance_takes_the_lock_of_its_folder(argv, tmp_path, exits, capsys) -> None:
+    out = tmp_path / "b"
+    out.mkdir()
+    with held_by_another(out) as pid:
+        assert exits([*argv, "--out", str(out)]) == 2
+        assert f"is in use by pid {pid}" in one_line(capsys)
+    assert sorted(p.name for p in out.iterdir()) == [".lock"]
+
+
+def test_evaluate_of_a_run_being_created_names_its_owner(tmp_path, exits, capsys) -> None:
+    out = tmp_path / "new"
+    out.mkdir()
+    with held_by_another(out, "train") as pid:
+        assert exits(["evaluate", str(out)]) == 2
+        assert f"is in use by pid {pid}" in one_line(capsys)
+    assert exits(["evaluate", str(out)]) == 2  # nobody's: it holds no run
+    assert "holds no run" in one_line(capsys)
+
+
+@pytest.mark.slow
+def test_a_stop_while_the_feedback_video_renders_says_the_run_is_whole(tmp_path) -> None:
+    child = subprocess.Popen(
+        [sys.executable, "-m", "acrobot_mj_main", "balance", "--feedback", "--out", "f"],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "f" / "run.json").exists():
+        assert time.monotonic() < deadline and child.poll() is None
+        time.sleep(0.05)
+    time.sleep(1.0)  # rendering
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=30)
+    assert child.returncode == 130
+    assert err.strip().splitlines() == [
+        "acrobot-mj balance: interrupted while rendering the video; the run in f is whole: "
+        "evaluate or render it, or build it again with --force"
+    ]
+    assert not (tmp_path / "f" / "swing_up.mp4").exists()
+    assert not list((tmp_path / "f").glob(".*.tmp*"))  # no half-encoded video left

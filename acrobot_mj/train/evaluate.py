@@ -20,7 +20,7 @@ from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.learners import PERTURB, PUSHES, HeldOut, Learner
-from acrobot_mj.train.lock import RunLock
+from acrobot_mj.train.lock import RunLock, check_not_held
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
 
@@ -46,6 +46,8 @@ def run_lock(run_dir: str | Path, command: str) -> RunLock:
     if not str(run_dir).strip() or not any(
         (path / n).exists() for n in (RUN_FILE, CHECKPOINT_FILE)
     ):
+        if str(run_dir).strip():
+            check_not_held(path)  # a run being created: its owner named
         raise FileNotFoundError(
             f"{str(run_dir)!r} holds no run (no {RUN_FILE} or "
             f"{CHECKPOINT_FILE}): give a directory written by acrobot-mj "
