@@ -248,3 +248,65 @@ def test_a_stop_while_the_feedback_video_renders_says_the_run_is_whole(tmp_path)
     ]
     assert not (tmp_path / "f" / "swing_up.mp4").exists()
     assert not list((tmp_path / "f").glob(".*.tmp*"))  # no half-encoded video left
+
+
+# -- sizes and types ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("decisions", "says"),
+    [
+        ("100", "config decisions must be >= 900 with 4 harmonics (the fit's 810 library terms"),
+        ("899", "config decisions must be >= 900"),
+        ("99999999999", "the black box's fit of 99,999,999,999 decisions needs"),
+    ],
+)
+def test_black_box_sizes_are_refused_before_any_work(
+    decisions, says, tmp_path, exits, capsys
+) -> None:
+    out = tmp_path / "bb"
+    assert (
+        exits(["train", "--preset", "black_box", "--decisions", decisions, "--out", str(out)]) == 2
+    )
+    assert says in one_line(capsys)
+    assert not out.exists()
+
+
+def test_the_fewest_decisions_fit_the_library() -> None:
+    from acrobot_mj.control.library import LibraryModel
+    from acrobot_mj.train.black_box import fewest_decisions, fitted_share
+
+    for harmonics in (1, 4, 8):
+        least = fewest_decisions(harmonics)
+        n = fitted_share(least)
+        rng = np.random.default_rng(harmonics)
+        states = rng.uniform(-1.0, 1.0, (n, 4))
+        LibraryModel.fit(states, rng.uniform(-1.0, 1.0, n), states + 0.01, harmonics)
+        with pytest.raises(ValueError, match="cannot fit"):
+            k = fitted_share(least - 1)
+            LibraryModel.fit(states[:k], np.zeros(k), states[:k], harmonics)
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "says"),
+    [
+        ({"a": "x"}, TypeError, "A must be an array of real numbers, got 'x'"),
+        ({"b": [[1.0], ["y"], [0.0], [0.0]]}, TypeError, "b must be an array of real numbers"),
+        ({"directions": -5}, ValueError, "directions must be >= 2, got -5"),
+        ({"directions": 2.5}, TypeError, "directions must be an integer"),
+        ({"a": 0.5 * np.eye(4)}, ValueError, "needs A with exactly two unstable modes"),
+        ({"b": np.zeros(4)}, ValueError, "A must be (n, n) and b (n, 1), got (4, 4) and (4,)"),
+        ({"b": np.zeros((4, 1))}, ValueError, "b moves no unstable mode of A"),
+        ({"limit": 0.0}, ValueError, "limit must be > 0 N m, got 0"),
+        ({"limit": float("nan")}, ValueError, "limit must be finite"),
+        ({"a": np.full((4, 4), np.inf)}, ValueError, "A must be finite"),
+    ],
+)
+def test_null_region_refuses_bad_input_in_one_line(change, error, says) -> None:
+    from acrobot_mj.control.lqr import NullRegion, discrete_model
+
+    a, b = discrete_model()
+    given = {"a": a, "b": b, "limit": 1.0, "directions": 720, **change}
+    with pytest.raises(error) as refused:
+        NullRegion(**given)
+    assert says in str(refused.value) and "\n" not in str(refused.value)
