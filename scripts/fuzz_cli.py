@@ -91,7 +91,7 @@ def hand_written() -> list[Case]:
         ),
         Case("evaluate seconds 1e-9", [*ev, "--seconds", "1e-9"], "at least one decision"),
         Case("evaluate seconds negative", [*ev, "--seconds", "-1"], "in (0, 86400]"),
-        Case("evaluate seconds 0", [*ev, "--seconds", "0"], "in (0, 86400]"),
+        Case("evaluate seconds 0", [*ev, "--seconds", "0"], "seconds must be > 0"),
         Case("evaluate perturb 1", [*ev, "--perturb", "1"], "perturb"),
         Case(
             "evaluate start noise with uniform",
@@ -219,7 +219,7 @@ def hand_written() -> list[Case]:
                 "--height",
                 "32",
                 "--out",
-                "fb/eval.mp4",
+                "fb/run.mp4",
             ],
             "",
         ),

@@ -310,3 +310,8 @@ def test_null_region_refuses_bad_input_in_one_line(change, error, says) -> None:
     with pytest.raises(error) as refused:
         NullRegion(**given)
     assert says in str(refused.value) and "\n" not in str(refused.value)
+
+
+def test_evaluate_refuses_more_starts_than_memory_holds(feedback_run, exits, capsys) -> None:
+    assert exits(["evaluate", str(feedback_run), "--episodes", "99999999999"]) == 2
+    assert "99,999,999,999 held-out starts needs" in one_line(capsys)
