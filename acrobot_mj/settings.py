@@ -69,17 +69,19 @@ def _is_config(kind: Any) -> bool:
 
 
 def _bounds(meta: Mapping[str, Any], kind: Any) -> str:
-    """``>= 1``, ``in [0, 1]`` or ``> 0``: the closed bounds of a setting, in words."""
+    """``>= 1``, ``in [0, 1]`` or ``in (0, 86400]``: the bounds of a setting, in words (an open
+    end in a round bracket)."""
     low, high = meta.get("low"), meta.get("high")
+    low_open, high_open = meta.get("low_open", False), meta.get("high_open", False)
     if low is None and high is None:
         return ""
     if kind is int and high is None:
-        return f">= {low}"
+        return f"{'>' if low_open else '>='} {low}"
     if kind is int and low is None:
-        return f"<= {high}"
+        return f"{'<' if high_open else '<='} {high}"
     lo = -math.inf if low is None else low
     hi = math.inf if high is None else high
-    return f"in [{lo:g}, {hi:g}]"
+    return f"in {'(' if low_open else '['}{lo:g}, {hi:g}{')' if high_open else ']'}"
 
 
 def _requirement(meta: Mapping[str, Any], kind: Any) -> str:
@@ -345,12 +347,7 @@ def _range_text(f: dataclasses.Field, kind: Any) -> str:
         return ", ".join(_text(c) for c in meta["choices"])
     if typing.get_origin(kind) is tuple:
         return _sequence_words(meta, None if typing.get_args(kind)[-1] is Ellipsis else 3)
-    bounds = _bounds(meta, kind)
-    if meta.get("low_open") and bounds.startswith("in ["):
-        bounds = "in (" + bounds[4:]
-    if meta.get("high_open") and bounds.endswith("]"):
-        bounds = bounds[:-1] + ")"
-    return bounds
+    return _bounds(meta, kind)
 
 
 def table(cls: type) -> str:

@@ -70,7 +70,7 @@ def test_its_three_modes(controller) -> None:
     ("settings", "words"),
     [
         ({"upright": 0.0}, "upright must be > 0"),
-        ({"damping": -1.0}, r"damping must be in \[0, inf\], got -1"),
+        ({"damping": -1.0}, r"damping must be in \(0, inf\], got -1"),
         ({"entry": 300.0}, "entry .* must be at most track"),
         ({"track": float("inf")}, "track must be finite"),
         ({"horizon": -1}, "horizon must be a whole number of steps >= 0, got -1"),

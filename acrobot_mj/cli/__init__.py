@@ -11,7 +11,7 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from acrobot_mj.cli import evaluation, learning, tools
+from acrobot_mj.cli import balance, evaluation, learning, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.stops import clear_stop, raise_stop
 from acrobot_mj.train.checkpoint import CheckpointError
@@ -24,7 +24,7 @@ COMMANDS = (
     evaluation.add_evaluate,
     tools.add_render,
     tools.add_validate,
-    tools.add_balance,
+    balance.add_balance,
     learning.add_sweep,
     evaluation.add_curves,
     tools.add_bench,

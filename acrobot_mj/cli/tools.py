@@ -1,4 +1,4 @@
-"""``acrobot-mj render | validate | balance | bench | demo | params``, and what every command
+"""``acrobot-mj render | validate | bench | demo | params``, and what every command
 shares (argument types, the progress flag, writing a command's record)."""
 
 from __future__ import annotations
@@ -19,8 +19,6 @@ from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import check_regular, versions, write_json
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import RenderSettings, render_policy, watch_policy
-from acrobot_mj.settings import add_arguments
-from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.evaluate import render_run, watch_run
 from acrobot_mj.train.records import History, output_into
 
@@ -352,107 +350,3 @@ def add_params(commands: Commands) -> None:
         lambda args: print(describe()),
         "print the physical parameters, units and sources",
     )
-
-
-def add_balance(commands: Commands) -> None:
-    p = add_command(
-        commands,
-        "balance",
-        balance_command,
-        "swing up AND balance at upright with |tau| <= 1 N m, in MuJoCo",
-        "Follow a trajectory to upright at rest (shipped for --reserve 1 and 0.8, "
-        "optimised with CasADi otherwise) with TVLQR, then balance with the "
-        "constrained LQR; write balance.json (every step's torque and state) and a "
-        "video.",
-    )
-    p.add_argument(
-        "--feedback",
-        action="store_true",
-        help="build the state-feedback controller "
-        "(no clock: swings up from any start, again after a push) into a run "
-        "directory for evaluate and render",
-    )
-    p.add_argument(
-        "--adaptive",
-        action="store_true",
-        help="with --feedback: identify the "
-        "model from the first 3 s of each episode and replan the swing-up on it "
-        "(CasADi)",
-    )
-    add_arguments(p, PlanConfig, ("discrete", "reserve", "hold"))
-    p.add_argument(
-        "--out",
-        help="folder for balance.json and the video (default runs/balance; "
-        "with --feedback the run directory, default runs/feedback)",
-    )
-    p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
-    p.add_argument(
-        "--video",
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help="render an MP4 of the closed loop",
-    )
-    p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
-    p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
-    add_progress(p)
-
-
-def feedback_command(args: argparse.Namespace) -> dict[str, Any]:
-    """``balance --feedback``: the state-feedback run, and a video of it from rest."""
-    from acrobot_mj.train.feedback_run import FeedbackConfig
-    from acrobot_mj.train.trainer import train
-
-    if args.optimise or args.hold != PlanConfig.hold:
-        raise ValueError(
-            "--feedback follows a shipped swing-up for as long as an episode "
-            "lasts: give no --optimise or --hold"
-        )
-    out = Path(args.out or "runs/feedback")
-    config = FeedbackConfig(discrete=args.discrete, reserve=args.reserve, adaptive=args.adaptive)
-    record = train(config, seed=0, out_dir=out)
-    rest = record["greedy_from_rest"]
-    kind = ("{-1, 0, +1}" if args.discrete else "continuous") + " torques"
-    kind += ", adaptive" if args.adaptive else ""
-    held = (
-        f"balanced after {rest['first_balance_seconds']:g} s"
-        if rest["balanced_at_end"]
-        else "NOT balanced at the end"
-    )
-    words = (
-        f"state feedback built in {record['build_seconds']:.2f} s ({kind}, funnel "
-        f"of the {record['swing_up']} swing-up); from rest: {held} -> {out}"
-    )
-    if args.video:
-        settings = RenderSettings(args.width, args.height, strip=out / "swing_up.png")
-        words += f", {render_run(out, out / 'swing_up.mp4', settings)['video']}"
-    print(words)
-    return record
-
-
-def balance_command(args: argparse.Namespace) -> dict[str, Any]:
-    from acrobot_mj.report.balance_run import BalanceRun, run_balance
-
-    if args.feedback:
-        return feedback_command(args)
-    if args.adaptive:
-        raise ValueError("--adaptive is an option of --feedback")
-    out = Path(args.out or "runs/balance")
-    settings = BalanceRun(
-        args.discrete, args.reserve, args.hold, args.optimise, args.video, (args.width, args.height)
-    )
-    record = run_balance(out, settings, show_progress(args))
-    trajectory = record["trajectory"]
-    kind = "{-1, 0, +1}" if args.discrete else "continuous"
-    held = (
-        f"balanced for {record['hold_seconds']:.1f} s (largest error "
-        f"{record['max_error_during_hold']:.2g} rad)"
-        if record["balanced"]
-        else f"NOT balanced: held {record['hold_seconds']:.1f} s of {args.hold:g}"
-    )
-    print(
-        f"swing-up in {record['swing_up_seconds']:.2f} s along the {trajectory['source']} "
-        f"trajectory ({trajectory['steps']} steps, |u| <= {trajectory['u_max']:g} N m), "
-        f"{kind} torques; {held} -> {out / 'balance.json'}"
-        + (f", {record['video']}" if record["video"] else "")
-    )
-    return record

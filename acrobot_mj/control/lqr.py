@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
@@ -167,8 +168,22 @@ class NullRegion:
     directions: a bound no controller beats, up to the linearisation."""
 
     def __init__(self, a: np.ndarray, b: np.ndarray, limit: float, directions: int = 720):
+        a = _real_matrix("A", a)
+        b = _real_matrix("b", b)
+        if a.ndim != 2 or a.shape[0] != a.shape[1] or b.shape != (a.shape[0], 1):
+            raise ValueError(f"A must be (n, n) and b (n, 1), got {a.shape} and {b.shape}")
+        limit = check_float("limit", limit, 0.0)
+        directions = check_int("directions", directions, 2)
+        if limit == 0.0:
+            raise ValueError("limit must be > 0 N m, got 0")
         values, right = np.linalg.eig(a)
         unstable = np.flatnonzero(np.abs(values) > 1.0 + 1e-12)
+        real = np.abs(values[unstable].imag) <= 1e-12 * np.abs(values[unstable])
+        if len(unstable) != 2 or not np.all(real) or np.any(values[unstable].real < 0.0):
+            raise ValueError(
+                "NullRegion needs A with exactly two unstable modes, real and > 1 (the "
+                f"acrobot's at upright), got eigenvalues {np.round(values, 6).tolist()}"
+            )
         self.rows = np.linalg.inv(right)[unstable].real  # left eigenvectors of those modes
         growth, beta = values[unstable].real, (self.rows @ b)[:, 0] * limit
         steps = int(np.ceil(np.log(1e18) / np.log(growth.min())))  # until the terms vanish
@@ -177,6 +192,8 @@ class NullRegion:
         self.directions = np.stack([np.cos(angle), np.sin(angle)], axis=1)
         # The same for c and -c: the region is symmetric.
         self.support = np.abs(terms @ self.directions.T).sum(axis=0)
+        if not np.all(self.support > 0.0):
+            raise ValueError("b moves no unstable mode of A: the region is a point")
 
     def depth(self, offsets: np.ndarray) -> np.ndarray:
         """How far out each offset ``(..., 4)`` lies: 1 on the region's edge, below 1 inside."""
@@ -186,6 +203,22 @@ class NullRegion:
     def contains(self, offsets: np.ndarray) -> np.ndarray:
         """Is each offset ``(..., 4)`` inside the region?"""
         return self.depth(offsets) <= 1.0
+
+
+def _real_matrix(name: str, value: object) -> np.ndarray:
+    """``value`` as a float64 array, refused in one line unless it is one of finite numbers."""
+    refused = TypeError(
+        f"{name} must be an array of real numbers, got {' '.join(repr(value).split()):.40}"
+    )
+    if isinstance(value, (str, bytes)):
+        raise refused
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise refused from None
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite, got NaN or infinity in an array of {array.shape}")
+    return array
 
 
 def box_qp(h: np.ndarray, f: np.ndarray, limit: float) -> np.ndarray:

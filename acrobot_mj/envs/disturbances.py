@@ -6,8 +6,9 @@ recovers from them; and the replay of an episode's torques and pushes in MuJoCo.
 A push is added to the joint velocities just before physics step ``k`` (counted from 0), at the
 first decision boundary at or after each multiple of ``push_every`` seconds: the controller
 chose that decision's action before the push, as a kick that lands between sensing and acting.
-The record holds each push as drawn; one that would pass a velocity limit is clipped there, as
-every physics step is.
+So ``push_every`` is at least one decision, and at most an episode less one decision (a push
+must land within the episode): other periods are refused, not rounded. The record holds each
+push as drawn; one that would pass a velocity limit is clipped there, as every physics step is.
 """
 
 from __future__ import annotations
@@ -55,10 +56,24 @@ class Disturbances:
             raise ValueError("pushes need both push_every > 0 s and push_size > 0 rad/s")
 
     def push_steps(self, physics_steps: int, frame_skip: int, dt: float) -> list[int]:
-        """The physics steps [0, ``physics_steps``) before which a push lands."""
+        """The physics steps [0, ``physics_steps``) before which a push lands, one per multiple
+        of ``push_every``; refused where ``push_every`` is shorter than a decision
+        (``frame_skip`` steps of ``dt`` [s]) or no push lands within ``physics_steps``."""
         if self.push_every is None:
             return []
-        decision, steps, n = dt * frame_skip, [], 1
+        decision = dt * frame_skip
+        episode = physics_steps * dt
+        if self.push_every < decision * (1.0 - 1e-9):  # steps_in's tolerance: one push a decision
+            raise ValueError(
+                f"push_every must be at least one decision ({decision:g} s), got "
+                f"{self.push_every:g} s: a decision takes one push at most"
+            )
+        if steps_in(self.push_every, decision) * frame_skip >= physics_steps:
+            raise ValueError(
+                f"push_every {self.push_every:g} s lands no push within an episode of "
+                f"{episode:g} s: give a shorter period or longer episodes"
+            )
+        steps, n = [], 1
         while (k := steps_in(n * self.push_every, decision) * frame_skip) < physics_steps:
             steps.append(k)
             n += 1

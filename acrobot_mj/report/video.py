@@ -192,6 +192,17 @@ class RenderSettings:
         return {"width": self.width, "height": self.height, "camera": self.camera}
 
 
+def check_video(env: Any, path: Path, strip: str | Path | None) -> None:
+    """Refuse, before any frame, a video :func:`record_episode` cannot write: ``env`` not
+    ``rgb_array``, a frame of odd size, or files :func:`check_outputs` refuses."""
+    if env.render_mode != "rgb_array":
+        raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
+    size = (env.unwrapped.width, env.unwrapped.height)
+    if size[0] % 2 or size[1] % 2:  # H.264 in yuv420p: ffmpeg would resize the video silently
+        raise ValueError(f"an MP4's width and height must be even, got {size[0]} x {size[1]}")
+    check_outputs(path, strip)
+
+
 def record_episode(
     env: Any,
     actor: Actor,
@@ -204,13 +215,8 @@ def record_episode(
     """Write an episode of ``actor`` on ``env`` (``rgb_array``) as MP4 (and the strip); its
     record, which the caller completes and writes beside it (:func:`write_video_record`);
     ``hooks`` see the reset and each step, before its frame."""
-    if env.render_mode != "rgb_array":
-        raise ValueError(f"record_episode needs render_mode='rgb_array', got {env.render_mode!r}")
     path, strip = Path(path), settings.strip
-    size = (env.unwrapped.width, env.unwrapped.height)
-    if size[0] % 2 or size[1] % 2:  # H.264 in yuv420p: ffmpeg would resize the video silently
-        raise ValueError(f"an MP4's width and height must be even, got {size[0]} x {size[1]}")
-    check_outputs(path, strip)
+    check_video(env, path, strip)
     path.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata["render_fps"]
     limit = settings.max_steps or getattr(env.spec, "max_episode_steps", None)  # None: unknown

@@ -8,6 +8,7 @@ learnt model's state at rest of highest learnt reward, plans a swing-up to it on
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,8 +17,15 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
+from acrobot_mj.checks import check_memory
 from acrobot_mj.control.feedback import FunnelController
-from acrobot_mj.control.library import HARMONICS, THRESHOLD, LibraryModel, best_angles
+from acrobot_mj.control.library import (
+    HARMONICS,
+    THRESHOLD,
+    LibraryModel,
+    best_angles,
+    features,
+)
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
 from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
@@ -41,6 +49,8 @@ TOLD = (
 )
 #: Seed-tree branch of the exploration's draws.
 EXPLORATION_BRANCH = 0xB1AC
+#: Float64 arrays of the fit's design matrix's size that the fit holds at once (measured).
+FIT_COPIES = 3
 
 
 @dataclass(frozen=True)
@@ -50,7 +60,13 @@ class BlackBoxConfig:
     the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
     [decisions] and the seconds of each evaluation episode."""
 
-    decisions: int = setting(20_000, "decisions of random exploration", low=100, metavar="N")
+    decisions: int = setting(
+        20_000,
+        "decisions of random exploration (at least 10/9 of the library's terms: 900 with 4 "
+        "harmonics)",
+        low=100,
+        metavar="N",
+    )
     episode_decisions: int = setting(100, "decisions of each exploration episode", low=1, cli=False)
     harmonics: int = setting(
         HARMONICS, "Fourier harmonics of each angle in the library", low=1, high=8, cli=False
@@ -91,6 +107,41 @@ class BlackBoxConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> BlackBoxConfig:
         return from_dict(cls, data, "black-box")
+
+
+def library_terms(harmonics: int) -> int:
+    """How many terms the library of ``harmonics`` has (:func:`~acrobot_mj.control.library.
+    features`)."""
+    return len(features(np.zeros(4), 0.0, harmonics))
+
+
+def fitted_share(decisions: int) -> int:
+    """How many of ``decisions`` transitions the model is fitted on: all but the last tenth."""
+    return int(0.9 * decisions)
+
+
+def fewest_decisions(harmonics: int) -> int:
+    """The fewest decisions whose fitted share holds as many transitions as the library has
+    terms."""
+    terms = library_terms(harmonics)
+    least = math.ceil(terms / 0.9)
+    while fitted_share(least) < terms:
+        least += 1
+    return least
+
+
+def check_fit(config: BlackBoxConfig) -> None:
+    """Refuse, before any work, a fit that cannot be: fewer decisions than the library's terms
+    need, or more than free memory holds."""
+    terms, least = library_terms(config.harmonics), fewest_decisions(config.harmonics)
+    if config.decisions < least:
+        raise ValueError(
+            f"config decisions must be >= {least} with {config.harmonics} harmonics (the "
+            f"fit's {terms} library terms need as many transitions besides the held-out "
+            f"tenth), got {config.decisions}"
+        )
+    size = FIT_COPIES * 8.0 * terms * config.decisions
+    check_memory(f"the black box's fit of {config.decisions:,} decisions", size)
 
 
 def black_box_env(**kwargs: Any) -> gym.Env:
@@ -181,6 +232,8 @@ class BlackBoxLearner(Learner):
         self.trajectory: Trajectory | None = None
         if built is not None:
             self.model, self.trajectory = built
+        else:
+            check_fit(config)
         self.controller = None if built is None else self._controller()
 
     def _controller(self) -> FunnelController:
@@ -196,7 +249,7 @@ class BlackBoxLearner(Learner):
         config, clock = self.config, time.perf_counter()
         env = self.given_env if self.given_env is not None else black_box_env()
         data = explore(env, config, self.seed)
-        cut = int(0.9 * len(data["actions"]))
+        cut = fitted_share(len(data["actions"]))
         train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
         fields = ("states", "actions", "next_states")
         self.model = LibraryModel.fit(

@@ -20,7 +20,7 @@ from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.learners import PERTURB, PUSHES, HeldOut, Learner
-from acrobot_mj.train.lock import RunLock
+from acrobot_mj.train.lock import RunLock, check_not_held
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
 
@@ -45,6 +45,8 @@ def run_lock(run_dir: str | Path, command: str) -> RunLock:
     if not str(run_dir).strip() or not any(
         (path / n).exists() for n in (RUN_FILE, CHECKPOINT_FILE)
     ):
+        if str(run_dir).strip():
+            check_not_held(path)  # a run being created: its owner named
         raise FileNotFoundError(
             f"{str(run_dir)!r} holds no run (no {RUN_FILE} or "
             f"{CHECKPOINT_FILE}): give a directory written by acrobot-mj "
@@ -97,13 +99,13 @@ def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored"
     env = episode_env(learner, protocol)
     disturbances, nominal = protocol.disturbances(), model_parameters(env)
     try:
+        kicks = disturbances.push_steps(env.physics_steps, env.frame_skip, env.physics_dt)
         rest = play(env, learner, 0, dict(FROM_REST), seed=learner.seed)
         starts = protocol.starts(np.array(rest["start_state"]))
         episodes = []
         for k, start in enumerate(starts):
             parameters = disturbances.perturbed(nominal, protocol.stream(PERTURB, k))
             set_model_parameters(env, parameters)
-            kicks = disturbances.push_steps(env.physics_steps, env.frame_skip, env.physics_dt)
             env.begin(kicks, disturbances.push_size, protocol.stream(PUSHES, k))
             episode = play(env, learner, k + 1, {"state": start})
             episode["parameters"] = parameters
@@ -150,9 +152,14 @@ def episode_env(learner: Learner, protocol: HeldOut) -> Pushed:
     where it pushes."""
     env = learner.env()
     if protocol.seconds is not None:
-        decisions = steps_in(protocol.seconds, acrobot_of(env).dt)
+        dt = acrobot_of(env).dt
         env.close()
-        env = learner.env(max_episode_steps=decisions)
+        if protocol.seconds < dt * (1.0 - 1e-9):  # steps_in's tolerance
+            raise ValueError(
+                f"seconds must be at least one decision of this run ({dt:g} s), "
+                f"got {protocol.seconds:g}"
+            )
+        env = learner.env(max_episode_steps=steps_in(protocol.seconds, dt))
     return Pushed(env)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
+from acrobot_mj.checks import check_memory
 from acrobot_mj.envs.disturbances import Disturbances
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import get_task
@@ -125,6 +126,7 @@ class HeldOut:
 
     def starts(self, rest: np.ndarray) -> np.ndarray:
         """The held-out start states, shape ``(episodes, 4)``."""
+        check_memory(f"{self.episodes:,} held-out starts", 64.0 * self.episodes)  # draws, sum
         rest = np.asarray(rest, dtype=np.float64)
         if rest.shape != (4,):
             raise ValueError(f"rest must be a state (q1, q2, dq1, dq2), got shape {rest.shape}")

@@ -79,6 +79,16 @@ def _held_by_other(path: Path) -> dict[str, Any] | None:
     return None
 
 
+def check_not_held(directory: str | Path) -> None:
+    """Raise :class:`RunDirectoryBusy` naming the owner where a live process outside ours holds
+    ``directory``: a run being created has no record yet, and is not "no run"."""
+    owner = _held_by_other(Path(directory) / LOCK_FILE)
+    if owner is not None:
+        raise RunDirectoryBusy(
+            f"{directory} is in use by {_describe(owner)}: wait for it or stop it first"
+        )
+
+
 class RunLock:
     """Hold ``directory`` (created if needed) for this process; raises :class:`RunDirectoryBusy`
     naming the owner if a live process outside ours holds it or a directory above it."""
