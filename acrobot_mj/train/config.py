@@ -138,10 +138,13 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
-        """The config of a record (an older one's settings that do not apply are ignored)."""
+        """The config of a record (an older one's settings that do not apply, or that 0.1 to 0.3
+        held, are ignored; an unknown one is refused)."""
         if not isinstance(data, dict):
             raise ValueError(f"a run's config must be a JSON object of settings, got {data!r:.40}")
         data = {k: v for k, v in data.items() if k not in RETIRED and v is not None}
+        if unknown := sorted(set(data) - set(field_names())):
+            raise ValueError(f"unknown config keys {unknown}; known: {sorted(field_names())}")
         algorithm, features = data.get("algorithm", "sarsa"), data.get("features", "grid")
         task = data.get("task", "height_goal")
         _check_names(task, algorithm, features)
