@@ -71,7 +71,8 @@ def test_step_jacobians_match_finite_differences(method) -> None:
 
 @pytest.mark.parametrize("reserve", [0.0, 1.5, -0.2])
 def test_a_reserve_outside_its_range_is_refused(reserve) -> None:
-    with pytest.raises(ValueError, match=r"the torque reserve must be in \(0, 1\] N m"):
+    # The balance preset's declared range: one check for the preset, the command and this.
+    with pytest.raises(ValueError, match=r"config reserve must be (in \(0, 1\]|> 0)"):
         load_trajectory(reserve)
 
 
@@ -202,12 +203,14 @@ def test_the_balance_command_records_what_replays_in_the_env(tmp_path, capsys) -
 
 
 def test_the_balance_command_refuses_bad_options(tmp_path, capsys) -> None:
-    for argv in (["--reserve", "1.5"], ["--hold", "-1"]):
+    # A hold shorter than one physics step would run one step and record less (1e-300 s).
+    for argv in (["--reserve", "1.5"], ["--hold", "-1"], ["--hold", "1e-300"]):
         with pytest.raises(SystemExit) as stop:
             main(["balance", "--no-video", "--out", str(tmp_path), *argv])
         assert stop.value.code == 2
-    err = capsys.readouterr().err
-    assert "torque reserve must be in (0, 1]" in err and "hold time must be in (0, 3600]" in err
+    err = capsys.readouterr().err.splitlines()
+    assert "reserve must be in (0, 1]" in err[0] and "hold must be in [0.05, 3600]" in err[1]
+    assert "hold must be in [0.05, 3600]" in err[2] and len(err) == 3
 
 
 def test_other_reserves_reuse_a_cached_trajectory_after_checking_it(tmp_path) -> None:

@@ -20,6 +20,32 @@ from acrobot_mj.envs.disturbances import Perturbation, scale_links
 from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
+from acrobot_mj.settings import setting
+
+
+def discrete_setting() -> bool:
+    """The ``discrete`` setting of a controller: {-1, 0, +1} N m torques or continuous ones."""
+    return setting(False, "{-1, 0, +1} N m torques (sigma-delta), not continuous")
+
+
+def reserve_setting() -> float:
+    """The ``reserve`` setting of a swing-up: its nominal torque bound [N m]."""
+    return setting(
+        0.8,
+        "nominal torque bound of the plan (1: minimum time, no reserve)",
+        "N m",
+        low=0.0,
+        low_open=True,
+        high=1.0,
+        metavar="U",
+    )
+
+
+def hold_setting() -> float:
+    """The ``hold`` setting of a swing-up: the seconds of balance after it [s]."""
+    return setting(
+        60.0, "seconds of balance after the swing-up", "s", low=0.05, high=3600.0, metavar="SECONDS"
+    )
 
 
 class BalanceActor:

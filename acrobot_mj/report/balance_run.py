@@ -9,11 +9,18 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.control.trajopt import Trajectory, min_time, shipped
-from acrobot_mj.envs.control_loop import balance_env, closed_loop
+from acrobot_mj.envs.control_loop import (
+    balance_env,
+    closed_loop,
+    discrete_setting,
+    hold_setting,
+    reserve_setting,
+)
 from acrobot_mj.envs.disturbances import Perturbation
 from acrobot_mj.envs.rollout import Hooks
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, write_video_record
+from acrobot_mj.settings import check, checked
 
 
 def load_trajectory(
@@ -21,8 +28,7 @@ def load_trajectory(
 ) -> tuple:
     """The swing-up for ``|u| <= reserve`` N m and where it came from: the package's (1.0, 0.8),
     one cached in ``cache``, or a new optimisation (CasADi, under a minute)."""
-    if not (isinstance(reserve, (int, float)) and 0.0 < reserve <= 1.0):
-        raise ValueError(f"the torque reserve must be in (0, 1] N m, got {reserve!r}")
+    reserve = checked(BalanceRun, "reserve", reserve)
     name = {1.0: "min_time", 0.8: "reserve"}.get(float(reserve))
     if not optimise and name:
         return shipped(name), f"shipped ({name})"
@@ -43,16 +49,15 @@ class BalanceRun:
     one), ``hold`` [s] of balance after it, and with ``video`` a video of ``size`` (width,
     height) [pixels]."""
 
-    discrete: bool = False
-    reserve: float = 0.8
-    hold: float = 60.0
+    discrete: bool = discrete_setting()
+    reserve: float = reserve_setting()
+    hold: float = hold_setting()
     optimise: bool = False
     video: bool = True
     size: tuple[int, int] = (480, 480)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.hold, (int, float)) and 0.0 < self.hold <= 3600.0):
-            raise ValueError(f"the hold time must be in (0, 3600] s, got {self.hold!r}")
+        check(self)
 
 
 def run_balance(

@@ -17,7 +17,14 @@ import numpy as np
 from acrobot_mj.control.identification import realise
 from acrobot_mj.control.lqr import SwingUpController
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.envs.control_loop import BalanceActor, balance_env, closed_loop
+from acrobot_mj.envs.control_loop import (
+    BalanceActor,
+    balance_env,
+    closed_loop,
+    discrete_setting,
+    hold_setting,
+    reserve_setting,
+)
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.params import AcrobotParams
@@ -26,11 +33,6 @@ from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
-
-
-def discrete_setting() -> bool:
-    """The ``discrete`` setting of a controller: {-1, 0, +1} N m torques or continuous ones."""
-    return setting(False, "{-1, 0, +1} N m torques (sigma-delta), not continuous")
 
 
 @dataclass(frozen=True)
@@ -43,15 +45,7 @@ class PlanConfig:
     data_noise: float = setting(
         1.0, "start noise of the data episodes", "rad, rad/s", low=0.0, high=1.0
     )
-    reserve: float = setting(
-        0.8,
-        "nominal torque bound of the plan (1: minimum time, no reserve)",
-        "N m",
-        low=0.0,
-        low_open=True,
-        high=1.0,
-        metavar="U",
-    )
+    reserve: float = reserve_setting()
     discrete: bool = discrete_setting()
     horizons: tuple[int, int, int] | None = setting(
         None, "start horizons of the search, START:STOP:STEP", "physics steps", low=1, sep=":"
@@ -59,14 +53,7 @@ class PlanConfig:
     targets: tuple[int, ...] | None = setting(
         None, "upright poses the search tries, e.g. 1,4", low=0, high=5, sep=","
     )
-    hold: float = setting(
-        60.0,
-        "seconds of balance after the swing-up",
-        "s",
-        low=0.05,
-        high=3600.0,
-        metavar="SECONDS",
-    )
+    hold: float = hold_setting()
     starts: str = setting(
         "rest", "warm starts of the search: rest or pumping", choices=("rest", "pumping")
     )

@@ -15,12 +15,16 @@ import gymnasium as gym
 
 from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
-from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest, balance_env
+from acrobot_mj.envs.control_loop import (
+    BalanceActor,
+    assess_from_rest,
+    balance_env,
+    discrete_setting,
+)
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.settings import check, from_dict, setting, to_dict
-from acrobot_mj.train.balance_preset import discrete_setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
