@@ -110,8 +110,8 @@ class BlackBoxConfig:
 
 
 def library_terms(harmonics: int) -> int:
-    """How many terms the library of ``harmonics`` has (:func:`~acrobot_mj.control.library.
-    features`)."""
+    """How many terms the library of ``harmonics`` has
+    (:func:`~acrobot_mj.control.library.features`)."""
     return len(features(np.zeros(4), 0.0, harmonics))
 
 
