@@ -19,6 +19,7 @@ from acrobot_mj.envs.mjcf import acrobot_xml
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.models import MODELS, AcrobotModel, capsule_inertia, resolve
 from acrobot_mj.physics.params import REPORT, AcrobotParams
+from acrobot_mj.report.crosscheck import cross_check
 
 
 def _compiled(model: AcrobotModel) -> mujoco.MjModel:
@@ -184,3 +185,21 @@ def test_model_files_refused_in_one_line(tmp_path) -> None:
             resolve(tmp_path / name)
     with pytest.raises(ValueError, match="model_path"):
         acrobot_mj.AcrobotEnv(model="report", model_path=model_path())
+
+
+@pytest.mark.parametrize("name", ["gymnasium", "ai_olympics"])
+def test_cross_check_takes_a_set(name: str) -> None:
+    result = cross_check(n_states=50, n_trajectories=1, acrobot=name)
+    relative = result["relative"]
+    # Rounding only, as for the report's (tests/test_crosscheck.py gives the bounds' reasons).
+    assert max(relative["mass_matrix"], relative["accelerations"]) <= 1e-10
+    assert max(result["one_step"].values()) <= 1e-12
+    # Gymnasium's 1,000 bang-bang decisions of 0.2 s are 200 s of chaotic swinging, where
+    # rounding grows to O(1) (as in tests/test_crosscheck.py's high-energy runs): unbounded.
+    if name != "gymnasium":
+        assert max(result["trajectory_1000"].values()) <= 1e-10
+
+
+def test_cross_check_refuses_what_the_analytic_model_lacks() -> None:
+    with pytest.raises(ValueError, match="damping"):
+        cross_check(n_states=5, n_trajectories=1, acrobot="dm_control")

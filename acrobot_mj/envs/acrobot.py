@@ -33,8 +33,7 @@ from acrobot_mj.envs.spaces import (
 )
 from acrobot_mj.envs.tasks import Task, TaskOptions, get_task
 from acrobot_mj.physics.integrators import limit_velocities
-from acrobot_mj.physics.models import AcrobotModel
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.models import ModelSpec
 from acrobot_mj.physics.xp import wrap
 
 if sys.version_info >= (3, 11):
@@ -120,7 +119,7 @@ class EnvOptions(TaskOptions, total=False):
     height: int
     camera: str
     model_path: str | Path | None
-    model: str | Path | AcrobotModel | AcrobotParams | None
+    model: ModelSpec
 
 
 def check_copy(what: str, state: dict[str, Any], keys: tuple[str, ...]) -> None:
@@ -185,7 +184,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         height: int = 480,
         camera: str = "side",
         model_path: str | Path | None = None,
-        model: str | Path | AcrobotModel | AcrobotParams | None = None,
+        model: ModelSpec = None,
         **task_options: Unpack[TaskOptions],
     ) -> None:
         self._frame_skip = check_int("frame_skip", frame_skip, 1, MAX_FRAME_SKIP)

@@ -9,8 +9,7 @@ import mujoco
 import numpy as np
 
 from acrobot_mj.envs.mjcf import acrobot_xml
-from acrobot_mj.physics.models import AcrobotModel, resolve
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.models import AcrobotModel, ModelSpec, resolve
 
 _PACKAGE = Path(__file__).resolve().parent.parent  # acrobot_mj/
 
@@ -41,9 +40,7 @@ def model_path(name: str = "scene.xml") -> Path:
     return models_dir() / name
 
 
-def load_model(
-    path: str | Path | None = None, model: str | Path | AcrobotModel | AcrobotParams | None = None
-) -> mujoco.MjModel:
+def load_model(path: str | Path | None = None, model: ModelSpec = None) -> mujoco.MjModel:
     """Compile an MJCF file (default: the packaged ``scene.xml``), or the scene around the MJCF
     generated from ``model`` (:func:`load_acrobot`), and check it is an acrobot. Raises
     ``FileNotFoundError`` for a missing file, ``ValueError`` for a bad one or for both given."""

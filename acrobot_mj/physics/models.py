@@ -11,7 +11,7 @@ import math
 import sys
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 
@@ -142,6 +142,10 @@ def _ai_olympics(actuated: str) -> AcrobotModel:
     return AcrobotModel(params, actuated=actuated, integrator="rk4")
 
 
+#: What names an acrobot: a name in :data:`MODELS`, a JSON or TOML file, a model or its
+#: parameters; ``None`` is the report's (:func:`resolve`).
+ModelSpec: TypeAlias = str | Path | AcrobotModel | AcrobotParams | None
+
 #: The shipped parameter sets by name; ``"report"`` is the default everywhere.
 MODELS: dict[str, AcrobotModel] = {
     "report": AcrobotModel(),
@@ -169,7 +173,7 @@ def from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
         raise ValueError(f"{where}: {error}") from None
 
 
-def resolve(model: str | Path | AcrobotModel | AcrobotParams | None) -> AcrobotModel:
+def resolve(model: ModelSpec) -> AcrobotModel:
     """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file (:func:`from_dict`),
     an :class:`AcrobotParams` (elbow-driven, Euler) or a model; ``None`` is the report's."""
     if model is None:
