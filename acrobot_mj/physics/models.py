@@ -157,8 +157,9 @@ MODELS: dict[str, AcrobotModel] = {
 
 
 def from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
-    """A model from flat keys: :class:`AcrobotParams`' fields and :class:`AcrobotModel`'s
-    (``damping``, ``friction``, ``motor_inertia`` as two numbers); missing keys are the
+    """A model from flat keys: the fields of
+    :class:`~acrobot_mj.physics.params.AcrobotParams` and of :class:`AcrobotModel`
+    (``damping``, ``friction``, ``motor_inertia`` as two numbers); a missing key is the
     report's."""
     params = {f.name for f in fields(AcrobotParams)}
     own = {f.name for f in fields(AcrobotModel)} - {"params"}
@@ -175,7 +176,8 @@ def from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
 
 def resolve(model: ModelSpec) -> AcrobotModel:
     """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file (:func:`from_dict`),
-    an :class:`AcrobotParams` (elbow-driven, Euler) or a model; ``None`` is the report's."""
+    an :class:`~acrobot_mj.physics.params.AcrobotParams` (elbow-driven, Euler) or a model;
+    ``None`` is the report's."""
     if model is None:
         return MODELS["report"]
     if isinstance(model, AcrobotModel):
