@@ -203,3 +203,18 @@ def test_cross_check_takes_a_set(name: str) -> None:
 def test_cross_check_refuses_what_the_analytic_model_lacks() -> None:
     with pytest.raises(ValueError, match="damping"):
         cross_check(n_states=5, n_trajectories=1, acrobot="dm_control")
+
+
+def test_cli_demo_and_params_take_a_model(tmp_path, capsys) -> None:
+    from acrobot_mj.cli import main
+
+    out = tmp_path / "demo.json"
+    assert main(["demo", "--model", "gymnasium", "--steps", "5", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["config"]["model"] == "gymnasium"
+    assert "0.2 s per action" in capsys.readouterr().out
+    assert main(["params", "--model", "ai_olympics"]) == 0
+    assert "0.002" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--model", "nope"])
+    assert exit_info.value.code == 2
+    assert "--model" in capsys.readouterr().err

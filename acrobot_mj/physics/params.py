@@ -34,9 +34,7 @@ class AcrobotParams:
     I2: float = _param(1.0, "kg m^2", _REPORT, "inertia of link 2 about its centre of mass")
     g: float = _param(9.8, "m/s^2", _SUTTON_BARTO, "gravitational acceleration")
     max_torque: float = _param(1.0, "N m", _REPORT, "motor torque limit, |tau| <= max_torque")
-    max_vel1: float = _param(
-        4 * math.pi, "rad/s", _REPORT, "shoulder speed limit |dq1| (inf: none)"
-    )
+    max_vel1: float = _param(4 * math.pi, "rad/s", _REPORT, "shoulder speed limit |dq1| (or inf)")
     max_vel2: float = _param(9 * math.pi, "rad/s", _REPORT, "elbow speed limit |dq2| (or inf)")
     dt: float = _param(0.05, "s", _REPORT, "physics time step")
 
@@ -71,9 +69,11 @@ REPORT = AcrobotParams()
 
 
 def describe(params: AcrobotParams = REPORT) -> str:
-    """A table of the parameters with units and sources, one line per field."""
+    """A table of the parameters with units and sources, one line per field (a value other
+    than the report's is the model's own: ``acrobot_mj.physics.models`` cites its source)."""
     return "\n".join(
         f"{f.name:<10} {getattr(params, f.name):<10.6g} {f.metadata['unit']:<7} "
-        f"{f.metadata['doc']} ({f.metadata['source']})"
+        f"{f.metadata['doc']} "
+        f"({f.metadata['source'] if getattr(params, f.name) == f.default else 'the model'})"
         for f in fields(params)
     )
