@@ -218,3 +218,20 @@ def test_cli_demo_and_params_take_a_model(tmp_path, capsys) -> None:
         main(["demo", "--model", "nope"])
     assert exit_info.value.code == 2
     assert "--model" in capsys.readouterr().err
+
+
+def test_vector_env_takes_a_model() -> None:
+    from acrobot_mj.envs.vector import AcrobotVectorEnv
+
+    kwargs = {"model": "ai_olympics", "goal_height": 0.2}
+    analytic = AcrobotVectorEnv(3, backend="analytic", **kwargs)
+    simulated = gym.make_vec("acrobot_mj/Acrobot-v0", 3, **kwargs)
+    a, _ = analytic.reset(seed=1)
+    b, _ = simulated.reset(seed=1)
+    for _ in range(200):
+        a = analytic.step(np.array([2, 0, 2]))[0]
+        b = simulated.step(np.array([2, 0, 2]))[0]
+    # Rounding only over 200 steps of 2 ms (see the 1,000-step test above).
+    assert np.abs(a - b).max() <= 1e-10
+    with pytest.raises(ValueError, match="damping"):
+        AcrobotVectorEnv(2, model="dm_control", backend="analytic")
