@@ -13,6 +13,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, TypeAlias
 
+from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 
 if sys.version_info >= (3, 11):
@@ -23,8 +24,6 @@ else:  # pragma: no cover
 #: The joints an acrobot's one motor may drive: ``"elbow"`` (an acrobot), ``"shoulder"`` (a
 #: pendubot).
 JOINTS = ("shoulder", "elbow")
-#: The integrators a model's MJCF names (the envs' names).
-INTEGRATORS = ("euler", "rk4")
 Pair = tuple[float, float]
 
 
@@ -33,7 +32,8 @@ class AcrobotModel:
     """One acrobot: ``params`` (masses, lengths, centres of mass, inertias about the centres of
     mass, gravity, torque and speed limits, time step), the ``actuated`` joint, per-joint
     (shoulder, elbow) viscous ``damping`` [N m s/rad], Coulomb ``friction`` [N m] and
-    ``motor_inertia`` [kg m^2] (MuJoCo's armature), and the ``integrator`` its MJCF names."""
+    ``motor_inertia`` [kg m^2] (MuJoCo's armature), and the ``integrator`` its MJCF names (an
+    env's name)."""
 
     params: AcrobotParams = REPORT
     actuated: str = "elbow"
@@ -47,8 +47,9 @@ class AcrobotModel:
             raise TypeError(f"AcrobotModel.params must be AcrobotParams, got {self.params!r}")
         if self.actuated not in JOINTS:
             raise ValueError(f"actuated must be one of {JOINTS}, got {self.actuated!r}")
-        if self.integrator not in INTEGRATORS:
-            raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
+        if self.integrator not in ENV_INTEGRATORS:
+            names = list(ENV_INTEGRATORS)
+            raise ValueError(f"integrator must be one of {names}, got {self.integrator!r}")
         for name in ("damping", "friction", "motor_inertia"):
             pair = getattr(self, name)
             if (
