@@ -17,6 +17,7 @@ from acrobot_mj.control.policies import POLICY_NAMES, make_policy
 from acrobot_mj.envs.rollout import Hooks, PolicyActor, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import check_regular, versions, write_json
+from acrobot_mj.physics.models import MODELS, resolve
 from acrobot_mj.physics.params import describe
 from acrobot_mj.report.video import RenderSettings, render_policy, watch_policy
 from acrobot_mj.train.evaluate import render_run, watch_run
@@ -65,6 +66,26 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
     return value
+
+
+def acrobot_model(text: str) -> str:
+    """An argparse type: a parameter set's name or a ``.json`` or ``.toml`` file of one."""
+    try:
+        resolve(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text
+
+
+def add_model(parser: argparse.ArgumentParser) -> None:
+    """``--model NAME|FILE``: the acrobot (:data:`~acrobot_mj.physics.models.MODELS`)."""
+    parser.add_argument(
+        "--model",
+        type=acrobot_model,
+        default="report",
+        metavar="NAME|FILE",
+        help=f"the acrobot: one of {', '.join(MODELS)}, or a .json or .toml file of one",
+    )
 
 
 def seed(text: str) -> int:
@@ -291,6 +312,7 @@ def add_demo(commands: Commands) -> None:
         help="semi-implicit Euler (the report's) or RK4",
     )
     p.add_argument("--every", type=positive_int, default=20, help="print every N-th state")
+    add_model(p)
     p.add_argument(
         "--json", metavar="FILE", type=output_file, help="also write the run record as JSON"
     )
@@ -299,7 +321,14 @@ def add_demo(commands: Commands) -> None:
 def demo(args: argparse.Namespace) -> dict[str, Any]:
     """Roll out a fixed policy from rest and print the state as it goes."""
     check_output(args.json, "demo")
-    env = gym.make(HeightGoal.env_id, frame_skip=args.frame_skip, integrator=args.integrator)
+    goal = resolve(args.model).params.l1  # the height goal: one link length above the pivot
+    env = gym.make(
+        HeightGoal.env_id,
+        frame_skip=args.frame_skip,
+        integrator=args.integrator,
+        model=args.model,
+        goal_height=goal,
+    )
     states, tips = [], []
 
     def keep(obs: Any, info: dict[str, Any]) -> None:
@@ -344,9 +373,10 @@ def demo(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def add_params(commands: Commands) -> None:
-    add_command(
+    p = add_command(
         commands,
         "params",
-        lambda args: print(describe()),
+        lambda args: print(describe(resolve(args.model).params)),
         "print the physical parameters, units and sources",
     )
+    add_model(p)

@@ -33,6 +33,7 @@ from acrobot_mj.envs.spaces import (
 )
 from acrobot_mj.envs.tasks import Task, TaskOptions, get_task
 from acrobot_mj.physics.integrators import limit_velocities
+from acrobot_mj.physics.models import ModelSpec
 from acrobot_mj.physics.xp import wrap
 
 if sys.version_info >= (3, 11):
@@ -118,6 +119,7 @@ class EnvOptions(TaskOptions, total=False):
     height: int
     camera: str
     model_path: str | Path | None
+    model: ModelSpec
 
 
 def check_copy(what: str, state: dict[str, Any], keys: tuple[str, ...]) -> None:
@@ -141,6 +143,8 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     into [-pi, pi) [rad]; velocities [rad/s] clipped to ``(4 pi, 9 pi)`` after every physics
     step; with ``observation="cos_sin"`` float32 ``(cos q1, sin q1, cos q2, sin q2, dq1, dq2)``
     as Gymnasium's ``Acrobot-v1``. ``model_path``: an MJCF file instead of ``scene.xml``;
+    ``model``: a parameter set by name (:data:`~acrobot_mj.physics.models.MODELS`), a JSON or
+    TOML file of one, or an ``AcrobotModel`` or ``AcrobotParams``, its MJCF generated;
     ``reset`` takes ``options={"start_noise": s}`` or ``{"state": x}``.
 
     Ten +1 N m steps from rest (the analytic model's numbers), then the bang-bang law
@@ -180,6 +184,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         height: int = 480,
         camera: str = "side",
         model_path: str | Path | None = None,
+        model: ModelSpec = None,
         **task_options: Unpack[TaskOptions],
     ) -> None:
         self._frame_skip = check_int("frame_skip", frame_skip, 1, MAX_FRAME_SKIP)
@@ -193,7 +198,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
         if model_path is not None and not isinstance(model_path, (str, os.PathLike)):
             raise TypeError(f"model_path must be a path to an MJCF file, got {model_path!r}")
-        self.model = load_model(model_path)
+        self.model = load_model(model_path, model)
         self.model.opt.integrator = INTEGRATORS[integrator]
         # Whatever the file says: a NaN state must stay visible (step raises), not be reset away.
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET

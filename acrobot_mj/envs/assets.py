@@ -8,6 +8,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from acrobot_mj.envs.mjcf import acrobot_xml
+from acrobot_mj.physics.models import AcrobotModel, ModelSpec, resolve
+
 _PACKAGE = Path(__file__).resolve().parent.parent  # acrobot_mj/
 
 #: Names the package reads the model by (``docs/explain/design.md``).
@@ -37,9 +40,14 @@ def model_path(name: str = "scene.xml") -> Path:
     return models_dir() / name
 
 
-def load_model(path: str | Path | None = None) -> mujoco.MjModel:
-    """Compile an MJCF file (default: the packaged ``scene.xml``) and check it is an acrobot.
-    Raises ``FileNotFoundError`` for a missing file, ``ValueError`` for a bad one."""
+def load_model(path: str | Path | None = None, model: ModelSpec = None) -> mujoco.MjModel:
+    """Compile an MJCF file (default: the packaged ``scene.xml``), or the scene around the MJCF
+    generated from ``model`` (:func:`load_acrobot`), and check it is an acrobot. Raises
+    ``FileNotFoundError`` for a missing file, ``ValueError`` for a bad one or for both given."""
+    if model is not None:
+        if path is not None:
+            raise ValueError("give model or model_path, not both")
+        return load_acrobot(resolve(model))
     path = model_path() if path is None else Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"MJCF model file not found: {path}")
@@ -49,6 +57,18 @@ def load_model(path: str | Path | None = None) -> mujoco.MjModel:
         raise ValueError(f"MuJoCo could not load the MJCF model {path}: {error}") from error
     check_model(model, str(path))
     return model
+
+
+def load_acrobot(model: AcrobotModel) -> mujoco.MjModel:
+    """Compile the packaged ``scene.xml`` around the MJCF generated from ``model`` and check it
+    is an acrobot driven at the elbow (``ValueError`` for a pendubot: the envs drive the
+    elbow)."""
+    if model.actuated != "elbow":
+        raise ValueError(f"the envs drive the elbow; this model drives the {model.actuated}")
+    generated = {"acrobot.xml": acrobot_xml(model).encode()}
+    compiled = mujoco.MjModel.from_xml_string(model_path().read_text(), generated)
+    check_model(compiled, "the generated model")
+    return compiled
 
 
 def check_model(model: mujoco.MjModel, where: str = "model") -> None:

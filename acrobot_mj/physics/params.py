@@ -12,6 +12,8 @@ _SUTTON_BARTO = "Sutton and Barto (1998/2018), acrobot; Gymnasium Acrobot-v1"
 #: The lumped parameters ``(a, b, c, d, e)`` of the equations of motion: ``a, b, c`` [kg m^2],
 #: ``d, e`` [N m].
 Lumped = tuple[float, float, float, float, float]
+#: The fields that may be ``inf``: no limit.
+_UNBOUNDED = ("max_vel1", "max_vel2")
 
 
 def _param(default: float, unit: str, source: str, doc: str) -> float:
@@ -31,9 +33,9 @@ class AcrobotParams:
     I1: float = _param(1.0, "kg m^2", _REPORT, "inertia of link 1 about its centre of mass")
     I2: float = _param(1.0, "kg m^2", _REPORT, "inertia of link 2 about its centre of mass")
     g: float = _param(9.8, "m/s^2", _SUTTON_BARTO, "gravitational acceleration")
-    max_torque: float = _param(1.0, "N m", _REPORT, "elbow torque limit, |tau| <= max_torque")
-    max_vel1: float = _param(4 * math.pi, "rad/s", _REPORT, "shoulder speed limit |dq1|")
-    max_vel2: float = _param(9 * math.pi, "rad/s", _REPORT, "elbow speed limit |dq2|")
+    max_torque: float = _param(1.0, "N m", _REPORT, "motor torque limit, |tau| <= max_torque")
+    max_vel1: float = _param(4 * math.pi, "rad/s", _REPORT, "shoulder speed limit |dq1| (or inf)")
+    max_vel2: float = _param(9 * math.pi, "rad/s", _REPORT, "elbow speed limit |dq2| (or inf)")
     dt: float = _param(0.05, "s", _REPORT, "physics time step")
 
     def __post_init__(self) -> None:
@@ -41,10 +43,11 @@ class AcrobotParams:
             value = getattr(self, f.name)
             if not isinstance(value, (int, float)) or isinstance(value, bool):
                 raise TypeError(f"AcrobotParams.{f.name} must be a number, got {value!r}")
-            if not math.isfinite(value) or value <= 0:
+            limit = f.name in _UNBOUNDED  # inf: no limit
+            if math.isnan(value) or value <= 0 or (math.isinf(value) and not limit):
+                what = "> 0 (inf: none)" if limit else "finite and > 0"
                 raise ValueError(
-                    f"AcrobotParams.{f.name} must be finite and > 0 [{f.metadata['unit']}], "
-                    f"got {value!r}"
+                    f"AcrobotParams.{f.name} must be {what} [{f.metadata['unit']}], got {value!r}"
                 )
 
     @property
@@ -66,9 +69,11 @@ REPORT = AcrobotParams()
 
 
 def describe(params: AcrobotParams = REPORT) -> str:
-    """A table of the parameters with units and sources, one line per field."""
+    """A table of the parameters with units and sources, one line per field (a value other
+    than the report's is the model's own: ``acrobot_mj.physics.models`` cites its source)."""
     return "\n".join(
         f"{f.name:<10} {getattr(params, f.name):<10.6g} {f.metadata['unit']:<7} "
-        f"{f.metadata['doc']} ({f.metadata['source']})"
+        f"{f.metadata['doc']} "
+        f"({f.metadata['source'] if getattr(params, f.name) == f.default else 'the model'})"
         for f in fields(params)
     )

@@ -13,6 +13,7 @@ import numpy as np
 from acrobot_mj.control.lqr import controllability_rank, discrete_model
 from acrobot_mj.envs.assets import load_model
 from acrobot_mj.physics import dynamics, errata, integrators
+from acrobot_mj.physics.models import ModelSpec, resolve
 from acrobot_mj.physics.params import REPORT as P
 from acrobot_mj.report.plots import Labels, Series, line_plot
 
@@ -25,14 +26,19 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
 
 
-def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> dict[str, Any]:
-    """Largest errors against MuJoCo: relative at random states, absolute over 1 and 1000 steps."""
-    model, rng = load_model(), np.random.default_rng(seed)
+def cross_check(
+    n_states: int = 200, n_trajectories: int = 3, seed: int = 0, acrobot: ModelSpec = None
+) -> dict[str, Any]:
+    """Largest errors against MuJoCo of ``acrobot`` (``resolve``'s; the report's by default):
+    relative at random states (speeds within its limits, or the report's), absolute over 1 and
+    1000 steps of its ``dt``."""
+    p = resolve(acrobot).analytic  # refuses what the analytic model cannot represent
+    model, rng = load_model(model=acrobot), np.random.default_rng(seed)
     data, full_m = mujoco.MjData(model), np.zeros((2, 2))
-    limits = np.array([P.max_vel1, P.max_vel2])
+    limits = np.where(np.isinf(p.max_vel), P.max_vel, p.max_vel)
     q = rng.uniform(-np.pi, np.pi, (n_states, 2))
     dq = rng.uniform(-1, 1, (n_states, 2)) * limits
-    states, torques = np.concatenate([q, dq], 1), rng.uniform(-1, 1, n_states)
+    states, torques = np.concatenate([q, dq], 1), rng.uniform(-1, 1, n_states) * p.max_torque
     keys = ("mass_matrix", "bias_forces", "accelerations", "accelerations_eq2_as_printed")
     worst = dict.fromkeys(keys, 0.0)
     for x, tau in zip(states, torques, strict=True):
@@ -41,10 +47,10 @@ def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> 
         mujoco.mj_fullM(model, data, full_m)
         q, dq = x[:2], x[2:]
         pairs = [
-            (dynamics.mass_matrix(q), full_m),
-            (dynamics.bias_forces(q, dq), data.qfrc_bias),
-            (dynamics.forward_dynamics(q, dq, tau), data.qacc),
-            (errata.forward_dynamics_as_printed(q, dq, tau), data.qacc),
+            (dynamics.mass_matrix(q, p), full_m),
+            (dynamics.bias_forces(q, dq, p), data.qfrc_bias),
+            (dynamics.forward_dynamics(q, dq, tau, p), data.qacc),
+            (errata.forward_dynamics_as_printed(q, dq, tau, p), data.qacc),
         ]
         for key, (value, reference) in zip(keys, pairs, strict=True):
             worst[key] = max(worst[key], _rel(value, reference))
@@ -63,16 +69,16 @@ def cross_check(n_states: int = 200, n_trajectories: int = 3, seed: int = 0) -> 
         for x, tau in zip(states, torques, strict=True):
             data.qpos[:], data.qvel[:], data.ctrl[:] = x[:2], x[2:], tau
             mujoco.mj_step(model, data)
-            step = integrators.step_states(x, tau, method=method, limits=False)
+            step = integrators.step_states(x, tau, p, method=method, limits=False)
             one = max(one, float(np.max(np.abs(np.concatenate([data.qpos, data.qvel]) - step))))
         for k in range(n_trajectories):
-            taus = np.random.default_rng(seed + k).choice([-1.0, 0.0, 1.0], 1000)
-            analytic = integrators.simulate(dynamics.HANGING, taus, method)
+            taus = np.random.default_rng(seed + k).choice([-1.0, 0.0, 1.0], 1000) * p.max_torque
+            analytic = integrators.simulate(dynamics.HANGING, taus, method, p)
             data.qpos[:], data.qvel[:] = dynamics.HANGING[:2], 0.0
             for t, tau in enumerate(taus):
                 data.ctrl[0] = tau
                 mujoco.mj_step(model, data)
-                data.qvel[:] = integrators.limit_velocities(*data.qvel, P.max_vel)
+                data.qvel[:] = integrators.limit_velocities(*data.qvel, p.max_vel)
                 gap = np.abs(np.concatenate([data.qpos, data.qvel]) - analytic[t + 1])
                 traj = max(traj, float(gap.max()))
         result["one_step"][name] = one

@@ -1,0 +1,204 @@
+"""Any acrobot: :class:`AcrobotModel` is one robot (its rigid bodies as
+:class:`~acrobot_mj.physics.params.AcrobotParams`, the actuated joint, joint losses, motor inertia
+and integrator); :data:`MODELS` holds the shipped sets by name, :func:`resolve` reads a name, a
+JSON or TOML file, or a model. The MJCF is generated from a model by
+:mod:`acrobot_mj.envs.mjcf`."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any, TypeAlias
+
+from acrobot_mj.physics.integrators import ENV_INTEGRATORS
+from acrobot_mj.physics.params import REPORT, AcrobotParams
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+#: The joints an acrobot's one motor may drive: ``"elbow"`` (an acrobot), ``"shoulder"`` (a
+#: pendubot).
+JOINTS = ("shoulder", "elbow")
+Pair = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class AcrobotModel:
+    """One acrobot: ``params`` (masses, lengths, centres of mass, inertias about the centres of
+    mass, gravity, torque and speed limits, time step), the ``actuated`` joint, per-joint
+    (shoulder, elbow) viscous ``damping`` [N m s/rad], Coulomb ``friction`` [N m] and
+    ``motor_inertia`` [kg m^2] (MuJoCo's armature), and the ``integrator`` its MJCF names (an
+    env's name)."""
+
+    params: AcrobotParams = REPORT
+    actuated: str = "elbow"
+    damping: Pair = (0.0, 0.0)
+    friction: Pair = (0.0, 0.0)
+    motor_inertia: Pair = (0.0, 0.0)
+    integrator: str = "euler"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, AcrobotParams):
+            raise TypeError(f"AcrobotModel.params must be AcrobotParams, got {self.params!r}")
+        if self.actuated not in JOINTS:
+            raise ValueError(f"actuated must be one of {JOINTS}, got {self.actuated!r}")
+        if self.integrator not in ENV_INTEGRATORS:
+            names = list(ENV_INTEGRATORS)
+            raise ValueError(f"integrator must be one of {names}, got {self.integrator!r}")
+        for name in ("damping", "friction", "motor_inertia"):
+            pair = getattr(self, name)
+            if (
+                not isinstance(pair, tuple)
+                or len(pair) != 2
+                or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in pair
+                )
+                or min(pair) < 0
+            ):
+                raise ValueError(f"{name} must be two finite numbers >= 0, got {pair!r}")
+
+    @property
+    def analytic(self) -> AcrobotParams:
+        """The parameters the analytic model takes (:mod:`acrobot_mj.physics.dynamics`): refused
+        in one line for a model it cannot represent (a driven shoulder, damping, friction or
+        motor inertia)."""
+        losses = {n: getattr(self, n) for n in ("damping", "friction", "motor_inertia")}
+        extra = [f"{n} {v}" for n, v in losses.items() if any(v)]
+        if self.actuated != "elbow":
+            extra.insert(0, f"the {self.actuated} actuated")
+        if extra:
+            raise ValueError(
+                "the analytic model is a rigid acrobot driven at the elbow; this model has "
+                + ", ".join(extra)
+            )
+        return self.params
+
+
+def _gymnasium() -> AcrobotModel:
+    # Farama-Foundation/Gymnasium, gymnasium/envs/classic_control/acrobot.py: LINK_LENGTH_1/2 =
+    # 1, LINK_MASS_1/2 = 1, LINK_COM_POS_1/2 = 0.5, LINK_MOI = 1 (about the centre of mass: its
+    # _dsdt adds I1 + I2 to m1 lc1^2 + m2 (...)), g = 9.8, MAX_VEL_1/2 = 4 pi, 9 pi, torques
+    # -1, 0, +1, dt = 0.2 by one RK4 step; the report's bodies, so only dt and RK4 differ.
+    return AcrobotModel(replace(REPORT, dt=0.2), integrator="rk4")
+
+
+def capsule_inertia(mass: float, radius: float, length: float) -> float:
+    """A solid capsule's moment of inertia [kg m^2] about an axis through its centre across it:
+    ``mass`` [kg] spread by volume over the cylinder of ``length`` [m] and two hemispheres of
+    ``radius`` [m] (MuJoCo's inertia of a capsule geom)."""
+    cylinder, spheres = math.pi * radius**2 * length, 4.0 / 3.0 * math.pi * radius**3
+    m_cylinder = mass * cylinder / (cylinder + spheres)
+    m_spheres = mass - m_cylinder
+    return m_cylinder * (3 * radius**2 + length**2) / 12 + m_spheres * (
+        2 * radius**2 / 5 + length**2 / 4 + 3 * length * radius / 8
+    )
+
+
+def _dm_control() -> AcrobotModel:
+    # google-deepmind/dm_control, dm_control/suite/acrobot.xml: two capsules fromto 0 .. 1 m of
+    # mass 1 kg (geom default), radii 0.05 m (upper_arm) and 0.049 m (lower_arm), the
+    # decoration cylinder mass 0; joint damping 0.05; motor gear 2, ctrlrange [-1, 1] (so 2 N m
+    # at the elbow); timestep 0.01 s, RK4; MuJoCo's gravity 9.81. No velocity limits.
+    params = AcrobotParams(
+        I1=capsule_inertia(1.0, 0.05, 1.0),
+        I2=capsule_inertia(1.0, 0.049, 1.0),
+        g=9.81,
+        max_torque=2.0,
+        max_vel1=math.inf,
+        max_vel2=math.inf,
+        dt=0.01,
+    )
+    return AcrobotModel(params, damping=(0.05, 0.05), integrator="rk4")
+
+
+def _ai_olympics(actuated: str) -> AcrobotModel:
+    # dfki-ric-underactuated-lab/double_pendulum, data/system_identification/
+    # identified_parameters/design_C.1/model_1.0/model_parameters.yml (m, l, r, I, g). Its plant
+    # (src/python/double_pendulum/model/plant.py, "UnderactuatedLecture" formulas: M22 = I2)
+    # takes I about the joint axes, so I about the centre of mass is I - m r^2. The AI Olympics
+    # leaderboards: torque limit 6 N m, damping, Coulomb friction and motor inertia 0, RK4 at
+    # dt = 0.002 s. No velocity limits.
+    m1, m2, r1, r2 = 0.5234602302310271, 0.6255677234174437, 0.2, 0.25569305436052964
+    params = AcrobotParams(
+        l1=0.2,
+        l2=0.3,
+        lc1=r1,
+        lc2=r2,
+        m1=m1,
+        m2=m2,
+        I1=0.031887199591513114 - m1 * r1**2,
+        I2=0.05086984812807257 - m2 * r2**2,
+        g=9.81,
+        max_torque=6.0,
+        max_vel1=math.inf,
+        max_vel2=math.inf,
+        dt=0.002,
+    )
+    return AcrobotModel(params, actuated=actuated, integrator="rk4")
+
+
+#: What names an acrobot: a name in :data:`MODELS`, a JSON or TOML file, a model or its
+#: parameters; ``None`` is the report's (:func:`resolve`).
+ModelSpec: TypeAlias = str | Path | AcrobotModel | AcrobotParams | None
+
+#: The shipped parameter sets by name; ``"report"`` is the default everywhere.
+MODELS: dict[str, AcrobotModel] = {
+    "report": AcrobotModel(),
+    "gymnasium": _gymnasium(),
+    "dm_control": _dm_control(),
+    "ai_olympics": _ai_olympics("elbow"),
+    "ai_olympics_pendubot": _ai_olympics("shoulder"),
+}
+
+
+def from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
+    """A model from flat keys: the fields of
+    :class:`~acrobot_mj.physics.params.AcrobotParams` and of :class:`AcrobotModel`
+    (``damping``, ``friction``, ``motor_inertia`` as two numbers); a missing key is the
+    report's."""
+    params = {f.name for f in fields(AcrobotParams)}
+    own = {f.name for f in fields(AcrobotModel)} - {"params"}
+    unknown = sorted(set(data) - params - own)
+    if unknown:
+        raise ValueError(f"{where}: unknown keys {unknown}; known: {sorted(params | own)}")
+    mine: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+    try:
+        p = AcrobotParams(**{k: v for k, v in data.items() if k in params})
+        return AcrobotModel(p, **{k: v for k, v in mine.items() if k in own})
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
+def resolve(model: ModelSpec) -> AcrobotModel:
+    """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file (:func:`from_dict`),
+    an :class:`~acrobot_mj.physics.params.AcrobotParams` (elbow-driven, Euler) or a model;
+    ``None`` is the report's."""
+    if model is None:
+        return MODELS["report"]
+    if isinstance(model, AcrobotModel):
+        return model
+    if isinstance(model, AcrobotParams):
+        return AcrobotModel(model)
+    if isinstance(model, str) and model in MODELS:
+        return MODELS[model]
+    if not isinstance(model, (str, Path)):
+        raise TypeError(f"model must be a name, a file or AcrobotParams, got {model!r}")
+    path = Path(model)
+    if path.suffix not in (".json", ".toml") or not path.is_file():
+        raise ValueError(
+            f"model must be one of {sorted(MODELS)} or a .json or .toml file, got {str(model)!r}"
+        )
+    try:
+        text = path.read_text()
+        data = json.loads(text) if path.suffix == ".json" else tomllib.loads(text)
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise ValueError(f"cannot read the model file {path}: {error}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a model file holds one table of parameters")
+    return from_dict(data, str(path))
