@@ -13,9 +13,12 @@ import math
 import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
 
 
 class SettingError(ValueError, TypeError):
@@ -242,6 +245,27 @@ def replace(config: Any, changes: dict[str, Any], what: str) -> Any:
     """A copy of ``config`` with ``changes``, checked as :func:`from_dict` checks a record."""
     _refuse_unknown(type(config), changes, what)
     return dataclasses.replace(config, **changes)
+
+
+class Settings:
+    """A config whose fields are declared with :func:`setting`: checked as it is made, with
+    :meth:`replace`, :meth:`to_dict` and :meth:`from_dict` from the declaration (``what``: the
+    settings' name in errors). Subclasses are frozen dataclasses."""
+
+    what: ClassVar[str] = "config"
+
+    def __post_init__(self) -> None:
+        check(self)
+
+    def replace(self, **changes: Any) -> Self:
+        return replace(self, changes, self.what)
+
+    def to_dict(self) -> dict[str, Any]:
+        return to_dict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Self:
+        return from_dict(cls, data, cls.what)
 
 
 def flag(cls: type, name: str) -> str:

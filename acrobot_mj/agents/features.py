@@ -13,7 +13,7 @@ import numpy as np
 
 from acrobot_mj.checks import check_memory
 from acrobot_mj.compiled import compiled, jitable
-from acrobot_mj.settings import check, setting
+from acrobot_mj.settings import Settings, setting
 
 
 @jitable
@@ -221,7 +221,7 @@ def book_tile_coder(
 
 
 @dataclass(frozen=True)
-class GridConfig:
+class GridConfig(Settings):
     """The report's grid: cells per angle and per velocity, the outermost velocity centre
     [rad/s]."""
 
@@ -231,16 +231,13 @@ class GridConfig:
         math.pi / 4, "grid: half-width of the velocity bins' range", "rad/s", low=0.0, low_open=True
     )
 
-    def __post_init__(self) -> None:
-        check(self)
-
     def build(self, space: Any) -> StateGrid:
         v = self.velocity_centre_max
         return StateGrid(self.angle_bins, self.velocity_bins, velocity_range=(-v, v))
 
 
 @dataclass(frozen=True)
-class TilesConfig:
+class TilesConfig(Settings):
     """Sutton and Barto's tile coding (:func:`book_tile_coder`)."""
 
     tilings: int = setting(12, "tiles: number of tilings", low=1)
@@ -249,9 +246,6 @@ class TilesConfig:
     )
     angle_tiles: int = setting(6, "tiles: tiles per angle in each tiling", low=1)
     velocity_tiles: int = setting(7, "tiles: tiles per velocity in each tiling", low=1)
-
-    def __post_init__(self) -> None:
-        check(self)
 
     def build(self, space: Any) -> TileCoder:
         return book_tile_coder(space, **asdict(self))

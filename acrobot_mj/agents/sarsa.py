@@ -14,7 +14,7 @@ from acrobot_mj.agents.base import BLOCK, RandomStream, checked_values, policy
 from acrobot_mj.agents.features import StateGrid, grid_cell
 from acrobot_mj.checks import check_memory
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
-from acrobot_mj.settings import check, setting
+from acrobot_mj.settings import Settings, setting
 
 
 def step_size(default: float) -> float:
@@ -34,15 +34,12 @@ def exploration(default: float) -> float:
 
 
 @dataclass(frozen=True)
-class SarsaConfig:
+class SarsaConfig(Settings):
     """Tabular SARSA's hyperparameters (the report's)."""
 
     alpha: float = step_size(0.5)
     gamma: float = discount(1.0)
     epsilon: float = exploration(0.001)
-
-    def __post_init__(self) -> None:
-        check(self)
 
 
 @jitable

@@ -17,7 +17,7 @@ from acrobot_mj.agents.features import TileCoder, tile_active
 from acrobot_mj.agents.sarsa import discount, exploration, step_size
 from acrobot_mj.checks import check_memory
 from acrobot_mj.compiled import compiled, jitable, without_dispatch
-from acrobot_mj.settings import check, setting
+from acrobot_mj.settings import Settings, setting
 
 TRACES = ("replacing", "accumulating")
 #: numpy's pairwise block: up to this many values it sums in one unrolled pass.
@@ -25,7 +25,7 @@ PAIRWISE_BLOCK = 128
 
 
 @dataclass(frozen=True)
-class SarsaLambdaConfig:
+class SarsaLambdaConfig(Settings):
     """Sarsa(lambda)'s hyperparameters (the book's); a ``trace_cutoff`` of 0 keeps every trace."""
 
     alpha: float = step_size(0.2 / 48)
@@ -36,9 +36,6 @@ class SarsaLambdaConfig:
     trace_cutoff: float = setting(
         1e-3, "sarsa_lambda: traces below this are dropped", low=0.0, high=1.0, high_open=True
     )
-
-    def __post_init__(self) -> None:
-        check(self)
 
 
 @jitable

@@ -20,7 +20,7 @@ from acrobot_mj.envs.disturbances import Perturbation
 from acrobot_mj.envs.rollout import Hooks
 from acrobot_mj.files import versions, write_json
 from acrobot_mj.report.video import RenderSettings, record_episode, write_video_record
-from acrobot_mj.settings import check, checked
+from acrobot_mj.settings import Settings, checked
 
 
 def load_trajectory(
@@ -43,7 +43,7 @@ def load_trajectory(
 
 
 @dataclass(frozen=True)
-class BalanceRun:
+class BalanceRun(Settings):
     """What ``acrobot-mj balance`` runs: ``discrete`` torques ({-1, 0, +1} N m) or continuous,
     the swing-up for ``|u| <= reserve`` N m (``optimise``: a new one, not the shipped or cached
     one), ``hold`` [s] of balance after it, and with ``video`` a video of ``size`` (width,
@@ -55,9 +55,6 @@ class BalanceRun:
     optimise: bool = False
     video: bool = True
     size: tuple[int, int] = (480, 480)
-
-    def __post_init__(self) -> None:
-        check(self)
 
 
 def run_balance(

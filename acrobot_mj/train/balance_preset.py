@@ -28,7 +28,7 @@ from acrobot_mj.envs.control_loop import (
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.settings import check, from_dict, replace, setting, to_dict
+from acrobot_mj.settings import Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.model_based import identified_model
 from acrobot_mj.train.records import TRAJECTORY_FILE
@@ -36,7 +36,7 @@ from acrobot_mj.train.run import Run
 
 
 @dataclass(frozen=True)
-class PlanConfig:
+class PlanConfig(Settings):
     """The balance preset's settings; ``targets`` are indices of
     :data:`~acrobot_mj.control.trajopt.TARGETS`, ``starts`` one of
     :data:`~acrobot_mj.control.trajopt.STARTS` (None: the search's defaults)."""
@@ -58,20 +58,12 @@ class PlanConfig:
         "rest", "warm starts of the search: rest or pumping", choices=("rest", "pumping")
     )
 
-    def __post_init__(self) -> None:
-        check(self)
-
-    def replace(self, **changes: Any) -> PlanConfig:
-        return replace(self, changes, "balance-preset")
-
-    def to_dict(self) -> dict[str, Any]:
-        return to_dict(self)
+    what = "balance-preset"
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PlanConfig:
-        return from_dict(
-            cls, {"starts": "pumping", **data}, "balance-preset"
-        )  # before 0.5: pumping starts
+        """A record's settings; one written before 0.5 searched from pumping starts."""
+        return super().from_dict({"starts": "pumping", **data})
 
 
 class PlanLearner(Learner):

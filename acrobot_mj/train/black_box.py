@@ -34,7 +34,7 @@ from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.settings import check, from_dict, replace, setting, to_dict
+from acrobot_mj.settings import Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import MODEL_FILE
 from acrobot_mj.train.run import Run
@@ -54,7 +54,7 @@ FIT_COPIES = 3
 
 
 @dataclass(frozen=True)
-class BlackBoxConfig:
+class BlackBoxConfig(Settings):
     """Decisions of random exploration in episodes of ``episode_decisions`` (the last tenth
     held out to measure the model), the library's ``harmonics`` and ``threshold``, the share of
     the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
@@ -95,18 +95,7 @@ class BlackBoxConfig:
         cli=False,
     )
 
-    def __post_init__(self) -> None:
-        check(self)
-
-    def replace(self, **changes: Any) -> BlackBoxConfig:
-        return replace(self, changes, "black-box")
-
-    def to_dict(self) -> dict[str, Any]:
-        return to_dict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> BlackBoxConfig:
-        return from_dict(cls, data, "black-box")
+    what = "black-box"
 
 
 def library_terms(harmonics: int) -> int:

@@ -24,7 +24,7 @@ from acrobot_mj.envs.control_loop import (
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.settings import check, from_dict, setting, to_dict
+from acrobot_mj.settings import Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
@@ -36,7 +36,7 @@ FUNNEL = FunnelSettings()
 
 
 @dataclass(frozen=True)
-class FeedbackConfig:
+class FeedbackConfig(Settings):
     """The state-feedback run's settings: its torques, the shipped swing-up whose funnel it
     follows, the funnel's levels (:class:`~acrobot_mj.control.feedback.FunnelSettings`), the
     seconds of each episode, and whether it identifies the model and replans in each episode
@@ -54,15 +54,7 @@ class FeedbackConfig:
         False, "identify the model from each episode's first 3 s and replan the swing-up on it"
     )
 
-    def __post_init__(self) -> None:
-        check(self)
-
-    def to_dict(self) -> dict[str, Any]:
-        return to_dict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> FeedbackConfig:
-        return from_dict(cls, data, "state-feedback")
+    what = "state-feedback"
 
 
 class FeedbackLearner(Learner):
