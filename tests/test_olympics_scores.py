@@ -32,7 +32,7 @@ from acrobot_mj.olympics.report import (
     read_olympics,
     write_olympics,
 )
-from acrobot_mj.olympics.scores import Trajectory
+from acrobot_mj.olympics.scores import Recording
 from acrobot_mj.physics.models import MODELS
 
 MODEL = MODELS["ai_olympics"]
@@ -41,12 +41,12 @@ UP = (math.pi / 2, 0.0, 0.0, 0.0)  # our convention: upright at rest
 DOWN = (-math.pi / 2, 0.0, 0.0, 0.0)  # hanging at rest
 
 
-def episode(up_rows: np.ndarray | slice, t_final: float = 10.0) -> Trajectory:
+def episode(up_rows: np.ndarray | slice, t_final: float = 10.0) -> Recording:
     """A performance-length episode hanging at rest but for ``up_rows`` (upright), no torque."""
     T = episode_times(t_final)
     X = np.tile(DOWN, (len(T), 1))
     X[up_rows] = UP
-    return Trajectory(T, X, np.zeros(len(T) - 1))
+    return Recording(T, X, np.zeros(len(T) - 1))
 
 
 def test_the_loop_counts_the_steps_and_sums_the_times() -> None:
@@ -99,7 +99,7 @@ def test_constant_torque_and_velocities_cost_what_they_should() -> None:
     X = np.tile(UP, (n + 1, 1))
     X[:, 1] = 0.001 * np.arange(n + 1)  # the elbow turns 1 mrad a step
     X[:, 2:] = (0.5, -2.0)
-    run = scores.performance(Trajectory(T, X, np.full(n, 2.0)), L1, L2)
+    run = scores.performance(Recording(T, X, np.full(n, 2.0)), L1, L2)
     # Over the N rows, sums run over i < N-1: N-1 = 4999 steps ending at T[N-1].
     assert run["energy"] == pytest.approx(4999 * 0.001 * 2.0, rel=1e-12)
     assert run["tau_cost"] == pytest.approx(4.0 * T[n - 1], rel=1e-12)
@@ -107,7 +107,7 @@ def test_constant_torque_and_velocities_cost_what_they_should() -> None:
     assert run["tau_smoothness"] == 0.0
     # Alternating +-a: 4999 changes, 2500 of -2a and 2499 of +2a.
     U = np.where(np.arange(n) % 2 == 0, 1.5, -1.5)
-    alternating = scores.performance(Trajectory(T, X, U), L1, L2)
+    alternating = scores.performance(Recording(T, X, U), L1, L2)
     expected = 3.0 * math.sqrt(1 - 1 / 4999**2)
     assert alternating["tau_smoothness"] == pytest.approx(expected, rel=1e-12)
 
@@ -239,11 +239,11 @@ def test_a_trajectory_of_the_wrong_shape_is_refused() -> None:
     T = episode_times(1.0)
     X = np.zeros((len(T), 4))
     with pytest.raises(ValueError, match="U must be elbow torques"):
-        Trajectory(T, X, np.zeros(len(T)))
+        Recording(T, X, np.zeros(len(T)))
     with pytest.raises(ValueError, match="X must be states"):
-        Trajectory(T, X[1:], np.zeros(len(T) - 1))
+        Recording(T, X[1:], np.zeros(len(T) - 1))
     with pytest.raises(ValueError, match="finite"):
-        Trajectory(T, X, np.full(len(T) - 1, np.nan))
+        Recording(T, X, np.full(len(T) - 1, np.nan))
 
 
 def small_results() -> Olympics:
@@ -264,7 +264,7 @@ def small_results() -> Olympics:
     }
     torque = np.sin(np.arange(PERFORMANCE.steps))
     performance = episode(slice(None))
-    performance = Trajectory(performance.T, performance.X, torque)
+    performance = Recording(performance.T, performance.X, torque)
     return Olympics(
         model={"name": "ai_olympics"},
         lengths=(L1, L2),

@@ -24,12 +24,13 @@ from acrobot_mj.olympics.protocol import (
     Category,
     to_protocol,
 )
-from acrobot_mj.olympics.scores import Trajectory
+from acrobot_mj.olympics.scores import Recording
 from acrobot_mj.report.plots import Labels, Series, line_figure, save_figure
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+#: The record's file name.
 RECORD_FILE = "olympics.json"
 KIND, FORMAT = "acrobot-mj olympics", 1
 #: How an episode's torques are stored.
@@ -50,7 +51,7 @@ class EpisodeRecord:
 
     @classmethod
     def of(
-        cls, trajectory: Trajectory, success: bool, disturbance: Mapping[str, Any] | None = None
+        cls, trajectory: Recording, success: bool, disturbance: Mapping[str, Any] | None = None
     ) -> EpisodeRecord:
         """The record of ``trajectory``."""
         start = tuple(float(v) for v in trajectory.X[0])
@@ -98,10 +99,10 @@ class Olympics:
     model: Mapping[str, Any]
     lengths: tuple[float, float]
     seeds: Mapping[str, int]
-    performance: Trajectory | None = None
+    performance: Recording | None = None
     categories: tuple[Category, ...] = ()
     episodes: Mapping[str, Episodes] = field(default_factory=dict)
-    global_episode: Trajectory | None = None
+    global_episode: Recording | None = None
     global_draws: Mapping[str, Any] = field(default_factory=dict)
 
 
@@ -239,7 +240,7 @@ def category_figure(category: dict[str, Any]) -> Figure:
     return figure
 
 
-def series_figure(trajectory: Trajectory, lengths: tuple[float, float], title: str) -> Figure:
+def series_figure(trajectory: Recording, lengths: tuple[float, float], title: str) -> Figure:
     """Tip height (with the up line at 0.9 (l1 + l2)) and elbow torque over time."""
     l1, l2 = lengths
     figure = _figure(2, 1, (10, 6))

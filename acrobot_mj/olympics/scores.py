@@ -26,7 +26,7 @@ from acrobot_mj.olympics.protocol import (
 
 
 @dataclass(frozen=True)
-class Trajectory:
+class Recording:
     """One episode in our convention: times ``T`` (N+1,) [s], true states ``X`` (N+1, 4)
     ``(q1, q2, dq1, dq2)`` [rad, rad/s] and the elbow torques applied ``U`` (N,) [N m] (the
     shoulder's are 0); row ``i`` of ``U`` acts from ``T[i]`` to ``T[i+1]``."""
@@ -87,7 +87,7 @@ def swingup_time(times: np.ndarray, up: np.ndarray, t_final: float) -> float:
 
 
 def performance(
-    trajectory: Trajectory, l1: float, l2: float, protocol: Performance = PERFORMANCE
+    trajectory: Recording, l1: float, l2: float, protocol: Performance = PERFORMANCE
 ) -> dict[str, float | bool | None]:
     """The performance criteria of ``trajectory`` (arm lengths ``l1``, ``l2`` [m]), its
     success and v2 score: ``swingup_time`` [s] (None: inf), ``energy`` [J] (sum of ``|dtheta
@@ -179,7 +179,7 @@ def overall_robustness(scores: Mapping[str, float], categories: Sequence[Categor
     return float(sum(1.0 / len(categories) * scores[c.key] for c in categories))
 
 
-def uptime(trajectory: Trajectory, l1: float, l2: float, t_final: float) -> dict[str, float]:
+def uptime(trajectory: Recording, l1: float, l2: float, t_final: float) -> dict[str, float]:
     """The global policy's ``uptime`` [s]: the sum of ``T[i] - T[i-1]`` over the first N rows
     up (row 0 counts 0), and its ``score``: uptime over ``t_final`` [s]."""
     T, X, _ = trajectory.rows()
