@@ -27,7 +27,16 @@ from pathlib import Path
 PACKAGE = "acrobot_mj"
 MAX_MODULE, MAX_PARAMETERS, MAX_FUNCTION = 500, 6, 60
 #: Rank of each subpackage: a module may import modules of its own rank or lower.
-LAYERS = {"physics": 1, "control": 2, "envs": 3, "agents": 4, "report": 5, "train": 6, "cli": 7}
+LAYERS = {
+    "physics": 1,
+    "control": 2,
+    "envs": 3,
+    "agents": 4,
+    "report": 5,
+    "train": 6,
+    "olympics": 6,
+    "cli": 7,
+}
 #: Modules at the package's top: helpers below every layer, and the root above all.
 HELPERS, ROOT_RANK = 0, 8
 NO_SIMULATOR = ("physics", "control")

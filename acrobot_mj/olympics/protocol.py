@@ -1,0 +1,335 @@
+"""The AI Olympics protocol's constants, levels and draws, as dfki-ric-underactuated-lab/
+double_pendulum defines them: leaderboard/acrobot/simulation_v2/{sim_parameters,
+calculate_leaderboard_score}.py (performance), leaderboard/acrobot/robustness_v2/
+benchmark_controller.py with src/python/double_pendulum/analysis/{benchmark_scores,utils}.py
+and simulation/perturbations.py (robustness), leaderboard/acrobot/simulation_v3/ with
+src/python/double_pendulum/controller/global_policy_testing_controller.py (global policy).
+
+Their convention: ``theta1`` from hanging, ``theta2`` relative; hanging is ``(0, 0)``, upright
+``(pi, 0)``. Ours: ``q1`` from the horizontal, so ``q1 = theta1 - pi/2``, ``q2 = theta2``
+(:func:`to_protocol`, :func:`from_protocol`: the one conversion). Their plant takes inertias
+about the joint axes; ours are about the centres of mass (:func:`joint_inertias`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from acrobot_mj.physics.models import AcrobotModel
+
+#: The robustness categories' keys (the protocol's), in the leaderboard's order.
+CATEGORY_KEYS = (
+    "model",
+    "measurement_noise",
+    "u_noise",
+    "u_responsiveness",
+    "delay",
+    "perturbation",
+)
+#: The time step of every protocol episode [s].
+DT = 0.002
+#: The tip is up above this fraction of the arm's reach ``l1 + l2``.
+HEIGHT = 0.9
+
+
+def episode_times(t_final: float, dt: float = DT) -> np.ndarray:
+    """The times (N+1,) [s] of an episode as the protocol's loop makes them: ``t = 0; while t <
+    t_final: t += dt``, each time the sum of the steps before it (not ``i * dt``)."""
+    if not (isinstance(t_final, (int, float)) and 0 < t_final < math.inf):
+        raise ValueError(f"t_final must be a finite number of seconds > 0, got {t_final!r}")
+    if not (isinstance(dt, (int, float)) and 0 < dt <= t_final):
+        raise ValueError(f"dt must be a number of seconds in (0, t_final], got {dt!r}")
+    times, t = [0.0], 0.0
+    while t < t_final:
+        t += dt
+        times.append(t)
+    return np.array(times)
+
+
+def step_count(t_final: float, dt: float = DT) -> int:
+    """The number of steps N of an episode of ``t_final`` [s] (:func:`episode_times`)."""
+    return len(episode_times(t_final, dt)) - 1
+
+
+def to_protocol(states: np.ndarray) -> np.ndarray:
+    """States (..., 4) in our convention ``(q1, q2, dq1, dq2)`` [rad, rad/s] as the protocol's
+    ``(theta1, theta2, dtheta1, dtheta2)``: ``theta1 = q1 + pi/2``; a new array."""
+    theirs = np.array(states, dtype=float)
+    theirs[..., 0] += math.pi / 2
+    return theirs
+
+
+def from_protocol(states: np.ndarray) -> np.ndarray:
+    """The protocol's states (..., 4) in our convention: ``q1 = theta1 - pi/2``; a new array."""
+    ours = np.array(states, dtype=float)
+    ours[..., 0] -= math.pi / 2
+    return ours
+
+
+def joint_inertias(model: AcrobotModel) -> tuple[float, float]:
+    """The links' inertias about their joint axes [kg m^2], as the protocol's plant takes them:
+    ours (about the centres of mass) plus ``m lc^2``."""
+    p = model.params
+    return p.I1 + p.m1 * p.lc1**2, p.I2 + p.m2 * p.lc2**2
+
+
+def wrap_top(state: np.ndarray) -> np.ndarray:
+    """A protocol state (4,) wrapped as its success test wraps it (``wrap_angles_top``):
+    ``theta1`` into ``[0, 2 pi)``, ``theta2`` into ``[-pi, pi)``, velocities as they are."""
+    wrapped = np.array(state, dtype=float)
+    wrapped[0] = wrapped[0] % (2 * np.pi)
+    wrapped[1] = (wrapped[1] + np.pi) % (2 * np.pi) - np.pi
+    return wrapped
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """One performance criterion: its ``name`` (the protocol's key), ``unit``, normalisation
+    ``norm`` and ``weight`` in the v2 score."""
+
+    name: str
+    unit: str
+    norm: float
+    weight: float = 1.0
+
+
+#: The v2 score's criteria, in the order its sum takes them.
+CRITERIA = (
+    Criterion("swingup_time", "s", 20.0),
+    Criterion("energy", "J", 60.0),
+    Criterion("tau_cost", "N^2 m^2 s", 20.0),
+    Criterion("tau_smoothness", "N m", 0.1),
+    Criterion("velocity_cost", "rad^2/s", 400.0),
+)
+
+
+@dataclass(frozen=True)
+class Performance:
+    """The swing-up leaderboard (simulation_v2): one episode of ``t_final`` [s] from hanging at
+    rest, torque limit ``torque_limit`` [N m] at the elbow, scored by ``criteria``."""
+
+    t_final: float = 10.0
+    dt: float = DT
+    height: float = HEIGHT
+    torque_limit: float = 6.0
+    criteria: tuple[Criterion, ...] = CRITERIA
+
+    @property
+    def steps(self) -> int:
+        """The episode's step count N (:func:`step_count`)."""
+        return step_count(self.t_final, self.dt)
+
+
+def get_par_list(x0: float, low: float, high: float, n: int) -> np.ndarray:
+    """The protocol's relative levels: ``linspace(low, high, n) * x0`` (``n`` made odd), or
+    ``linspace(0, high, n) * x0`` where ``x0`` is 0 (analysis/utils.py)."""
+    if x0 != 0:
+        n = n + 1 if n % 2 == 0 else n
+        return np.linspace(low, high, n) * x0
+    return np.linspace(0, high, n) * x0
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """One varied ``parameter`` [``unit``] and its ``levels``."""
+
+    parameter: str
+    unit: str
+    levels: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Category:
+    """A robustness category: its ``key`` (the protocol's), leaderboard ``title``, ``sweeps``,
+    ``repetitions`` (episodes per level) and its rule: ``majority`` counts the levels whose
+    success fraction exceeds one half, else the score is the fraction of successful episodes."""
+
+    key: str
+    title: str
+    sweeps: tuple[Sweep, ...]
+    repetitions: int
+    majority: bool = False
+
+    @property
+    def episodes(self) -> int:
+        """Episodes the category runs."""
+        return self.repetitions * sum(len(s.levels) for s in self.sweeps)
+
+
+@dataclass(frozen=True)
+class Pulses:
+    """Gaussian torque pulses: centres ``mu`` [s], widths ``sigma`` [s] and amplitudes
+    ``amplitude`` [N m], each (2, n): row 0 the shoulder, row 1 the elbow."""
+
+    mu: np.ndarray
+    sigma: np.ndarray
+    amplitude: np.ndarray
+
+    def torques(self, t_max: float, dt: float = DT) -> np.ndarray:
+        """The pulse torques (2, M) [N m] at ``arange(0, t_max, dt)`` (the step index
+        ``int(t / dt)`` picks a column)."""
+        t = np.arange(0, t_max, dt)
+        rows = []
+        for mu, sigma, amplitude in zip(self.mu, self.sigma, self.amplitude, strict=True):
+            gauss = [
+                a * np.exp(-np.power(t - m, 2.0) / (2 * s**2.0))
+                for m, s, a in zip(mu, sigma, amplitude, strict=True)
+            ]
+            rows.append(np.sum(gauss, axis=0))
+        return np.asarray(rows)
+
+    def to_dict(self) -> dict[str, list[list[float]]]:
+        """The pulses as JSON."""
+        return {k: getattr(self, k).tolist() for k in ("mu", "sigma", "amplitude")}
+
+
+@dataclass(frozen=True)
+class Perturbations:
+    """The perturbation category's draws (get_random_gauss_perturbation_array): ``episodes``
+    episodes, ``per_joint`` pulses on each joint ``min_gap`` [s] apart at least, widths in
+    ``sigma`` [s], amplitudes of magnitude in ``amplitude`` [N m]."""
+
+    episodes: int = 50
+    per_joint: int = 3
+    min_gap: float = 1.0
+    sigma: tuple[float, float] = (0.05, 0.1)
+    amplitude: tuple[float, float] = (0.5, 5.0)
+
+    def draw(self, rng: np.random.Generator, t_max: float) -> Pulses:
+        """One episode's pulses over ``t_max`` [s], drawn from ``rng`` in the protocol's order."""
+        n = 2 * self.per_joint
+        wiggle = (t_max - (n + 1) * self.min_gap) / n
+        mu: list[float] = []
+        for i in range(n):
+            mu.append((mu[-1] if i else 0.0) + self.min_gap + rng.random() * wiggle)
+        rng.shuffle(mu)
+        centres = np.reshape(mu, (2, self.per_joint))
+        low, high = self.sigma
+        sigma = low + rng.random((2, self.per_joint)) * (high - low)
+        span = self.amplitude[1] - self.amplitude[0]
+        amplitude = rng.uniform(-span, span, size=(2, self.per_joint))
+        amplitude += self.amplitude[0] * np.sign(amplitude)
+        return Pulses(centres, sigma, amplitude)
+
+
+def _linspace(low: float, high: float, n: int) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.linspace(low, high, n))
+
+
+@dataclass(frozen=True)
+class Robustness:
+    """The robustness leaderboard (robustness_v2): episodes of ``t_final`` [s] from hanging,
+    each a success if its final state is within ``epsilon`` of upright at rest (``|theta1 -
+    pi|``, ``|theta2|`` [rad], ``|dtheta1|``, ``|dtheta2|`` [rad/s], all strict) after
+    :func:`wrap_top`; ``levels`` per sweep; ``noise_repetitions`` episodes a noise level."""
+
+    t_final: float = 10.0
+    dt: float = DT
+    torque_limit: float = 6.0
+    epsilon: tuple[float, float, float, float] = (0.35, 0.35, 1.0, 1.0)
+    levels: int = 21
+    noise_repetitions: int = 10
+    perturbations: Perturbations = field(default_factory=Perturbations)
+
+    def model_sweeps(self, model: AcrobotModel) -> tuple[Sweep, ...]:
+        """The model category's ten sweeps around ``model``, in the protocol's order: motor
+        inertia ``Ir``; ``m1r1`` (sets ``r1 = value / m1``, the inertia about the joint kept);
+        ``I1`` about the joint; damping ``b1``; Coulomb friction ``cf1``; then ``m2r2``, ``m2``
+        (``r2`` and ``I2`` kept), ``I2``, ``b2``, ``cf2``. The controller keeps ``model``."""
+        p, n = model.params, self.levels
+        I1, I2 = joint_inertias(model)
+
+        def relative(x0: float) -> tuple[float, ...]:
+            return tuple(float(v) for v in get_par_list(x0, 0.75, 1.25, n))
+
+        return (
+            Sweep("Ir", "kg m^2", _linspace(0.0, 1e-4, n)),
+            Sweep("m1r1", "kg m", relative(p.m1 * p.lc1)),
+            Sweep("I1", "kg m^2", relative(I1)),
+            Sweep("b1", "N m s/rad", _linspace(-0.1, 0.1, n)),
+            Sweep("cf1", "N m", _linspace(-0.2, 0.2, n)),
+            Sweep("m2r2", "kg m", relative(p.m2 * p.lc2)),
+            Sweep("m2", "kg", relative(p.m2)),
+            Sweep("I2", "kg m^2", relative(I2)),
+            Sweep("b2", "N m s/rad", _linspace(-0.1, 0.1, n)),
+            Sweep("cf2", "N m", _linspace(-0.2, 0.2, n)),
+        )
+
+    def categories(self, model: AcrobotModel) -> tuple[Category, ...]:
+        """The six categories around the nominal ``model``, in the leaderboard's order."""
+        n, reps = self.levels, self.noise_repetitions
+        model_key, noise, u_noise, response, delay, perturbation = CATEGORY_KEYS
+        pulses = Sweep("pulses per joint", "", (float(self.perturbations.per_joint),))
+        return (
+            Category(model_key, "Model", self.model_sweeps(model), 1),
+            Category(
+                noise,
+                "Velocity Noise",
+                (Sweep("velocity noise sigma", "rad/s", _linspace(0.0, 0.5, n)),),
+                reps,
+                majority=True,
+            ),
+            Category(
+                u_noise,
+                "Torque Noise",
+                (Sweep("torque noise sigma", "N m", _linspace(0.0, 1.1, n)),),
+                reps,
+                majority=True,
+            ),
+            Category(
+                response,
+                "Torque Step Response",
+                (Sweep("torque response k", "", _linspace(0.1, 2.0, n)),),
+                1,
+            ),
+            Category(
+                delay,
+                "Time Delay",
+                (Sweep("delay (position and velocity)", "s", _linspace(0.0, 0.04, n)),),
+                1,
+            ),
+            Category(perturbation, "Perturbations", (pulses,), self.perturbations.episodes),
+        )
+
+
+@dataclass(frozen=True)
+class GlobalPolicy:
+    """The global policy leaderboard (simulation_v3): one episode of ``t_final`` [s] from
+    hanging; ``resets`` times (evenly spaced, each moved by up to ``jitter`` [s]) a PID (gains
+    ``kp``, ``ki``, ``kd``, its own step ``pid_dt`` [s], both joints clipped to ``torque_limit``
+    [N m]) plus gravity compensation drives the arm to a random target for more than
+    ``reset_length`` [s]; the score is the time up over ``t_final``."""
+
+    t_final: float = 60.0
+    dt: float = DT
+    height: float = HEIGHT
+    torque_limit: tuple[float, float] = (6.0, 6.0)
+    resets: int = 15
+    jitter: float = 1.0
+    reset_length: float = 0.2
+    kp: float = 10.0
+    ki: float = 0.1
+    kd: float = 1.0
+    pid_dt: float = 0.001
+
+    @property
+    def steps(self) -> int:
+        """The episode's step count N (:func:`step_count`)."""
+        return step_count(self.t_final, self.dt)
+
+    def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """The episode's targets (10 resets + 1, 4) in the protocol's convention (angles uniform
+        in ``[-pi, pi)``, velocities 0) and its reset times (resets,) [s], drawn from ``rng`` in
+        the protocol's order."""
+        targets = rng.uniform(0.0, 2 * np.pi, (10 * self.resets + 1, 4)) - np.pi
+        targets[:, 2:] *= 0.0
+        gap = self.t_final / float(self.resets + 1)
+        nominal = np.linspace(gap, self.t_final - gap, self.resets)
+        return targets, nominal + 2.0 * self.jitter * (rng.random(self.resets) - 0.5)
+
+
+PERFORMANCE = Performance()
+ROBUSTNESS = Robustness()
+GLOBAL = GlobalPolicy()

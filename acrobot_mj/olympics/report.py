@@ -1,0 +1,280 @@
+"""The AI Olympics record, ``olympics.json`` (written atomically, sealed with its digest), its
+reader, and its figures (PNG beside it): success fraction per level for each robustness category,
+tip height and torque over time for the performance and global episodes.
+
+Per-step torques are stored compactly: each episode's elbow torques [N m] as base64 of
+little-endian float32 (:data:`TORQUES`)."""
+
+from __future__ import annotations
+
+import base64
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from acrobot_mj.files import is_sealed, read_json, sealed, versions, write_json
+from acrobot_mj.olympics import scores
+from acrobot_mj.olympics.protocol import (
+    CATEGORY_KEYS,
+    GLOBAL,
+    PERFORMANCE,
+    Category,
+    to_protocol,
+)
+from acrobot_mj.olympics.scores import Recording
+from acrobot_mj.report.plots import Labels, Series, line_figure, save_figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+#: The record's file name.
+RECORD_FILE = "olympics.json"
+KIND, FORMAT = "acrobot-mj olympics", 1
+#: How an episode's torques are stored.
+TORQUES = "base64 of little-endian float32 elbow torques [N m], one per step"
+_DTYPE = np.dtype("<f4")
+
+
+@dataclass(frozen=True)
+class EpisodeRecord:
+    """What the record keeps of one episode: its ``start`` (4,) in our convention [rad, rad/s],
+    the elbow ``torques`` (N,) applied [N m], its ``success`` and the ``disturbance`` it met
+    (the level's parameter or the drawn pulses, as JSON)."""
+
+    start: tuple[float, ...]
+    torques: np.ndarray
+    success: bool
+    disturbance: Mapping[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(
+        cls, trajectory: Recording, success: bool, disturbance: Mapping[str, Any] | None = None
+    ) -> EpisodeRecord:
+        """The record of ``trajectory``."""
+        start = tuple(float(v) for v in trajectory.X[0])
+        return cls(start, trajectory.U, bool(success), dict(disturbance or {}))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The episode as JSON."""
+        return {
+            "start": list(self.start),
+            "disturbance": dict(self.disturbance),
+            "success": self.success,
+            "steps": len(self.torques),
+            "torques": encode_torques(self.torques),
+        }
+
+
+def encode_torques(torques: np.ndarray) -> str:
+    """Torques (N,) [N m] as :data:`TORQUES` says."""
+    return base64.b64encode(np.asarray(torques, dtype=_DTYPE).tobytes()).decode("ascii")
+
+
+def decode_torques(text: str, steps: int) -> np.ndarray:
+    """The torques (``steps``,) [N m] of :func:`encode_torques`; ValueError where ``text`` is not
+    ``steps`` of them."""
+    try:
+        raw = base64.b64decode(text.encode("ascii"), validate=True)
+    except (ValueError, UnicodeEncodeError):
+        raise ValueError("torques are not base64") from None
+    if len(raw) != steps * _DTYPE.itemsize:
+        raise ValueError(f"torques hold {len(raw) // _DTYPE.itemsize} steps, not {steps}")
+    return np.frombuffer(raw, dtype=_DTYPE).astype(float)
+
+
+#: A category's episodes: per sweep, per level, per episode.
+Episodes = Sequence[Sequence[Sequence[EpisodeRecord]]]
+
+
+@dataclass(frozen=True)
+class Olympics:
+    """What a run of the protocol produced: the ``model`` (as JSON) and its arm ``lengths``
+    ``(l1, l2)`` [m], the ``seeds`` of every draw; the ``performance`` episode; the robustness
+    ``categories`` run and their ``episodes`` by category key; the ``global_episode`` and its
+    ``global_draws`` (targets, reset times, as JSON). A part not run is None or empty."""
+
+    model: Mapping[str, Any]
+    lengths: tuple[float, float]
+    seeds: Mapping[str, int]
+    performance: Recording | None = None
+    categories: tuple[Category, ...] = ()
+    episodes: Mapping[str, Episodes] = field(default_factory=dict)
+    global_episode: Recording | None = None
+    global_draws: Mapping[str, Any] = field(default_factory=dict)
+
+
+def _category(category: Category, episodes: Episodes) -> dict[str, Any]:
+    successes = [[[e.success for e in level] for level in sweep] for sweep in episodes]
+    fractions = scores.level_fractions(category, successes)
+    return {
+        "key": category.key,
+        "title": category.title,
+        "score": scores.category_score(category, successes),
+        "repetitions": category.repetitions,
+        "majority": category.majority,
+        "sweeps": [
+            {
+                "parameter": sweep.parameter,
+                "unit": sweep.unit,
+                "levels": list(sweep.levels),
+                "fractions": fractions[k],
+                "episodes": [[e.to_dict() for e in level] for level in episodes[k]],
+            }
+            for k, sweep in enumerate(category.sweeps)
+        ],
+    }
+
+
+def olympics_record(results: Olympics) -> dict[str, Any]:
+    """The record of ``results``: every score, every category with its per-level success
+    fractions, every episode (:meth:`EpisodeRecord.to_dict`), the model and seeds."""
+    l1, l2 = results.lengths
+    record: dict[str, Any] = {
+        "kind": KIND,
+        "format": FORMAT,
+        "versions": versions(),
+        "model": dict(results.model),
+        "lengths": [float(l1), float(l2)],
+        "seeds": dict(results.seeds),
+        "torques": TORQUES,
+    }
+    if results.performance is not None:
+        run = scores.performance(results.performance, l1, l2)
+        episode = EpisodeRecord.of(results.performance, bool(run["success"]))
+        record["performance"] = {**run, "episode": episode.to_dict()}
+    if results.categories:
+        missing = [c.key for c in results.categories if c.key not in results.episodes]
+        if missing:
+            raise ValueError(f"no episodes for the robustness categories {missing}")
+        done = [_category(c, results.episodes[c.key]) for c in results.categories]
+        by_key = {c["key"]: c["score"] for c in done}
+        robustness: dict[str, Any] = {"categories": done}
+        if set(by_key) == set(CATEGORY_KEYS):
+            robustness["overall"] = scores.overall_robustness(by_key, results.categories)
+        record["robustness"] = robustness
+    if results.global_episode is not None:
+        up = scores.uptime(results.global_episode, l1, l2, GLOBAL.t_final)
+        episode = EpisodeRecord.of(results.global_episode, True, results.global_draws)
+        record["global"] = {**up, "episode": episode.to_dict()}
+    return sealed(record)
+
+
+def _episodes_of(record: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every episode dict in ``record``."""
+    found = [record[part]["episode"] for part in ("performance", "global") if part in record]
+    for category in record.get("robustness", {}).get("categories", []):
+        for sweep in category["sweeps"]:
+            found += [e for level in sweep["episodes"] for e in level]
+    return found
+
+
+def read_olympics(path: str | Path) -> dict[str, Any]:
+    """The record at ``path`` (a file or the folder holding :data:`RECORD_FILE`), each episode's
+    ``torques`` decoded to an array (N,) [N m]; one line naming the file and the problem where it
+    is not a whole, unedited olympics record."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / RECORD_FILE
+    try:
+        record = read_json(path)
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path} is not a readable olympics record: {error}") from None
+    if not isinstance(record, dict) or record.get("kind") != KIND:
+        raise ValueError(f"{path} is not an olympics record (no kind {KIND!r})")
+    if record.get("format") != FORMAT:
+        raise ValueError(
+            f"{path} is an olympics record of format {record.get('format')!r}, "
+            f"this version reads format {FORMAT}"
+        )
+    if not is_sealed(record):
+        raise ValueError(f"{path} was edited or cut short since written (its sha256 fails)")
+    try:
+        for episode in _episodes_of(record):
+            episode["torques"] = decode_torques(episode["torques"], episode["steps"])
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{path} holds a malformed episode: {error}") from None
+    return record
+
+
+def _figure(rows: int, columns: int, size: tuple[float, float]) -> Figure:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=size, dpi=100, layout="constrained")
+    FigureCanvasAgg(figure)  # its own canvas: pyplot is not involved
+    figure.subplots(rows, columns, squeeze=False)
+    return figure
+
+
+def category_figure(category: dict[str, Any]) -> Figure:
+    """A category's success fraction per level, one panel per sweep, with the pass line at 0.5
+    for a majority category (``category``: as the record holds it)."""
+    sweeps = category["sweeps"]
+    title = f"{category['title']}: score {category['score']:.3f}"
+    if len(sweeps) == 1:
+        sweep = sweeps[0]
+        if len(sweep["levels"]) == 1:  # one level of many episodes: each episode's success
+            episodes = sweep["episodes"][0]
+            series = [
+                Series(
+                    "success", range(1, len(episodes) + 1), [float(e["success"]) for e in episodes]
+                )
+            ]
+            return line_figure(series, Labels(title, "episode", "success"))
+        unit = f" [{sweep['unit']}]" if sweep["unit"] else ""
+        hlines = [(0.5, "pass: more than 0.5")] if category["majority"] else []
+        series = [Series("success fraction", sweep["levels"], sweep["fractions"])]
+        return line_figure(
+            series, Labels(title, sweep["parameter"] + unit, "success fraction"), hlines=hlines
+        )
+    columns = 5
+    figure = _figure(-(-len(sweeps) // columns), columns, (16, 6))
+    for ax, sweep in zip(figure.axes, sweeps, strict=False):
+        ax.plot(sweep["levels"], sweep["fractions"], marker="o", markersize=3)
+        ax.set(title=sweep["parameter"], xlabel=sweep["unit"], ylim=(-0.05, 1.05))
+        ax.grid(True, color="0.9")
+    figure.suptitle(title)
+    return figure
+
+
+def series_figure(trajectory: Recording, lengths: tuple[float, float], title: str) -> Figure:
+    """Tip height (with the up line at 0.9 (l1 + l2)) and elbow torque over time."""
+    l1, l2 = lengths
+    figure = _figure(2, 1, (10, 6))
+    top, bottom = figure.axes
+    top.plot(trajectory.T, scores.tip_heights(to_protocol(trajectory.X), l1, l2), linewidth=1)
+    line = PERFORMANCE.height * (l1 + l2)
+    top.axhline(line, color="0.35", linestyle="--", linewidth=1, label=f"up: {line:.3g} m")
+    top.set(title=title, ylabel="tip height [m]")
+    top.legend(loc="best", fontsize=9)
+    bottom.plot(trajectory.T[:-1], trajectory.U, linewidth=1)
+    bottom.set(xlabel="time [s]", ylabel="elbow torque [N m]")
+    for ax in figure.axes:
+        ax.grid(True, color="0.9")
+    return figure
+
+
+def write_olympics(folder: str | Path, results: Olympics) -> Path:
+    """Write :func:`olympics_record` of ``results`` to ``folder``/:data:`RECORD_FILE` and its
+    figures beside it: ``robustness_<key>.png`` per category, ``performance.png``,
+    ``global.png``. Returns the record's path."""
+    folder = Path(folder)
+    record = olympics_record(results)
+    path = write_json(folder / RECORD_FILE, record)
+    for category in record.get("robustness", {}).get("categories", []):
+        save_figure(category_figure(category), folder / f"robustness_{category['key']}.png")
+    if results.performance is not None:
+        run = record["performance"]
+        title = f"Performance: score {run['score']:.3f}, swing-up time {run['swingup_time']} s"
+        figure = series_figure(results.performance, results.lengths, title)
+        save_figure(figure, folder / "performance.png")
+    if results.global_episode is not None:
+        run = record["global"]
+        title = f"Global policy: uptime {run['uptime']:.2f} s, score {run['score']:.3f}"
+        save_figure(
+            series_figure(results.global_episode, results.lengths, title), folder / "global.png"
+        )
+    return path
