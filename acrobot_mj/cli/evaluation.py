@@ -102,6 +102,8 @@ def evaluation_words(record: dict[str, Any]) -> str:
             f", {ratio['median']:.3g} x the per-start minima (IQR {ratio['q25']:.3g}-"
             f"{ratio['q75']:.3g})"
         )
+    elif "no_minima" in record:
+        words += f" ({record['no_minima']})"
     words += f"; from rest {rest[quantity]:g} {unit}"
     return words + ("" if rest["success"] else " (no goal)")
 

@@ -16,14 +16,12 @@ import numpy as np
 
 from acrobot_mj.checks import check_bool, check_int
 from acrobot_mj.compiled import jitable
-from acrobot_mj.envs.assets import link_lengths, load_model
+from acrobot_mj.envs.assets import actuated_joint, link_lengths, load_model
 from acrobot_mj.envs.gl import close_viewer, make_renderer, open_viewer
 from acrobot_mj.envs.spaces import (
     INT_TYPES,
-    MAX_VEL1,
-    MAX_VEL2,
     RESET_OPTIONS,
-    TORQUE_OF,
+    TorqueLimit,
     action_space,
     action_torque,
     cos_sin,
@@ -33,7 +31,8 @@ from acrobot_mj.envs.spaces import (
 )
 from acrobot_mj.envs.tasks import Task, TaskOptions, get_task
 from acrobot_mj.physics.integrators import limit_velocities
-from acrobot_mj.physics.models import ModelSpec
+from acrobot_mj.physics.models import ModelSpec, resolve
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.physics.xp import wrap
 
 if sys.version_info >= (3, 11):
@@ -50,8 +49,6 @@ MAX_ANGLE = 1e6
 MAX_FRAME_SKIP = 1000  # physics steps per action: 50 s
 # Globals are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
-_MIN_VEL1, _MIN_VEL2 = -MAX_VEL1, -MAX_VEL2
-_MAX_VEL = (MAX_VEL1, MAX_VEL2)
 _PI, _MIN_PI = math.pi, -math.pi
 
 
@@ -137,15 +134,19 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     r"""The acrobot of the IND E 599 report simulated by MuJoCo, with a ``task`` on top
     (:mod:`acrobot_mj.envs.tasks`: rewards, episode end, ``info``).
 
-    Actions: ``Discrete(3)``, elbow torques -1, 0, +1 N m held for ``frame_skip`` physics steps
-    of 0.05 s, or with ``continuous=True`` ``Box(-1, 1, (1,))`` [N m]; anything else raises.
-    Observations ``(q1, q2, dq1, dq2)``: q1 from the horizontal, q2 relative to link 1, wrapped
-    into [-pi, pi) [rad]; velocities [rad/s] clipped to ``(4 pi, 9 pi)`` after every physics
-    step; with ``observation="cos_sin"`` float32 ``(cos q1, sin q1, cos q2, sin q2, dq1, dq2)``
-    as Gymnasium's ``Acrobot-v1``. ``model_path``: an MJCF file instead of ``scene.xml``;
-    ``model``: a parameter set by name (:data:`~acrobot_mj.physics.models.MODELS`), a JSON or
-    TOML file of one, or an ``AcrobotModel`` or ``AcrobotParams``, its MJCF generated;
-    ``reset`` takes ``options={"start_noise": s}`` or ``{"state": x}``.
+    Actions: ``Discrete(3)``, motor torques -1, 0, +1 N m (``-max_torque, 0, +max_torque`` of
+    the model) held for ``frame_skip`` physics steps of 0.05 s (the model's ``dt``), or with
+    ``continuous=True`` ``Box(-max_torque, max_torque, (1,))`` [N m]; anything else raises.
+    The motor drives the elbow (a pendubot's the shoulder). Observations ``(q1, q2, dq1, dq2)``:
+    q1 from the horizontal, q2 relative to link 1, wrapped into [-pi, pi) [rad]; velocities
+    [rad/s] clipped to ``(4 pi, 9 pi)`` (the model's ``max_vel1, max_vel2``; inf: no clipping
+    and no bound) after every physics step; with ``observation="cos_sin"`` float32 ``(cos q1,
+    sin q1, cos q2, sin q2, dq1, dq2)`` as Gymnasium's ``Acrobot-v1``. ``model_path``: an MJCF
+    file instead of ``scene.xml`` (the report's limits); ``model``: a parameter set by name
+    (:data:`~acrobot_mj.physics.models.MODELS`), a JSON or TOML file of one, or an
+    ``AcrobotModel`` or ``AcrobotParams``, its MJCF generated; ``params`` is the set's
+    parameters; ``integrator``: ``"euler"`` or ``"rk4"``, default the model's (``"euler"`` for
+    an MJCF file). ``reset`` takes ``options={"start_noise": s}`` or ``{"state": x}``.
 
     Ten +1 N m steps from rest (the analytic model's numbers), then the bang-bang law
     ``tau = -sign(dq1)`` reaching the goal on step 300:
@@ -174,7 +175,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     def __init__(
         self,
         frame_skip: int = 1,
-        integrator: str = "euler",
+        integrator: str | None = None,
         *,
         task: str | type[Task] = "height_goal",
         continuous: bool = False,
@@ -189,20 +190,11 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     ) -> None:
         self._frame_skip = check_int("frame_skip", frame_skip, 1, MAX_FRAME_SKIP)
         self._substeps = range(self._frame_skip)
-        if not isinstance(integrator, str) or integrator not in INTEGRATORS:
-            raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
-        self._integrator = integrator
         self._continuous = check_bool("continuous", continuous)
         modes = self.metadata["render_modes"]
         if render_mode is not None and render_mode not in modes:
             raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
-        if model_path is not None and not isinstance(model_path, (str, os.PathLike)):
-            raise TypeError(f"model_path must be a path to an MJCF file, got {model_path!r}")
-        self.model = load_model(model_path, model)
-        self.model.opt.integrator = INTEGRATORS[integrator]
-        # Whatever the file says: a NaN state must stay visible (step raises), not be reset away.
-        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-        self.data = mujoco.MjData(self.model)
+        self._load(model_path, model, integrator)
         self.task = make_task(task, link_lengths(self.model), task_options)
         key = self.task.start_keyframe
         self._start_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, key)
@@ -225,12 +217,32 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
         self._viewer: Any = None  # render_mode="human"'s window, opened by _show()
         self._human, self._shown_at = render_mode == "human", 0.0
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.dt}
-        self.action_space = action_space(continuous)
-        self.observation_space = observation_space(observation)  # raises on an unknown kind
+        self.action_space = action_space(continuous, self._torques)
+        # raises on an unknown kind
+        self.observation_space = observation_space(observation, self.params.max_vel)
         self._observation, self._cos_sin = observation, observation == "cos_sin"
-        # step()'s fast path for integer actions (none for continuous ones)
-        self._torque_of: dict[Any, float] = {} if continuous else TORQUE_OF
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._start_key)
+
+    def _load(
+        self, model_path: str | Path | None, model: ModelSpec, integrator: str | None
+    ) -> None:
+        """``model`` (or the MJCF file ``model_path``) as ``model``, ``data`` and ``params``,
+        stepped by ``integrator`` (None: the model's; a file's: ``"euler"``)."""
+        if integrator is not None and (
+            not isinstance(integrator, str) or integrator not in INTEGRATORS
+        ):
+            raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+        if model_path is not None and not isinstance(model_path, (str, os.PathLike)):
+            raise TypeError(f"model_path must be a path to an MJCF file, got {model_path!r}")
+        acrobot = None if model is None else resolve(model)
+        #: The parameter set: its torque and velocity limits bound the spaces.
+        self.params: AcrobotParams = REPORT if acrobot is None else acrobot.params
+        self.model = load_model(model_path, acrobot)
+        self._integrator = integrator or ("euler" if acrobot is None else acrobot.integrator)
+        self.model.opt.integrator = INTEGRATORS[self._integrator]
+        # Whatever the file says: a NaN state must stay visible (step raises), not be reset away.
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+        self.data = mujoco.MjData(self.model)
 
     def _bind(self) -> None:  # views into data and the task's rule, redone by unpickling
         m, d = self.model, self.data
@@ -241,19 +253,27 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                 f"expected joints shoulder, elbow at qpos 0, 1 and dofs 0, 1; got {qadr}, {dadr}"
             )
         self._qpos, self._qvel = d.qpos, d.qvel
-        motor = m.actuator("elbow_motor").id
+        motor = m.actuator(f"{actuated_joint(m)}_motor").id
         self._ctrl = d.ctrl[motor : motor + 1]
         self._rule, self._info = self.task.rule(), self.task.info()
+        # the limits as step() reads them: torques, and (-max, max) of each velocity
+        self._torques = TorqueLimit(self.params.max_torque)
+        self._torque_of: dict[Any, float] = {} if self._continuous else self._torques.of
+        max1, max2 = self._max_vel = self.params.max_vel
+        self._bounds = (-max1, max1, -max2, max2)
 
     def __getstate__(self) -> dict[str, Any]:
-        views = ("_qpos", "_qvel", "_ctrl", "_rule", "_info")
+        views = (
+            *("_qpos", "_qvel", "_ctrl", "_rule", "_info"),
+            *("_torques", "_torque_of", "_max_vel", "_bounds"),
+        )
         state = {key: value for key, value in self.__dict__.items() if key not in views}
         return {**state, "_renderer": None, "_viewer": None}  # GL contexts cannot be copied
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         added = ("_human", "_viewer", "_shown_at", "_cos_sin", "_observation")  # in 0.4.0
         check_copy("AcrobotEnv", state, added)
-        self.__dict__.update(state)
+        self.__dict__.update({"params": REPORT, **state})  # 0.4.0's: the report's limits
         self._bind()
 
     # Read-only: the spaces, metadata and model are built from them.
@@ -285,10 +305,9 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
                 f"angles q={q} rad are beyond +-{MAX_ANGLE:g} rad, where they lose "
                 "precision; wrap them into [-pi, pi) first"
             )
-        if abs(dq[0]) > MAX_VEL1 or abs(dq[1]) > MAX_VEL2:
-            raise ValueError(
-                f"dq={dq} exceeds the velocity limits ({MAX_VEL1:.4g}, {MAX_VEL2:.4g}) rad/s"
-            )
+        max1, max2 = self._max_vel
+        if abs(dq[0]) > max1 or abs(dq[1]) > max2:
+            raise ValueError(f"dq={dq} exceeds the velocity limits ({max1:.4g}, {max2:.4g}) rad/s")
         self._qpos[:], self._qvel[:] = q, dq
 
     def reset(
@@ -311,13 +330,16 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
 
     def step(self, action: Any) -> tuple[np.ndarray, Any, Any, bool, dict[str, Any]]:
         torque = self._torque_of.get(action) if action.__class__ in INT_TYPES else None
-        self._ctrl[0] = action_torque(action, self._continuous) if torque is None else torque
+        if torque is None:
+            torque = action_torque(action, self._continuous, self._torques)
+        self._ctrl[0] = torque
         m, d, qvel = self.model, self.data, self._qvel
+        low1, high1, low2, high2 = self._bounds
         for _ in self._substeps:
             _mj_step(m, d)
             v1, v2 = qvel.tolist()
-            if not (_MIN_VEL1 <= v1 <= MAX_VEL1 and _MIN_VEL2 <= v2 <= MAX_VEL2):  # or NaN
-                v1, v2 = qvel[0], qvel[1] = limit_velocities(v1, v2, _MAX_VEL)
+            if not (low1 <= v1 <= high1 and low2 <= v2 <= high2):  # or NaN
+                v1, v2 = qvel[0], qvel[1] = limit_velocities(v1, v2, self._max_vel)
         q1, q2 = self._qpos.tolist()
         # Angles in [-pi, pi) and velocities within the limits (not NaN) are observed as they
         # are; anything else takes the one rule (MuJoCo's autoreset is off).

@@ -17,7 +17,6 @@ _PACKAGE = Path(__file__).resolve().parent.parent  # acrobot_mj/
 REQUIRED_NAMES: dict[mujoco.mjtObj, tuple[str, ...]] = {
     mujoco.mjtObj.mjOBJ_BODY: ("link1", "link2"),
     mujoco.mjtObj.mjOBJ_JOINT: ("shoulder", "elbow"),
-    mujoco.mjtObj.mjOBJ_ACTUATOR: ("elbow_motor",),
     mujoco.mjtObj.mjOBJ_SITE: ("tip",),
     mujoco.mjtObj.mjOBJ_KEY: ("hanging", "upright"),
 }
@@ -61,10 +60,7 @@ def load_model(path: str | Path | None = None, model: ModelSpec = None) -> mujoc
 
 def load_acrobot(model: AcrobotModel) -> mujoco.MjModel:
     """Compile the packaged ``scene.xml`` around the MJCF generated from ``model`` and check it
-    is an acrobot driven at the elbow (``ValueError`` for a pendubot: the envs drive the
-    elbow)."""
-    if model.actuated != "elbow":
-        raise ValueError(f"the envs drive the elbow; this model drives the {model.actuated}")
+    is an acrobot (its motor on either joint)."""
     generated = {"acrobot.xml": acrobot_xml(model).encode()}
     compiled = mujoco.MjModel.from_xml_string(model_path().read_text(), generated)
     check_model(compiled, "the generated model")
@@ -86,6 +82,17 @@ def check_model(model: mujoco.MjModel, where: str = "model") -> None:
             f"{where} is not an acrobot model: expected nq=2, nv=2, nu=1, "
             f"got nq={model.nq}, nv={model.nv}, nu={model.nu}"
         )
+    motor, joint = model.actuator(0), actuated_joint(model)
+    if motor.name != f"{joint}_motor" or joint not in ("shoulder", "elbow"):
+        raise ValueError(
+            f"{where} is not an acrobot model: its one actuator must be shoulder_motor or "
+            f"elbow_motor on that joint, got {motor.name!r} on {joint!r}"
+        )
+
+
+def actuated_joint(model: mujoco.MjModel) -> str:
+    """The joint the model's one motor drives: ``"elbow"`` (an acrobot) or ``"shoulder"``."""
+    return model.joint(int(model.actuator_trnid[0, 0])).name
 
 
 def link_lengths(model: mujoco.MjModel) -> tuple[float, float]:

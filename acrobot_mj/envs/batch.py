@@ -15,11 +15,12 @@ from mujoco.batch import Batch
 from acrobot_mj.checks import check_int
 from acrobot_mj.compiled import available_threads, compiled, jitable, set_threads
 from acrobot_mj.envs.acrobot import HUGE, MAX_ANGLE, sound
+from acrobot_mj.envs.assets import actuated_joint
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics import xp
 from acrobot_mj.physics.dynamics import forward_dynamics
-from acrobot_mj.physics.integrators import Stepping, limit_velocities, step_rows
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.integrators import UNLIMITED, Stepping, limit_velocities, step_rows
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 
 #: Sizes from which threads pay: waking them costs tens of microseconds per step (MuJoCo's).
 THREADED_FROM, ANALYTIC_THREADED_FROM = 256, 65536
@@ -71,24 +72,35 @@ def threads(num_envs: int, nthread: int | None, threaded_from: int, available: i
 
 
 class BatchPhysics:
-    """``num_envs`` simulations of ``model`` in one ``mujoco.batch.Batch`` (``batch``)."""
+    """``num_envs`` simulations of ``model`` in one ``mujoco.batch.Batch`` (``batch``), their
+    velocities clipped to ``max_vel`` [rad/s] (inf: not clipped)."""
 
-    def __init__(self, model: MjModel, num_envs: int, nthread: int | None = None) -> None:
+    def __init__(
+        self,
+        model: MjModel,
+        num_envs: int,
+        nthread: int | None = None,
+        max_vel: tuple[float, float] = REPORT.max_vel,
+    ) -> None:
         n = 1 if num_envs < THREADED_FROM else 0
         self.batch = Batch(model, num_envs, nthread=n if nthread is None else nthread)
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
         self.ctrl = self.batch.bind("ctrl")
         self.columns = (self.qpos[:, 0], self.qpos[:, 1], self.qvel[:, 0], self.qvel[:, 1])
         self._limit = compiled(limit_rows)
+        self.max_vel = max_vel
+        self._limits = None if max_vel == UNLIMITED else max_vel  # None: nothing to clip
 
     @property
     def nthread(self) -> int:
         return self.batch.nthread
 
     def step(self, substeps: int) -> None:
+        limits = self._limits
         for _ in range(substeps):
             self.batch.step()
-            self._limit(self.qvel, MAX_VEL1, MAX_VEL2)
+            if limits is not None:
+                self._limit(self.qvel, *limits)
 
     def observe(self) -> np.ndarray:
         return observe(self.qpos, self.qvel)
@@ -106,11 +118,19 @@ class BatchPhysics:
 
 class AnalyticPhysics:
     """``num_envs`` acrobots of ``model``'s lumped dynamics in one ``(num_envs, 4)`` ``state``,
-    stepped by :func:`~acrobot_mj.physics.integrators.step_rows` compiled."""
+    stepped by :func:`~acrobot_mj.physics.integrators.step_rows` compiled, their velocities
+    clipped to ``max_vel`` [rad/s] (inf: not clipped)."""
 
-    def __init__(self, model: MjModel, num_envs: int, nthread: int | None = None) -> None:
-        self.model = model
-        self.constants = Stepping(model.opt.timestep).constants(lumped_parameters(model))
+    def __init__(
+        self,
+        model: MjModel,
+        num_envs: int,
+        nthread: int | None = None,
+        max_vel: tuple[float, float] = REPORT.max_vel,
+    ) -> None:
+        self.model, self.max_vel = model, max_vel
+        stepping = Stepping(model.opt.timestep, max_vel=max_vel)
+        self.constants = stepping.constants(lumped_parameters(model))
         self.state, self.ctrl = np.zeros((num_envs, 4)), np.zeros((num_envs, 1))
         self.qpos, self.qvel = self.state[:, :2], self.state[:, 2:]
         self.columns = tuple(self.state[:, k] for k in range(4))
@@ -139,16 +159,10 @@ class AnalyticPhysics:
 
 
 def lumped_parameters(model: MjModel) -> tuple[float, ...]:
-    """The lumped parameters of ``model``; ``ValueError`` for one they cannot represent (not
-    Euler, damping, armature, friction loss, stiffness, limits, equalities, contacts, or
-    accelerations off MuJoCo's by more than :data:`DYNAMICS_TOLERANCE` at random states)."""
-    integrator = mujoco.mjtIntegrator(model.opt.integrator)
-    if integrator != mujoco.mjtIntegrator.mjINT_EULER:
-        name = integrator.name.removeprefix("mjINT_").lower()
-        raise ValueError(
-            f"the analytic backend steps MuJoCo's semi-implicit Euler only, not "
-            f"integrator {name!r}; use backend='mujoco'"
-        )
+    """The lumped parameters of ``model``; ``ValueError`` for one they cannot represent (damping,
+    armature, friction loss, stiffness, a driven shoulder, not Euler, limits, equalities,
+    contacts, or accelerations off MuJoCo's by more than :data:`DYNAMICS_TOLERANCE` at random
+    states)."""
     for field, values in (
         ("damping", model.dof_damping),
         ("armature", model.dof_armature),
@@ -160,6 +174,18 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
                 f"the model's joints have {field} {values.tolist()}, which the "
                 "analytic backend does not model; use backend='mujoco'"
             )
+    if actuated_joint(model) != "elbow":
+        raise ValueError(
+            "the analytic backend drives the elbow; this model drives the "
+            f"{actuated_joint(model)}; use backend='mujoco'"
+        )
+    integrator = mujoco.mjtIntegrator(model.opt.integrator)
+    if integrator != mujoco.mjtIntegrator.mjINT_EULER:
+        name = integrator.name.removeprefix("mjINT_").lower()
+        raise ValueError(
+            f"the analytic backend steps MuJoCo's semi-implicit Euler only, not "
+            f"integrator {name!r}; use backend='mujoco'"
+        )
     flags, bits = model.opt.disableflags, mujoco.mjtDisableBit
     colliding = model.geom_contype | model.geom_conaffinity
     contacts = not flags & bits.mjDSBL_CONTACT and np.any(colliding)
@@ -172,7 +198,7 @@ def lumped_parameters(model: MjModel) -> tuple[float, ...]:
     rng, data, worst = np.random.default_rng(0), MjData(model), 0.0
     for _ in range(32):
         data.qpos[:] = rng.uniform(-math.pi, math.pi, 2)
-        data.qvel[:] = rng.uniform(-1.0, 1.0, 2) * (MAX_VEL1, MAX_VEL2)
+        data.qvel[:] = rng.uniform(-1.0, 1.0, 2) * (MAX_VEL1, MAX_VEL2)  # the report's, any model
         data.ctrl[:] = rng.uniform(-1.0, 1.0)
         mujoco.mj_forward(model, data)
         analytic = forward_dynamics(data.qpos, data.qvel, data.ctrl[0], params)

@@ -171,7 +171,8 @@ class Task(ABC):
 
 
 class HeightGoal(Task):
-    """Swing the tip above ``goal_height`` (1 m) over the bar, the report's task: ``step_reward``
+    """Swing the tip above ``goal_height`` over the bar (default ``l1``: one link length, 1 m on
+    the report's acrobot), the report's task: ``step_reward``
     (-1) per step, ``goal_reward`` (+100) on the step whose end reaches it, which terminates.
     Starts hanging at rest, plus ``U(-start_noise, start_noise)`` on each angle and velocity.
     Truncated at 1000 actions; ``info``: ``tip_height`` [m] and ``is_success``."""
@@ -204,13 +205,14 @@ class HeightGoal(Task):
         start_noise: float = 0.0,
         step_reward: float = -1.0,
         goal_reward: float = 100.0,
-        goal_height: float = 1.0,
+        goal_height: float | None = None,
     ) -> None:
         super().__init__(links, start_noise)
         self.step_reward = check_float("step_reward", step_reward)
         self.goal_reward = check_float("goal_reward", goal_reward)
         reach = self.l1 + self.l2
-        self.goal_height = check_float("goal_height", goal_height, -reach, reach)
+        height = self.l1 if goal_height is None else goal_height
+        self.goal_height = check_float("goal_height", height, -reach, reach)
         if abs(self.goal_height) == reach:
             raise ValueError(
                 f"goal_height must be strictly inside (-{reach:g}, {reach:g}) m: "

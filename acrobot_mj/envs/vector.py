@@ -19,7 +19,7 @@ from gymnasium.vector.utils import batch_space
 from acrobot_mj.checks import check_int, check_memory
 from acrobot_mj.envs.acrobot import AcrobotEnv, EnvOptions, check_copy, drawn_start
 from acrobot_mj.envs.batch import AnalyticPhysics, BatchPhysics
-from acrobot_mj.envs.spaces import cos_sin, reset_noise, write_torques
+from acrobot_mj.envs.spaces import REPORT_TORQUES, TorqueLimit, cos_sin, reset_noise, write_torques
 
 if sys.version_info >= (3, 11):
     from typing import Unpack
@@ -44,6 +44,7 @@ SHARED = (
     "dt",
     "task",
     "model",
+    "params",
     "metadata",
     "render_mode",
     "width",
@@ -108,6 +109,7 @@ class AcrobotVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self._frame_skip = self._template.frame_skip
         self._continuous = self._template.continuous
+        self._torques = TorqueLimit(self._template.params.max_torque)
         self._cos_sin = self._template.observation == "cos_sin"
         self._nthread = None if nthread is None else check_int("nthread", nthread, 0)
         self._build_batch()
@@ -134,7 +136,7 @@ class AcrobotVectorEnv(VectorEnv):
     def _build_batch(self) -> None:  # also on unpickling
         #: The backend's physics stepping the sub-envs.
         self.physics = physics = PHYSICS_BACKENDS[self.backend](
-            self.model, self.num_envs, self._nthread
+            self.model, self.num_envs, self._nthread, self._template.params.max_vel
         )
         self.batch = physics.batch if isinstance(physics, BatchPhysics) else None
         self._qpos, self._qvel, self._ctrl = physics.qpos, physics.qvel, physics.ctrl
@@ -150,6 +152,7 @@ class AcrobotVectorEnv(VectorEnv):
         rows = state.pop("batch_state")
         state.setdefault("_was_reset", True)  # pickled by 0.4.0, whose step checked no reset
         state.setdefault("_never_reset", np.zeros(state["num_envs"], dtype=bool))
+        state.setdefault("_torques", REPORT_TORQUES)  # 0.4.0's: the report's
         self.__dict__.update(state)
         self._build_batch()
         self.physics.restore(rows)
@@ -209,7 +212,8 @@ class AcrobotVectorEnv(VectorEnv):
                 f"Cannot call env.step() before calling env.reset() (sub-envs {never} never were)"
             )
         physics = self.physics
-        write_torques(actions, self._continuous, self._ctrl)  # raises, writing nothing
+        # raises, writing nothing
+        write_torques(actions, self._continuous, self._ctrl, self._torques)
         physics.step(self._frame_skip)
         self._steps += 1
         # count_nonzero: a fraction of any()'s cost on small batches

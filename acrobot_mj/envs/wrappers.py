@@ -13,25 +13,28 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2, cos_sin, observation_space
+from acrobot_mj.envs.spaces import cos_sin, observation_space
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, energies
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.physics.xp import wrap
 
 
 class EnergyShaping(gym.Wrapper):
-    """Adds ``gamma phi(s') - phi(s)`` to each reward, ``phi`` the energy of ``params`` scaled to
-    0 hanging and ``scale`` upright at rest (pumping energy in pays); ``info["unshaped_reward"]``
-    keeps the env's. Observations must be ``(q1, q2, dq1, dq2)``."""
+    """Adds ``gamma phi(s') - phi(s)`` to each reward, ``phi`` the energy of ``params`` (default
+    the env's ``params``, else the report's) scaled to 0 hanging and ``scale`` upright at rest
+    (pumping energy in pays); ``info["unshaped_reward"]`` keeps the env's. Observations must be
+    ``(q1, q2, dq1, dq2)``."""
 
     def __init__(
-        self, env: gym.Env, scale: float, gamma: float = 1.0, params: AcrobotParams = REPORT
+        self, env: gym.Env, scale: float, gamma: float = 1.0, params: AcrobotParams | None = None
     ) -> None:
         super().__init__(env)
         if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
             raise ValueError(f"energy shaping scale must be a finite number > 0, got {scale!r}")
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"energy shaping gamma must be in [0, 1], got {gamma!r}")
+        if params is None:
+            params = getattr(env.unwrapped, "params", REPORT)
         self.scale, self.gamma, self.params = float(scale), float(gamma), params
         self._phi: float | None = None
         self._of: AcrobotParams | None = None  # whose constants are cached (params may change)
@@ -68,14 +71,14 @@ class CosSinObservation(gym.ObservationWrapper):
 
     def __init__(self, env: gym.Env, dtype: type = np.float32) -> None:
         super().__init__(env)
-        if getattr(env.observation_space, "shape", None) != (4,):
-            raise ValueError(
-                f"expected (q1, q2, dq1, dq2) observations, got {env.observation_space}"
-            )
+        space = env.observation_space
+        if not isinstance(space, gym.spaces.Box) or space.shape != (4,):
+            raise ValueError(f"expected (q1, q2, dq1, dq2) observations, got {space}")
         self.dtype = np.dtype(dtype)
         if self.dtype.kind != "f":
             raise TypeError(f"dtype must be a float type, got {dtype!r}")
-        high = np.array([1.0, 1.0, 1.0, 1.0, MAX_VEL1, MAX_VEL2], dtype=self.dtype)
+        speeds = space.high[2:]  # the env's velocity limits (inf: none)
+        high = np.array([1.0, 1.0, 1.0, 1.0, *speeds], dtype=self.dtype)
         self.observation_space = gym.spaces.Box(-high, high, dtype=self.dtype)
 
     def observation(self, observation: np.ndarray) -> np.ndarray:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -15,6 +16,7 @@ import gymnasium as gym
 from acrobot_mj.agents import AGENTS, FEATURES, agent_spec
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
+from acrobot_mj.physics.models import MODELS, AcrobotModel, resolve
 from acrobot_mj.settings import SettingError, check, declared, parse, setting
 
 #: Settings of the task that are config fields (where the task takes them).
@@ -40,8 +42,15 @@ class TrainConfig:
     frame_skip: int = setting(
         1, "length of a decision", "0.05 s physics steps per decision", low=1, high=MAX_FRAME_SKIP
     )
-    integrator: str = setting(
-        "euler", "euler (semi-implicit, the report's) or rk4", choices=("euler", "rk4")
+    integrator: str | None = setting(
+        None,
+        "euler or rk4 (default: the model's)",
+        choices=("euler", "rk4"),
+    )
+    model: str | None = setting(
+        None,
+        "a parameter set's name or a .json/.toml file (default: the report's)",
+        metavar="NAME|FILE",
     )
     max_episode_steps: int = setting(1000, "decisions before an episode is truncated", low=1)
     start_noise: float = setting(
@@ -70,6 +79,12 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check(self)
         _check_names(self.task, self.algorithm, self.features)
+        if self.model == "report":  # the default: the packaged MJCF
+            object.__setattr__(self, "model", None)
+        acrobot = self.acrobot
+        if self.integrator is None:
+            object.__setattr__(self, "integrator", acrobot.integrator)
+        _check_model(self, acrobot)
         for name, kind in _part_kinds(self.algorithm, self.features).items():
             value = getattr(self, name)
             if value is None:
@@ -127,6 +142,8 @@ class TrainConfig:
             raise ValueError(f"config {name} has no effect with {owner}={value!r}")
         options = get_task(task).options
         carried = {k: None for k in TASK_OPTIONS if k not in options and k not in top}
+        if "model" in top and "integrator" not in top:  # the new model's
+            carried["integrator"] = None
         if "start_noise" in top and top["start_noise"] == 0 and "noise_until" not in top:
             carried["noise_until"] = None
         values = {f.name: getattr(self, f.name) for f in fields(self)}
@@ -159,13 +176,24 @@ class TrainConfig:
     def env_id(self) -> str:
         return get_task(self.task).env_id
 
+    @property
+    def acrobot(self) -> AcrobotModel:
+        """The acrobot ``model`` names (:func:`~acrobot_mj.physics.models.resolve`; None: the
+        report's)."""
+        try:
+            return resolve(self.model)
+        except (TypeError, ValueError) as error:
+            raise SettingError(f"config model: {error}") from None
+
     def env_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments for ``gymnasium.make(config.env_id, ...)``."""
+        """Keyword arguments for ``gymnasium.make(config.env_id, ...)`` (no ``model`` for the
+        report's acrobot: the packaged MJCF)."""
         options = {k: getattr(self, k) for k in TASK_OPTIONS if getattr(self, k) is not None}
         return {
             "frame_skip": self.frame_skip,
             "integrator": self.integrator,
             "max_episode_steps": self.max_episode_steps,
+            **({} if self.model is None else {"model": self.model}),
             **options,
         }
 
@@ -214,6 +242,21 @@ def field_names() -> tuple[str, ...]:
     top = list(_OWN)
     parts = [name for table in (AGENTS, FEATURES) for name in sorted(_all_names(table))]
     return (*top[:3], *dict.fromkeys(n for n in parts if n not in top[:3]), *top[3:])
+
+
+def _check_model(config: TrainConfig, acrobot: AcrobotModel) -> None:
+    """Refuse, in one line, what ``config``'s learner cannot do on ``acrobot``."""
+    unbounded = [n for n in ("max_vel1", "max_vel2") if getattr(acrobot.params, n) == math.inf]
+    if config.features == "tiles" and unbounded:
+        raise SettingError(
+            f"config features tiles spans the velocity limits, and model {config.model!r} has "
+            f"none ({' = '.join(unbounded)} = inf): use features grid, or a model with limits"
+        )
+    if config.identify_decisions > 0 and acrobot != MODELS["report"]:
+        raise SettingError(
+            "config identify_decisions identifies the report's acrobot (its velocity limits, "
+            f"Euler steps, the elbow driven), not model {config.model!r}"
+        )
 
 
 def _check_names(task: str, algorithm: str, features: str) -> None:

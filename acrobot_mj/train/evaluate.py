@@ -18,7 +18,9 @@ from acrobot_mj.envs.rollout import FROM_REST, Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
+from acrobot_mj.physics.params import REPORT
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
+from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import PERTURB, PUSHES, HeldOut, Learner
 from acrobot_mj.train.lock import RunLock, check_not_held
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
@@ -78,6 +80,9 @@ def evaluate_run(
     if minima not in MINIMA:
         raise ValueError(f"minima must be one of {MINIMA}, got {minima!r}")
     learner = load_learner(run_dir)
+    config = learner.config
+    if minima == "compute" and isinstance(config, TrainConfig) and config.model is not None:
+        raise ValueError(f"--minima: {NOT_THE_REPORTS} (model {config.model!r})")
     if protocol is None or isinstance(protocol, dict):
         protocol = dataclasses.replace(learner.protocol, **(protocol or {}))
     record = {
@@ -112,6 +117,7 @@ def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored"
             episodes.append(episode)
         set_model_parameters(env, nominal)
         task = acrobot_of(env).task
+        other = task.name == "height_goal" and acrobot_of(env).params != REPORT
         history = History()
         for e in episodes:
             history.add(e["length"], e["return"], e["success"])
@@ -144,6 +150,8 @@ def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored"
         env.close()
     if references is not None:
         record["minima"] = compare(history.episode_lengths, references)
+    elif other and protocol.starts_from == "noise" and minima != "none":
+        record["no_minima"] = NOT_THE_REPORTS
     return record
 
 
@@ -244,10 +252,15 @@ def watch_run(run_dir: str | Path, settings: RenderSettings = _RENDER) -> dict[s
     return watch(env, learner.actor(env, 0), settings, dict(FROM_REST))
 
 
+#: Why an evaluation of another acrobot has no per-start minima (its record's ``no_minima``).
+NOT_THE_REPORTS = "per-start minima exist for the report's acrobot only (the search steps it)"
+
+
 def env_settings(env: gym.Env) -> dict[str, Any] | None:
-    """What the minimum-time search depends on in ``env`` (None: not a height-goal task)."""
+    """What the minimum-time search depends on in ``env`` (None: not a height-goal task, or not
+    the report's acrobot, whose analytic model the search steps)."""
     acrobot = acrobot_of(env)
-    if acrobot.task.name != "height_goal":
+    if acrobot.task.name != "height_goal" or acrobot.params != REPORT:
         return None
     task = cast(HeightGoal, acrobot.task)
     return {
