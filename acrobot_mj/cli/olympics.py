@@ -1,0 +1,81 @@
+"""``acrobot-mj olympics``: the AI Olympics protocol's scores of a controller."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from acrobot_mj.cli import tools
+from acrobot_mj.olympics.entries import ENTRIES
+from acrobot_mj.olympics.report import read_olympics, write_olympics
+from acrobot_mj.olympics.run import PARTS, OlympicsRun
+
+
+def parts(text: str) -> tuple[str, ...]:
+    """An argparse type: some of :data:`PARTS`, comma-separated."""
+    chosen = tuple(p.strip() for p in text.split(",") if p.strip())
+    unknown = sorted(set(chosen) - set(PARTS))
+    if unknown or not chosen:
+        raise argparse.ArgumentTypeError(f"must be some of {','.join(PARTS)}, got {text!r}")
+    return chosen
+
+
+def add_olympics(commands: tools.Commands) -> None:
+    p = tools.add_command(
+        commands,
+        "olympics",
+        olympics_command,
+        "the AI Olympics protocol's scores of a controller -> olympics.json and figures",
+        "The AI Olympics protocol (RealAIGym's double_pendulum leaderboards: performance, "
+        "robustness, global policy) run on this project's MuJoCo model of the acrobot, with the "
+        "protocol's definitions, levels and criteria; not official leaderboard entries.",
+    )
+    p.add_argument("controller", choices=ENTRIES, help="the controller to score")
+    p.add_argument(
+        "--model",
+        type=tools.acrobot_model,
+        default="ai_olympics",
+        metavar="NAME|FILE",
+        help="the acrobot (a planned swing-up must be shipped for it)",
+    )
+    p.add_argument(
+        "--scores", type=parts, default=PARTS, metavar="LIST", help="which scores, comma-separated"
+    )
+    p.add_argument("--out", type=tools.path_text, required=True, help="folder for olympics.json")
+    p.add_argument("--seed", type=tools.seed, default=0, help="seed of every draw")
+    p.add_argument("--jobs", type=tools.positive_int, default=1, help="processes for episodes")
+    tools.add_progress(p)
+
+
+def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
+    run = OlympicsRun(
+        args.controller,
+        args.model,
+        args.scores,
+        args.seed,
+        args.jobs,
+        tools.show_progress(args),
+    )
+    path = write_olympics(Path(args.out), run.run())
+    record = read_olympics(path)
+    print(f"{summary(record)}; wrote {path}")
+    return record
+
+
+def summary(record: dict[str, Any]) -> str:
+    """One line: each score asked for."""
+    words = []
+    if record.get("performance"):
+        words.append(f"performance {record['performance']['score']:.3f}")
+    if record.get("robustness"):
+        overall = record["robustness"].get("overall")
+        categories = ", ".join(
+            f"{c['key']} {c['score']:.3f}" for c in record["robustness"]["categories"]
+        )
+        words.append(
+            f"robustness {overall:.3f} ({categories})" if overall is not None else categories
+        )
+    if record.get("global"):
+        words.append(f"global {record['global']['score']:.3f}")
+    return ", ".join(words)

@@ -1,0 +1,82 @@
+"""A state estimator for noisy measurements: the model predicts the state from the last estimate
+and the last torque, the measured angles correct the angles, and their innovation (over one
+step) corrects the velocities; the measured velocities enter with a small weight only. With
+angles measured well (encoders) and velocities noisy (differentiated), as on the AI Olympics
+robot, the velocities come from the angles and the model, not from the noisy measurement."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.checks import check_float
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.xp import wrap_angle
+
+
+@dataclass
+class Observer:
+    """Estimates ``(q1, q2, dq1, dq2)`` [rad, rad/s] from measurements ``y`` of the same form:
+    ``x- = step(x, u)`` on ``params`` by ``method``, then ``q = q- + r`` with the angle innovation
+    ``r = wrap(y_q - q-)`` and ``dq = dq- + angle_gain r / dt + velocity_gain (y_dq - dq-)``
+    (``angle_gain`` per step, ``velocity_gain`` dimensionless, both in [0, 1])."""
+
+    params: AcrobotParams
+    method: str = "rk4"
+    angle_gain: float = 0.5
+    velocity_gain: float = 0.05
+    estimate: np.ndarray | None = field(default=None, init=False)
+    torque: float = field(default=0.0, init=False)
+
+    def __post_init__(self) -> None:
+        check_float("angle_gain", self.angle_gain, 0.0, 1.0)
+        check_float("velocity_gain", self.velocity_gain, 0.0, 1.0)
+        integrators.method_code(self.method)  # a known method
+
+    def reset(self) -> None:
+        """Forget the estimate: the next measurement is taken as it is."""
+        self.estimate, self.torque = None, 0.0
+
+    def __call__(self, y: Any) -> np.ndarray:
+        """The estimate after measurement ``y`` (4,), a copy."""
+        y = np.asarray(y, dtype=float)
+        if self.estimate is None:
+            x = y.copy()
+        else:
+            pred = integrators.step_states(
+                self.estimate, self.torque, self.params, method=self.method
+            )
+            r = wrap_angle(y[:2] - pred[:2])
+            x = np.empty(4)
+            x[:2] = pred[:2] + r
+            x[2:] = pred[2:] + self.angle_gain * r / self.params.dt
+            x[2:] += self.velocity_gain * (y[2:] - pred[2:])
+        self.estimate = x
+        return x.copy()
+
+    def applied(self, torque: float) -> None:
+        """The torque [N m] commanded for the step after the last measurement."""
+        self.torque = float(torque)
+
+
+class Estimated:
+    """``controller`` acting on an :class:`Observer`'s estimate instead of the measurement."""
+
+    def __init__(self, controller: Callable[[np.ndarray], Any], observer: Observer) -> None:
+        self.controller, self.observer = controller, observer
+
+    def reset(self) -> None:
+        """A new episode for both."""
+        self.observer.reset()
+        reset = getattr(self.controller, "reset", None)
+        if reset is not None:
+            reset()
+
+    def __call__(self, y: np.ndarray) -> float:
+        torque = float(self.controller(self.observer(y)))
+        self.observer.applied(torque)
+        return torque

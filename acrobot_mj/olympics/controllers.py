@@ -1,0 +1,91 @@
+"""The project's controllers for the AI Olympics acrobot, built from its parameters alone: a
+swing-up planned for the performance score (:func:`performance_swing_up`) and the state-feedback
+funnel along it (:class:`~acrobot_mj.control.feedback.FunnelController`: TVLQR on the swing-up,
+LQR at upright, energy removal elsewhere), which every category of the protocol runs."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.control.feedback import FunnelController, FunnelSettings
+from acrobot_mj.control.trajopt import _IPOPT, Trajectory, solve_or_none
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
+from acrobot_mj.physics.models import AcrobotModel, resolve
+from acrobot_mj.physics.xp import symbolic
+
+#: Where the planned swing-ups are shipped, by model name.
+SHIPPED = Path(__file__).resolve().parent / "trajectories"
+#: The performance criteria's normalisers (the protocol's v2: J, N^2 m^2 s, N m, rad^2/s).
+NORMS = {"energy": 60.0, "torque_cost": 20.0, "smoothness": 0.1, "velocity_cost": 400.0}
+
+
+def _objective(xs: Any, us: Any, h: float, samples: int) -> Any:
+    """The performance score's criteria but the swing-up time, each as ``tanh(pi c / n)``,
+    smoothed where it has a kink (``|x|`` and the standard deviation at 0)."""
+    import casadi
+
+    moved = xs[1, 1:] - xs[1, :-1]
+    criteria = {
+        "energy": casadi.sum2(casadi.sqrt((moved * us) ** 2 + 1e-6)),
+        "torque_cost": casadi.sumsqr(us) * h,
+        "smoothness": casadi.sqrt(casadi.sumsqr(us[0, 1:] - us[0, :-1]) / samples + 1e-8),
+        "velocity_cost": casadi.sumsqr(xs[2:, :]) * h,
+    }
+    return sum(casadi.tanh(math.pi * c / NORMS[k]) for k, c in criteria.items())
+
+
+def performance_swing_up(
+    model: AcrobotModel, decisions: int = 200, hold: int = 5, seconds: float = 10.0
+) -> Trajectory:
+    """A swing-up from hanging at rest to upright at rest in ``decisions`` torques, each held for
+    ``hold`` physics steps, that minimises the protocol's performance criteria (energy, torque
+    cost, smoothness over an episode of ``seconds``, velocity cost); on the physics steps of
+    ``model`` (its integrator), so a tracking controller follows it exactly. IPOPT from a
+    straight line at tiny random torques; ValueError where it finds none."""
+    import casadi
+
+    p, method = model.analytic, integrators.ENV_INTEGRATORS[model.integrator]
+    code, h = integrators.method_code(method), p.dt * hold
+    x, u = casadi.SX.sym("x", 4), casadi.SX.sym("u")
+    new = integrators.step(
+        *(x[i] for i in range(4)), u, p.lumped, p.dt, integrators.UNLIMITED, hold, code, symbolic()
+    )
+    step = casadi.Function("step", [x, u], [casadi.vertcat(*new)])
+    opti = casadi.Opti()
+    xs, us = opti.variable(4, decisions + 1), opti.variable(1, decisions)
+    opti.subject_to(xs[:, 0] == HANGING)
+    opti.subject_to(xs[:, 1:] == step.map(decisions)(xs[:, :-1], us))
+    opti.subject_to(opti.bounded(-p.max_torque, us, p.max_torque))
+    opti.subject_to(xs[:, decisions] == UPRIGHT)
+    opti.minimize(_objective(xs, us, h, integrators.steps_in(seconds, p.dt) - 1))
+    opti.set_initial(xs, np.linspace(HANGING, UPRIGHT, decisions + 1).T)
+    rng = np.random.default_rng(decisions)
+    opti.set_initial(us, 0.1 * rng.standard_normal((1, decisions)))
+    opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, _IPOPT)
+    solution = solve_or_none(opti)
+    if solution is None:
+        raise ValueError(f"IPOPT found no swing-up in {decisions} decisions of {h:g} s")
+    torques = np.repeat(np.atleast_1d(solution.value(us)), hold)
+    states = integrators.simulate(HANGING.copy(), torques, method, p)
+    return Trajectory(states, torques, p.dt, method, p.max_torque, p)
+
+
+def shipped_swing_up(name: str) -> Trajectory:
+    """The swing-up planned for the model ``name`` (``ai_olympics``), shipped with the package."""
+    path = SHIPPED / f"{name}.json"
+    if not path.is_file():
+        known = sorted(f.stem for f in SHIPPED.glob("*.json"))
+        raise ValueError(f"no planned swing-up for the model {name!r}; planned: {known}")
+    return Trajectory.load(path)
+
+
+def funnel(model: str, settings: FunnelSettings | None = None) -> FunnelController:
+    """The state-feedback funnel along ``model``'s planned swing-up."""
+    trajectory = shipped_swing_up(model)
+    resolve(model)  # a known model
+    return FunnelController(trajectory, settings or FunnelSettings(horizon=0))

@@ -1,0 +1,57 @@
+"""The controllers the protocol can score, by name, built for a model from its parameters
+alone (once per process, a fresh copy per episode): the state-feedback funnel along the planned
+swing-up, with energy removal elsewhere (``tvlqr``: TVLQR and LQR as the leaderboard's entry) or
+with energy pumping elsewhere and a state estimator (``funnel``)."""
+
+from __future__ import annotations
+
+import copy
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.control.estimator import Estimated, Observer
+from acrobot_mj.control.feedback import FunnelController, FunnelSettings
+from acrobot_mj.control.policies import energy_pumping_torque
+from acrobot_mj.olympics.controllers import shipped_swing_up
+from acrobot_mj.physics.models import resolve
+
+#: The funnel's cost levels at 500 decisions a second: FunnelSettings' (chosen at 20 a
+#: second) times 25, the ratio of the Riccati costs' scale.
+LEVELS = FunnelSettings(upright=7_500.0, track=5_000.0, entry=500.0, horizon=0)
+#: Energy pumping's gain [N m / (J rad/s)] where the funnel does not act.
+PUMPING_GAIN = 50.0
+ENTRIES = ("tvlqr", "funnel")
+_BUILT: dict[tuple[str, str], Any] = {}
+
+
+def check(entry: str, model: str) -> None:
+    """Refuse an unknown entry, or a model without a planned swing-up, in one line."""
+    if entry not in ENTRIES:
+        raise ValueError(f"unknown controller {entry!r}; known: {list(ENTRIES)}")
+    resolve(model)
+    shipped_swing_up(model)
+
+
+def _pumping(x: np.ndarray, params: Any) -> float:
+    return float(energy_pumping_torque(x, gain=PUMPING_GAIN, p=params))
+
+
+def _build(entry: str, model: str) -> Any:
+    trajectory = shipped_swing_up(model)
+    if entry == "tvlqr":
+        return FunnelController(trajectory, LEVELS)
+    law = partial(_pumping, params=trajectory.params)
+    funnel = FunnelController(trajectory, LEVELS, elsewhere=law)
+    return Estimated(funnel, Observer(trajectory.params, trajectory.method))
+
+
+def build(entry: str, model: str) -> Any:
+    """A fresh controller ``entry`` for ``model``: ``reset()`` and ``controller(obs) -> elbow
+    torque`` [N m]."""
+    key = (entry, model)
+    if key not in _BUILT:
+        check(entry, model)
+        _BUILT[key] = _build(entry, model)
+    return copy.deepcopy(_BUILT[key])
