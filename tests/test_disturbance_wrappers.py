@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import acrobot_mj  # noqa: F401 (registers the ids)
+from acrobot_mj.cli import main
 from acrobot_mj.envs.model_error import PARAMETERS, ModelError, measured, nominal
 from acrobot_mj.envs.motor import Motor, PulseSettings, gaussian_pulses
 from acrobot_mj.envs.sensor import Sensor
@@ -18,6 +19,10 @@ from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import MODELS
 from acrobot_mj.physics.xp import ARRAY, wrap
+from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.learners import HeldOut
+from acrobot_mj.train.presets import PRESETS
+from acrobot_mj.train.trainer import train
 
 ID = "acrobot_mj/Acrobot-v0"
 
@@ -305,3 +310,41 @@ def test_bad_pulse_settings() -> None:
         PulseSettings(t_max=5.0)
     with pytest.raises(ValueError, match="sigma_minmax"):
         PulseSettings(sigma_minmax=(0.0, 0.1))
+
+
+# -- the held-out evaluation under them ------------------------------------------------------
+
+NOISY = {"velocity_noise": 0.5, "delay": 0.1, "torque_noise": 0.3, "torque_response": 0.5}
+
+
+def test_evaluate_under_the_protocols_disturbances(tmp_path, capsys) -> None:
+    run_dir = tmp_path / "book"
+    train(PRESETS["book"].replace(episodes=2, max_episode_steps=100), seed=0, out_dir=run_dir)
+    plain = evaluate(run_dir, {"episodes": 2}, minima="none")
+    noisy = evaluate(run_dir, {"episodes": 2, **NOISY}, minima="none")
+    again = evaluate(run_dir, {"episodes": 2, **NOISY}, minima="none")
+    assert noisy["protocol"] == {"episodes": 2, "start_noise": 0.05, "seed": 0, **NOISY}
+    assert "velocity_noise" not in plain["protocol"]
+    assert noisy["rest"] == plain["rest"]  # the episode from rest is undisturbed, as with pushes
+    assert noisy["start_states"] == plain["start_states"]
+    assert noisy["torques"] == again["torques"] and noisy["actions"] == again["actions"]
+    applied = {t for episode in noisy["torques"] for t in episode}
+    assert not applied <= {-1.0, 0.0, 1.0}  # the motor's torques, not the commanded ones
+    code = main(["evaluate", str(run_dir), "--episodes", "2", "--torque-response", "0.5"])
+    assert code == 0 and "held-out starts" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("settings", "words"),
+    [
+        ({"velocity_noise": -0.1}, "velocity_noise"),
+        ({"delay": -0.01}, "delay"),
+        ({"torque_noise": -1.0}, "torque_noise"),
+        ({"torque_response": 0.0}, "torque_response"),
+        ({"torque_response": 2.5}, "torque_response"),
+    ],
+)
+def test_bad_evaluation_disturbances_are_refused_by_name(settings, words) -> None:
+    with pytest.raises(ValueError, match=words) as error:
+        HeldOut(**settings)
+    assert "\n" not in str(error.value)

@@ -14,7 +14,6 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_float, check_int
-from acrobot_mj.envs.sensor import stream
 from acrobot_mj.envs.spaces import action_torque
 
 #: The spawn key of a motor's stream seeded at reset.
@@ -22,6 +21,20 @@ MOTOR_KEY = 0x307
 #: The largest torque response: past 2 each decision overshoots the command by more than the
 #: last error (the protocol's levels end at 2.0).
 MAX_RESPONSE = 2.0
+
+
+def stream(rng: np.random.Generator | int | None, key: int) -> np.random.Generator:
+    """A wrapper's generator: ``rng`` itself, or one seeded by the integer ``rng`` (spawn key
+    ``key``, so a seed shared with the env gives another stream); None: unseeded."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is not None and (not isinstance(rng, (int, np.integer)) or isinstance(rng, bool)):
+        raise TypeError(f"rng must be a numpy Generator, an integer seed or None, got {rng!r}")
+    if rng is not None and rng < 0:
+        raise ValueError(f"seed must be >= 0, got {rng}")
+    return np.random.default_rng(
+        None if rng is None else np.random.SeedSequence(int(rng), spawn_key=(key,))
+    )
 
 
 @dataclass(frozen=True)

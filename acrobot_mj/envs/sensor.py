@@ -13,26 +13,13 @@ import numpy as np
 
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.acrobot import observation
+from acrobot_mj.envs.motor import stream
 from acrobot_mj.envs.spaces import cos_sin
 
 #: What a delay holds back: every state variable, or the velocities only.
 DELAY_MODES = ("posvel", "vel")
 #: The spawn key of a wrapper's stream seeded at reset (the env's own stream has none).
 SENSOR_KEY = 0x5E45
-
-
-def stream(rng: np.random.Generator | int | None, key: int) -> np.random.Generator:
-    """A wrapper's generator: ``rng`` itself, or one seeded by the integer ``rng`` (spawn key
-    ``key``, so a seed shared with the env gives another stream); None: unseeded."""
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if rng is not None and (not isinstance(rng, (int, np.integer)) or isinstance(rng, bool)):
-        raise TypeError(f"rng must be a numpy Generator, an integer seed or None, got {rng!r}")
-    if rng is not None and rng < 0:
-        raise ValueError(f"seed must be >= 0, got {rng}")
-    return np.random.default_rng(
-        None if rng is None else np.random.SeedSequence(int(rng), spawn_key=(key,))
-    )
 
 
 def sigmas(sigma: Any, n: int, name: str) -> np.ndarray:
