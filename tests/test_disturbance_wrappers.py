@@ -16,7 +16,7 @@ from acrobot_mj.envs.model_error import PARAMETERS, ModelError, measured, nomina
 from acrobot_mj.envs.motor import Motor, PulseSettings, gaussian_pulses
 from acrobot_mj.envs.sensor import Sensor
 from acrobot_mj.physics import integrators
-from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.physics.dynamics import HANGING, bias_forces, mass_matrix
 from acrobot_mj.physics.models import MODELS
 from acrobot_mj.physics.xp import ARRAY, wrap
 from acrobot_mj.train.evaluate import evaluate
@@ -348,3 +348,50 @@ def test_bad_evaluation_disturbances_are_refused_by_name(settings, words) -> Non
     with pytest.raises(ValueError, match=words) as error:
         HeldOut(**settings)
     assert "\n" not in str(error.value)
+
+
+# -- against the protocol's plant (model/plant.py: friction and motor inertia inside its RK4) --
+
+GR = 6.0
+
+
+def plant_derivative(x: np.ndarray, tau: float, values: dict[str, float]) -> np.ndarray:
+    p, ir = MODELS["ai_olympics"].params, values.get("Ir", 0.0)
+    q, dq = x[:2], x[2:]
+    m = mass_matrix(q, p) + [[GR**2 * ir + ir, -GR * ir], [-GR * ir, GR**2 * ir]]
+    b = np.array([values.get("b1", 0.0), values.get("b2", 0.0)])
+    cf = np.array([values.get("cf1", 0.0), values.get("cf2", 0.0)])
+    force = np.array([0.0, tau]) - bias_forces(q, dq, p) - b * dq - cf * np.arctan(100 * dq)
+    return np.concatenate([dq, np.linalg.solve(m, force)])
+
+
+def plant_run(torques: np.ndarray, values: dict[str, float], dt: float = 0.002) -> np.ndarray:
+    x, states = np.array(HANGING, dtype=np.float64), [np.array(HANGING, dtype=np.float64)]
+    for u in torques:
+        k1 = plant_derivative(x, u, values)
+        k2 = plant_derivative(x + dt / 2 * k1, u, values)
+        k3 = plant_derivative(x + dt / 2 * k2, u, values)
+        k4 = plant_derivative(x + dt * k3, u, values)
+        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        states.append(x)
+    return np.array(states)
+
+
+# 0.2 s of a 1.2 Hz torque of 0.8 N m from hanging: each change moves the state by more than
+# 1 (rad, rad/s); b through dof_damping is exact, Ir with its coupling from the last step's
+# accelerations within 2e-3 (6e-2 without it), cf held over each step within 0.12.
+@pytest.mark.parametrize(
+    ("values", "gap"),
+    [
+        ({"b1": 0.1, "b2": -0.1}, 1e-10),
+        ({"Ir": 1e-4}, 5e-3),
+        ({"cf1": 0.2, "cf2": -0.2}, 0.2),
+    ],
+)
+def test_model_errors_follow_the_protocols_plant(values, gap) -> None:
+    t = np.arange(100) * 0.002
+    torques = np.float32(0.8 * np.sin(2 * np.pi * 1.2 * t))
+    _, states = run(ModelError(olympics(), values), [np.array([u]) for u in torques])
+    expected = plant_run(torques.astype(float), values)
+    assert np.abs(np.array(states) - expected).max() <= gap
+    assert np.abs(expected - plant_run(torques.astype(float), {})).max() > 1.0

@@ -62,7 +62,9 @@ class ModelError(gym.Wrapper):
     theirs), set at construction and put back by ``close``:
 
     - ``Ir``: MuJoCo's armature, ``gr^2 Ir + Ir`` on the shoulder and ``gr^2 Ir`` on the
-      elbow (the plant's diagonal); the plant's coupling ``M12 -= gr Ir`` is left out
+      elbow (the plant's diagonal); the plant's coupling ``M12 = M21 -= gr Ir`` as the force
+      ``gr Ir (ddq2, ddq1)`` [N m] in ``qfrc_applied`` from the accelerations of the physics
+      step before (MuJoCo's ``qacc``; 0 after a reset), held over the decision
       (docs/envs/disturbances.md measures it).
     - ``m2``: the mass, its centre of mass and inertia about the joint kept; ``m1r1``,
       ``m2r2``: the centre of mass at ``value / m`` (after ``m2``), the inertia about the joint
@@ -72,7 +74,9 @@ class ModelError(gym.Wrapper):
       evaluates it at each stage, as the plant does); implicit under MuJoCo's Euler.
     - ``cf1``, ``cf2``: ``-cf arctan(100 dq)`` [N m] in ``qfrc_applied`` from the state at the
       start of each decision (held over its physics steps; exact to the plant's RK4 only to
-      first order), kept apart from other writers'.
+      first order).
+
+    This wrapper's part of ``qfrc_applied`` is kept apart from other writers'.
     """
 
     def __init__(
@@ -90,6 +94,7 @@ class ModelError(gym.Wrapper):
             for name in ("body_mass", "body_ipos", "body_inertia", "dof_damping", "dof_armature")
         }
         self._cf = np.array([self.values.get("cf1", 0.0), self.values.get("cf2", 0.0)])
+        self._coupling = gear_ratio * self.values.get("Ir", 0.0)
         self._mine = np.zeros(2)
         apply(m, self.values, gear_ratio)
 
@@ -98,8 +103,9 @@ class ModelError(gym.Wrapper):
         return self.env.reset(**kwargs)
 
     def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
-        if self._cf.any():
-            self._set(-self._cf * np.arctan(100.0 * self._data.qvel))
+        if self._cf.any() or self._coupling:
+            friction = -self._cf * np.arctan(100.0 * self._data.qvel)
+            self._set(friction + self._coupling * self._data.qacc[::-1])
         return self.env.step(action)
 
     def _set(self, force: np.ndarray) -> None:
