@@ -161,7 +161,10 @@ class Motor(gym.Wrapper):
 
     @pulses.setter
     def pulses(self, pulses: Any) -> None:
-        array = np.zeros((2, 0)) if pulses is None else np.asarray(pulses, dtype=np.float64)
+        try:
+            array = np.zeros((2, 0)) if pulses is None else np.asarray(pulses, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"pulses must be torques, shape (2, steps), got {pulses!r}") from None
         if array.ndim != 2 or array.shape[0] != 2 or not np.all(np.isfinite(array)):
             raise ValueError(
                 f"pulses must be finite torques of shape (2, steps), got {array.shape}"

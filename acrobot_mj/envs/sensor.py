@@ -25,7 +25,10 @@ SENSOR_KEY = 0x5E45
 def sigmas(sigma: Any, n: int, name: str) -> np.ndarray:
     """``sigma`` [unit of each component] as ``n`` standard deviations: one number for all or
     ``n`` of them; each finite and >= 0."""
-    array = np.asarray(sigma, dtype=np.float64) if not isinstance(sigma, str) else None
+    try:
+        array = None if isinstance(sigma, (str, bool)) else np.asarray(sigma, dtype=np.float64)
+    except (TypeError, ValueError):
+        array = None
     if array is None or array.ndim > 1 or (array.ndim == 1 and array.shape != (n,)):
         raise ValueError(f"{name} must be one number or {n} of them, got {sigma!r}")
     for value in np.atleast_1d(array):
