@@ -34,6 +34,8 @@ def add_evaluate(commands: tools.Commands) -> None:
     p.add_argument("--seed", type=seed, help=help_text(HeldOut, "seed"))
     names = ("starts_from", "seconds", "push_every", "push_size", "perturb")
     add_arguments(p, HeldOut, names, given=True)
+    sensor_motor = ("velocity_noise", "delay", "torque_noise", "torque_response")
+    add_arguments(p, HeldOut, sensor_motor, given=True)
     p.add_argument(
         "--minima",
         action="store_true",

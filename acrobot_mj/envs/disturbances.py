@@ -1,6 +1,8 @@
 """What an evaluation does to the acrobot that its controller does not know: pushes (random
-velocity kicks every few seconds) and a perturbed model (masses and inertias scaled); how a run
-recovers from them; and the replay of an episode's torques and pushes in MuJoCo. A
+velocity kicks every few seconds), a perturbed model (masses and inertias scaled), the AI
+Olympics protocol's sensor (velocity noise, delay: :class:`~acrobot_mj.envs.sensor.Sensor`) and
+motor (torque noise and response: :class:`~acrobot_mj.envs.motor.Motor`); how a run recovers
+from them; and the replay of an episode's torques and pushes in MuJoCo. A
 :class:`Perturbation` is what the robustness table of ``acrobot-mj balance`` changes.
 
 A push is added to the joint velocities just before physics step ``k`` (counted from 0), at the
@@ -20,6 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_float
+from acrobot_mj.envs.motor import MAX_RESPONSE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics.integrators import limit_velocities, steps_in
 
@@ -40,11 +43,19 @@ FALL = 0.5
 class Disturbances:
     """Pushes of ``U(-push_size, push_size)`` [rad/s] on each joint velocity every
     ``push_every`` [s] (None: no pushes), and each link's mass and inertia scaled by
-    ``U(1 - perturb, 1 + perturb)``, drawn per episode."""
+    ``U(1 - perturb, 1 + perturb)``, drawn per episode; Gaussian noise of ``velocity_noise``
+    [rad/s] on each measured velocity and a measurement ``delay`` [s] of the whole state
+    (the protocol's ``"posvel"``); Gaussian noise of ``torque_noise`` [N m] on the applied
+    torque and the motor's ``torque_response`` (wrappers of the env:
+    :func:`acrobot_mj.train.evaluate.disturbed`)."""
 
     push_every: float | None = None
     push_size: float = 0.0
     perturb: float = 0.0
+    velocity_noise: float = 0.0
+    delay: float = 0.0
+    torque_noise: float = 0.0
+    torque_response: float = 1.0
 
     def __post_init__(self) -> None:
         if self.push_every is not None:
@@ -54,6 +65,21 @@ class Disturbances:
         check_float("perturb", self.perturb, 0.0, 0.9)
         if (self.push_every is None) != (self.push_size == 0.0):
             raise ValueError("pushes need both push_every > 0 s and push_size > 0 rad/s")
+        check_float("velocity_noise", self.velocity_noise, 0.0, MAX_VEL2)
+        check_float("delay", self.delay, 0.0, 86_400.0)
+        check_float("torque_noise", self.torque_noise, 0.0, 1e3)
+        if not 0.0 < check_float("torque_response", self.torque_response, 0.0, MAX_RESPONSE):
+            raise ValueError(f"torque_response must be > 0, got {self.torque_response:g}")
+
+    @property
+    def sensed(self) -> bool:
+        """Whether the observations are noisy or late."""
+        return bool(self.velocity_noise or self.delay)
+
+    @property
+    def motored(self) -> bool:
+        """Whether the applied torque differs from the commanded one."""
+        return bool(self.torque_noise or self.torque_response != 1.0)
 
     def push_steps(self, physics_steps: int, frame_skip: int, dt: float) -> list[int]:
         """The physics steps [0, ``physics_steps``) before which a push lands, one per multiple

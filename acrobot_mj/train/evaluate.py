@@ -14,14 +14,16 @@ import numpy as np
 
 from acrobot_mj.control.search import Beam, min_time_search
 from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_parameters
+from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.rollout import FROM_REST, Hooks, acrobot_of, run_episode
+from acrobot_mj.envs.sensor import Sensor
 from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import sealed, versions, write_json
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
 from acrobot_mj.physics.params import REPORT
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.learners import PERTURB, PUSHES, HeldOut, Learner
+from acrobot_mj.train.learners import MOTOR, PERTURB, PUSHES, SENSOR, HeldOut, Learner
 from acrobot_mj.train.lock import RunLock, check_not_held
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
 from acrobot_mj.train.trainer import load_learner
@@ -111,8 +113,9 @@ def evaluate_learner(learner: Learner, protocol: HeldOut, minima: str = "stored"
         for k, start in enumerate(starts):
             parameters = disturbances.perturbed(nominal, protocol.stream(PERTURB, k))
             set_model_parameters(env, parameters)
-            env.begin(kicks, disturbances.push_size, protocol.stream(PUSHES, k))
-            episode = play(env, learner, k + 1, {"state": start})
+            pushed = disturbed(env, protocol, k)
+            pushed.begin(kicks, disturbances.push_size, protocol.stream(PUSHES, k))
+            episode = play(pushed, learner, k + 1, {"state": start})
             episode["parameters"] = parameters
             episodes.append(episode)
         set_model_parameters(env, nominal)
@@ -171,9 +174,36 @@ def episode_env(learner: Learner, protocol: HeldOut) -> Pushed:
     return Pushed(env)
 
 
+def disturbed(env: Pushed, protocol: HeldOut, k: int) -> Pushed:
+    """``env`` for held-out episode ``k`` under ``protocol``'s motor
+    (:class:`~acrobot_mj.envs.motor.Motor`) and sensor (:class:`~acrobot_mj.envs.sensor.Sensor`,
+    its delay the protocol's ``"posvel"``), their noise drawn from the episode's streams;
+    ``env`` itself where it has neither."""
+    d = protocol.disturbances()
+    if not (d.motored or d.sensed):
+        return env
+    inner = env.env
+    if d.motored:
+        inner = Motor(inner, d.torque_response, d.torque_noise, rng=protocol.stream(MOTOR, k))
+    if d.sensed:
+        sigma = (0.0, 0.0, d.velocity_noise, d.velocity_noise)
+        inner = Sensor(inner, d.delay, sigma, rng=protocol.stream(SENSOR, k))
+    return Pushed(inner)
+
+
+def motor_of(env: gym.Env) -> Motor | None:
+    """The :class:`~acrobot_mj.envs.motor.Motor` among ``env``'s wrappers, if any."""
+    while isinstance(env, gym.Wrapper):
+        if isinstance(env, Motor):
+            return env
+        env = env.env
+    return None
+
+
 def play(env: Pushed, learner: Learner, episode: int, options: dict, seed: int | None = None):
     """Greedy episode ``episode`` of ``learner`` from ``env.reset(seed, options)``: its
-    actions, its torque at every physics step, the pushes it took and its assessment."""
+    actions, its torque at every physics step (the applied one under a motor), the pushes it
+    took and its assessment."""
     acrobot, actions, torques, states = acrobot_of(env), [], [], []
 
     def on_step(action: Any, *_: Any) -> None:
@@ -188,6 +218,9 @@ def play(env: Pushed, learner: Learner, episode: int, options: dict, seed: int |
         options,
         hooks=Hooks(lambda *_: states.append(acrobot.state), on_step),
     )
+    motor = motor_of(env)
+    if motor is not None:
+        torques = np.repeat(motor.applied[:, motor.dof], acrobot.frame_skip).tolist()
     kicks = [int(k) // acrobot.frame_skip for k, *_ in env.pushes]
     assessment = acrobot.task.assess(np.array(states), acrobot.dt, learner.swing_up, kicks)
     return {

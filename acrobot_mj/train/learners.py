@@ -8,7 +8,7 @@ import shutil
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -111,13 +111,30 @@ class HeldOut:
         "its model",
         metavar="F",
     )
+    velocity_noise: float = setting(
+        0.0, "Gaussian noise on each observed joint velocity", "rad/s", low=0.0, metavar="S"
+    )
+    delay: float = setting(
+        0.0, "observe the state int(D/dt) decisions old", "s", low=0.0, metavar="D"
+    )
+    torque_noise: float = setting(
+        0.0, "Gaussian noise on the applied elbow torque", "N m", low=0.0, metavar="S"
+    )
+    torque_response: float = setting(
+        1.0,
+        "the applied torque moves this fraction of the way to the command each decision",
+        low=0.0,
+        low_open=True,
+        high=2.0,
+        metavar="K",
+    )
 
     def __post_init__(self) -> None:
         check(self)
         self.disturbances()  # checks the rest
 
     def disturbances(self) -> Disturbances:
-        return Disturbances(self.push_every, self.push_size, self.perturb)
+        return Disturbances(**{f.name: getattr(self, f.name) for f in fields(Disturbances)})
 
     def stream(self, *purpose: int) -> np.random.Generator:
         """The generator of one ``purpose`` of the evaluation's draws (no purpose: the starts)."""
@@ -146,7 +163,7 @@ class HeldOut:
 #: What every protocol record holds; the later settings appear where they are not the default.
 BASIC = ("episodes", "start_noise", "seed")
 #: The purposes of an evaluation's draws besides the noise starts (spawn keys).
-UNIFORM, PUSHES, PERTURB = 1, 2, 3
+UNIFORM, PUSHES, PERTURB, SENSOR, MOTOR = 1, 2, 3, 4, 5
 #: The protocol of the README's learning results: 100 starts of U(-0.05, 0.05), seed 0.
 DEFAULT = HeldOut()
 

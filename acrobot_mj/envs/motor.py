@@ -1,0 +1,207 @@
+"""A motor between the agent or controller and the acrobot: the AI Olympics protocol's torque
+response, torque noise, torque limit and pulse perturbations (dfki-ric-underactuated-lab/
+double_pendulum, src/python/double_pendulum/simulation/simulation.py,
+``Simulator.get_real_applied_u``, and simulation/perturbations.py,
+``get_random_gauss_perturbation_array``), applied to any acrobot env without changing its step
+(docs/envs/disturbances.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.envs.spaces import action_torque
+
+#: The spawn key of a motor's stream seeded at reset.
+MOTOR_KEY = 0x307
+#: The largest torque response: past 2 each decision overshoots the command by more than the
+#: last error (the protocol's levels end at 2.0).
+MAX_RESPONSE = 2.0
+
+
+def stream(rng: np.random.Generator | int | None, key: int) -> np.random.Generator:
+    """A wrapper's generator: ``rng`` itself, or one seeded by the integer ``rng`` (spawn key
+    ``key``, so a seed shared with the env gives another stream); None: unseeded."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is not None and (not isinstance(rng, (int, np.integer)) or isinstance(rng, bool)):
+        raise TypeError(f"rng must be a numpy Generator, an integer seed or None, got {rng!r}")
+    if rng is not None and rng < 0:
+        raise ValueError(f"seed must be >= 0, got {rng}")
+    return np.random.default_rng(
+        None if rng is None else np.random.SeedSequence(int(rng), spawn_key=(key,))
+    )
+
+
+@dataclass(frozen=True)
+class PulseSettings:
+    """What :func:`gaussian_pulses` draws: over ``t_max`` [s] in steps of ``dt`` [s],
+    ``n_per_joint`` Gaussian pulses per joint at least ``min_t_dist`` [s] apart, widths
+    ``sigma_minmax`` [s] and magnitudes ``amplitude_minmax`` [N m]. The defaults are the
+    robustness_v2 leaderboard's (leaderboard/acrobot/robustness_v2/sim_parameters.py)."""
+
+    t_max: float = 10.0
+    dt: float = 0.002
+    n_per_joint: int = 3
+    min_t_dist: float = 1.0
+    sigma_minmax: tuple[float, float] = (0.05, 0.1)
+    amplitude_minmax: tuple[float, float] = (0.5, 5.0)
+
+    def __post_init__(self) -> None:
+        check_float("t_max", self.t_max, 0.0, 86_400.0)
+        if check_float("dt", self.dt, 0.0, self.t_max) <= 0.0:
+            raise ValueError(f"dt must be > 0 s, got {self.dt:g}")
+        n = check_int("n_per_joint", self.n_per_joint, 1, 10_000)
+        if check_float("min_t_dist", self.min_t_dist, 0.0, 86_400.0) * (2 * n + 1) > self.t_max:
+            raise ValueError(
+                f"{2 * n} pulses {self.min_t_dist:g} s apart do not fit in t_max {self.t_max:g} s"
+            )
+        for name in ("sigma_minmax", "amplitude_minmax"):
+            low, high = getattr(self, name)
+            if not 0.0 <= check_float(name, low, 0.0, 1e6) <= check_float(name, high, 0.0, 1e6):
+                raise ValueError(f"{name} must be (low, high) with 0 <= low <= high")
+        if self.sigma_minmax[0] <= 0.0:
+            raise ValueError(f"sigma_minmax must be > 0 s, got {self.sigma_minmax}")
+
+
+def gaussian_pulses(
+    rng: np.random.Generator,
+    settings: PulseSettings = PulseSettings(),
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The protocol's random pulses drawn from ``rng`` in its order: ``(pulses, mu, sigma,
+    amplitude)``, ``pulses`` ``(2, steps)`` [N m] at ``t = arange(0, t_max, dt)`` (row 0 the
+    shoulder, row 1 the elbow), the others ``(2, n_per_joint)`` [s, s, N m]."""
+    s = settings
+    n = 2 * s.n_per_joint
+    wiggle_room = (s.t_max - (n + 1) * s.min_t_dist) / n
+    mu: list[float] = []
+    for i in range(n):
+        if i == 0:
+            mu.append(s.min_t_dist + rng.random() * wiggle_room)
+        else:
+            mu.append(mu[-1] + s.min_t_dist + rng.random() * wiggle_room)
+    rng.shuffle(mu)
+    centres = np.reshape(mu, (2, s.n_per_joint))
+    low, high = s.sigma_minmax
+    widths = low + rng.random((2, s.n_per_joint)) * (high - low)
+    amp_range = s.amplitude_minmax[1] - s.amplitude_minmax[0]
+    amplitudes = rng.uniform(-amp_range, amp_range, size=(2, s.n_per_joint))
+    amplitudes += s.amplitude_minmax[0] * np.sign(amplitudes)
+    t = np.arange(0, s.t_max, s.dt)
+    rows = [
+        np.sum(
+            [
+                amplitudes[j][i]
+                * np.exp(-np.power(t - centres[j][i], 2.0) / (2 * widths[j][i] ** 2.0))
+                for i in range(s.n_per_joint)
+            ],
+            axis=0,
+        )
+        for j in range(2)
+    ]
+    return np.asarray(rows), centres, widths, amplitudes
+
+
+class Motor(gym.Wrapper):
+    """The torque the motor applies for a commanded one ``u`` [N m] (the env's torque of the
+    action), per decision of ``dt`` [s]: ``nu = last + response (u - last)`` (``last``: the
+    torque applied at the decision before, pulse included; 0 after a reset), plus
+    ``N(0, sigma)`` [N m] on the actuated joint, clipped to the model's torque limit, plus
+    ``pulses[:, int(t / dt)]`` [N m] (``(2, steps)``, rows shoulder and elbow, beyond the
+    limit; none past its end).
+
+    The env's step is unchanged: it sets ``ctrl = u``; the wrapper adds ``nu - u`` on the
+    elbow to MuJoCo's ``qfrc_applied``, held over the decision's physics steps, keeping its
+    own contribution apart so other writers compose. As the protocol's acrobot
+    (``B = diag(0, 1)``) the shoulder's torque never acts: its pulses are drawn and recorded
+    but not applied, and its limit is 0. ``applied`` holds the episode's torques ``nu``
+    ``(decisions, 2)`` (both joints, what the protocol's scores use). Noise is two normals a
+    decision from ``rng`` (a Generator or an integer seed); without one, ``reset(seed=s)``
+    seeds it from ``s``."""
+
+    def __init__(
+        self,
+        env: gym.Env,
+        response: float = 1.0,
+        sigma: float = 0.0,
+        pulses: Any = None,
+        rng: np.random.Generator | int | None = None,
+    ) -> None:
+        super().__init__(env)
+        if check_float("response", response, -1e6, MAX_RESPONSE) <= 0.0:
+            raise ValueError(f"response must be in (0, {MAX_RESPONSE:g}], got {response:g}")
+        self.response = response
+        self.sigma = check_float("sigma", sigma, 0.0, 1e6)
+        self.rng, self._reseed = stream(rng, MOTOR_KEY), rng is None
+        self.pulses = pulses
+        acrobot = env.unwrapped
+        model = acrobot.model  # type: ignore[attr-defined]
+        motor = model.actuator("elbow_motor")
+        joint = int(motor.trnid[0])
+        #: The actuated joint's dof, 0 (shoulder) or 1 (elbow), and each joint's torque limit.
+        self.dof = int(model.jnt_dofadr[joint])
+        self.limit = np.zeros(2)
+        self.limit[self.dof] = float(np.max(np.abs(motor.ctrlrange)))
+        self._sigmas = np.zeros(2)
+        self._sigmas[self.dof] = self.sigma
+        self._dt = float(acrobot.dt)  # type: ignore[attr-defined]
+        self._qfrc = acrobot.data.qfrc_applied  # type: ignore[attr-defined]
+        self._mine = np.zeros(2)
+        self._last, self._t = np.zeros(2), 0.0
+        self._applied: list[np.ndarray] = []
+
+    @property
+    def pulses(self) -> np.ndarray:
+        """The pulse torques ``(2, steps)`` [N m], one column a decision from t = 0."""
+        return self._pulses
+
+    @pulses.setter
+    def pulses(self, pulses: Any) -> None:
+        try:
+            array = np.zeros((2, 0)) if pulses is None else np.asarray(pulses, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"pulses must be torques, shape (2, steps), got {pulses!r}") from None
+        if array.ndim != 2 or array.shape[0] != 2 or not np.all(np.isfinite(array)):
+            raise ValueError(
+                f"pulses must be finite torques of shape (2, steps), got {array.shape}"
+            )
+        self._pulses = array
+
+    @property
+    def applied(self) -> np.ndarray:
+        """The episode's applied torques ``(decisions, 2)`` [N m], shoulder and elbow."""
+        return np.array(self._applied).reshape(-1, 2)
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        self._set(np.zeros(2))
+        if self._reseed and kwargs.get("seed") is not None:
+            self.rng = stream(int(kwargs["seed"]), MOTOR_KEY)
+        self._last, self._t, self._applied = np.zeros(2), 0.0, []
+        return self.env.reset(**kwargs)
+
+    def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
+        commanded = action_torque(action, self.env.unwrapped.continuous)  # type: ignore[attr-defined]
+        u = np.zeros(2)
+        u[self.dof] = commanded
+        nu = self._last + self.response * (u - self._last)
+        nu = self.rng.normal(nu, self._sigmas, np.shape(nu))
+        nu = np.clip(nu, -self.limit, self.limit)
+        index = int(self._t / self._dt)
+        if index < self._pulses.shape[1]:
+            nu += self._pulses[:, index]
+        extra = np.zeros(2)
+        extra[self.dof] = nu[self.dof] - commanded
+        self._set(extra)
+        self._last, self._t = nu, self._t + self._dt
+        self._applied.append(nu)
+        return self.env.step(action)
+
+    def _set(self, extra: np.ndarray) -> None:
+        """Make this motor's part of ``qfrc_applied`` [N m] ``extra``."""
+        self._qfrc -= self._mine  # exactly 0 where no other writer adds
+        self._qfrc += extra
+        self._mine = extra
