@@ -13,8 +13,9 @@ import pytest
 import acrobot_mj  # noqa: F401 (registers the ids)
 from acrobot_mj.cli import main
 from acrobot_mj.envs.model_error import PARAMETERS, ModelError, measured, nominal
-from acrobot_mj.envs.motor import Motor, PulseSettings, gaussian_pulses
+from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.sensor import Sensor
+from acrobot_mj.olympics.protocol import Perturbations
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, bias_forces, mass_matrix
 from acrobot_mj.physics.models import MODELS
@@ -121,10 +122,7 @@ def test_response_of_one_half() -> None:
 
 
 def test_response_on_a_two_newton_metre_step() -> None:
-    env = olympics()
-    if env.action_space.high[0] < 2.0:
-        pytest.skip("this env's actions do not reach 2 N m")
-    motor = Motor(env, response=0.5)
+    motor = Motor(olympics(), response=0.5)
     run(motor, [np.array([2.0], np.float32)] * 3)
     assert motor.applied[:, 1].tolist() == [1.0, 1.5, 1.75]
 
@@ -165,8 +163,8 @@ def test_pulses_exceed_the_clipped_torque() -> None:
 
 
 def test_pulse_array_is_the_protocols_formula() -> None:
-    settings = PulseSettings()
-    pulses, mu, sigma, amplitude = gaussian_pulses(np.random.default_rng(5), settings)
+    drawn = Perturbations().draw(np.random.default_rng(5), 10.0)
+    pulses, mu, sigma, amplitude = drawn.torques(10.0), drawn.mu, drawn.sigma, drawn.amplitude
     rng = np.random.default_rng(5)
     wiggle = (10.0 - 7 * 1.0) / 6
     centres = [1.0 + rng.random() * wiggle]
@@ -307,9 +305,9 @@ def test_bad_input_is_one_line(make, match) -> None:
 
 def test_bad_pulse_settings() -> None:
     with pytest.raises(ValueError, match="do not fit"):
-        PulseSettings(t_max=5.0)
-    with pytest.raises(ValueError, match="sigma_minmax"):
-        PulseSettings(sigma_minmax=(0.0, 0.1))
+        Perturbations().draw(np.random.default_rng(0), 5.0)
+    with pytest.raises(ValueError, match="sigma"):
+        Perturbations(sigma=(0.0, 0.1))
 
 
 # -- the held-out evaluation under them ------------------------------------------------------

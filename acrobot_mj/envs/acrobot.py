@@ -282,6 +282,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
     continuous = property(lambda self: self._continuous, doc="Box actions instead of Discrete.")
     observation = property(lambda self: self._observation, doc='"state" or "cos_sin".')
     start_noise = property(lambda self: self.task.start_noise, doc="The task's start noise.")
+    torque_limit = property(lambda self: self._torques, doc="The actions' torques (TorqueLimit).")
 
     @property
     def dt(self) -> float:

@@ -7,13 +7,12 @@ double_pendulum, src/python/double_pendulum/simulation/simulation.py,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.checks import check_float
 from acrobot_mj.envs.spaces import action_torque
 
 #: The spawn key of a motor's stream seeded at reset.
@@ -35,75 +34,6 @@ def stream(rng: np.random.Generator | int | None, key: int) -> np.random.Generat
     return np.random.default_rng(
         None if rng is None else np.random.SeedSequence(int(rng), spawn_key=(key,))
     )
-
-
-@dataclass(frozen=True)
-class PulseSettings:
-    """What :func:`gaussian_pulses` draws: over ``t_max`` [s] in steps of ``dt`` [s],
-    ``n_per_joint`` Gaussian pulses per joint at least ``min_t_dist`` [s] apart, widths
-    ``sigma_minmax`` [s] and magnitudes ``amplitude_minmax`` [N m]. The defaults are the
-    robustness_v2 leaderboard's (leaderboard/acrobot/robustness_v2/sim_parameters.py)."""
-
-    t_max: float = 10.0
-    dt: float = 0.002
-    n_per_joint: int = 3
-    min_t_dist: float = 1.0
-    sigma_minmax: tuple[float, float] = (0.05, 0.1)
-    amplitude_minmax: tuple[float, float] = (0.5, 5.0)
-
-    def __post_init__(self) -> None:
-        check_float("t_max", self.t_max, 0.0, 86_400.0)
-        if check_float("dt", self.dt, 0.0, self.t_max) <= 0.0:
-            raise ValueError(f"dt must be > 0 s, got {self.dt:g}")
-        n = check_int("n_per_joint", self.n_per_joint, 1, 10_000)
-        if check_float("min_t_dist", self.min_t_dist, 0.0, 86_400.0) * (2 * n + 1) > self.t_max:
-            raise ValueError(
-                f"{2 * n} pulses {self.min_t_dist:g} s apart do not fit in t_max {self.t_max:g} s"
-            )
-        for name in ("sigma_minmax", "amplitude_minmax"):
-            low, high = getattr(self, name)
-            if not 0.0 <= check_float(name, low, 0.0, 1e6) <= check_float(name, high, 0.0, 1e6):
-                raise ValueError(f"{name} must be (low, high) with 0 <= low <= high")
-        if self.sigma_minmax[0] <= 0.0:
-            raise ValueError(f"sigma_minmax must be > 0 s, got {self.sigma_minmax}")
-
-
-def gaussian_pulses(
-    rng: np.random.Generator,
-    settings: PulseSettings = PulseSettings(),
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The protocol's random pulses drawn from ``rng`` in its order: ``(pulses, mu, sigma,
-    amplitude)``, ``pulses`` ``(2, steps)`` [N m] at ``t = arange(0, t_max, dt)`` (row 0 the
-    shoulder, row 1 the elbow), the others ``(2, n_per_joint)`` [s, s, N m]."""
-    s = settings
-    n = 2 * s.n_per_joint
-    wiggle_room = (s.t_max - (n + 1) * s.min_t_dist) / n
-    mu: list[float] = []
-    for i in range(n):
-        if i == 0:
-            mu.append(s.min_t_dist + rng.random() * wiggle_room)
-        else:
-            mu.append(mu[-1] + s.min_t_dist + rng.random() * wiggle_room)
-    rng.shuffle(mu)
-    centres = np.reshape(mu, (2, s.n_per_joint))
-    low, high = s.sigma_minmax
-    widths = low + rng.random((2, s.n_per_joint)) * (high - low)
-    amp_range = s.amplitude_minmax[1] - s.amplitude_minmax[0]
-    amplitudes = rng.uniform(-amp_range, amp_range, size=(2, s.n_per_joint))
-    amplitudes += s.amplitude_minmax[0] * np.sign(amplitudes)
-    t = np.arange(0, s.t_max, s.dt)
-    rows = [
-        np.sum(
-            [
-                amplitudes[j][i]
-                * np.exp(-np.power(t - centres[j][i], 2.0) / (2 * widths[j][i] ** 2.0))
-                for i in range(s.n_per_joint)
-            ],
-            axis=0,
-        )
-        for j in range(2)
-    ]
-    return np.asarray(rows), centres, widths, amplitudes
 
 
 class Motor(gym.Wrapper):
@@ -184,7 +114,8 @@ class Motor(gym.Wrapper):
         return self.env.reset(**kwargs)
 
     def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
-        commanded = action_torque(action, self.env.unwrapped.continuous)  # type: ignore[attr-defined]
+        acrobot: Any = self.env.unwrapped
+        commanded = action_torque(action, acrobot.continuous, acrobot.torque_limit)
         u = np.zeros(2)
         u[self.dof] = commanded
         nu = self._last + self.response * (u - self._last)

@@ -197,9 +197,17 @@ class Perturbations:
     sigma: tuple[float, float] = (0.05, 0.1)
     amplitude: tuple[float, float] = (0.5, 5.0)
 
+    def __post_init__(self) -> None:
+        if self.sigma[0] <= 0.0 or self.sigma[0] > self.sigma[1]:
+            raise ValueError(f"sigma must be (low, high) with 0 < low <= high, got {self.sigma}")
+        if not 0.0 <= self.amplitude[0] <= self.amplitude[1]:
+            raise ValueError(f"amplitude must be (low, high), 0 <= low <= high: {self.amplitude}")
+
     def draw(self, rng: np.random.Generator, t_max: float) -> Pulses:
         """One episode's pulses over ``t_max`` [s], drawn from ``rng`` in the protocol's order."""
         n = 2 * self.per_joint
+        if (n + 1) * self.min_gap > t_max:
+            raise ValueError(f"{n} pulses {self.min_gap:g} s apart do not fit in {t_max:g} s")
         wiggle = (t_max - (n + 1) * self.min_gap) / n
         mu: list[float] = []
         for i in range(n):
