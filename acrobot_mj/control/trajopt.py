@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import signal
 import sys
 import threading
@@ -84,7 +85,9 @@ class Trajectory:
         return self
 
     def to_dict(self) -> dict[str, Any]:
-        model = {} if self.params == REPORT else {"params": asdict(self.params)}
+        # JSON has no infinity: an unbounded speed is stored as null.
+        params = {k: None if v == math.inf else v for k, v in asdict(self.params).items()}
+        model = {} if self.params == REPORT else {"params": params}
         return {
             "format": FORMAT,
             **model,
@@ -111,7 +114,12 @@ class Trajectory:
             states = np.asarray(data["states"], dtype=float)
             torques = np.asarray(data["torques"], dtype=float)
             dt, method, u_max = float(data["dt"]), str(data["method"]), float(data["u_max"])
-            params = AcrobotParams(**data["params"]) if "params" in data else REPORT
+            stored = data.get("params")
+            params = (
+                AcrobotParams(**{k: math.inf if v is None else v for k, v in stored.items()})
+                if stored is not None
+                else REPORT
+            )
             return cls(states, torques, dt, method, u_max, params).check()
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
             raise ValueError(f"{path} is not a usable trajectory: {error}") from None
