@@ -1,5 +1,5 @@
-"""Command line: ``acrobot-mj train | evaluate | render | validate | balance | bench | sweep |
-curves | demo | params``. Each command parses its arguments and calls library functions."""
+"""Command line: ``acrobot-mj train | evaluate | render | validate | balance | olympics | bench |
+sweep | curves | demo | params``. Each command parses its arguments and calls library functions."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from acrobot_mj.cli import balance, evaluation, learning, tools
+from acrobot_mj.cli import balance, evaluation, learning, olympics, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.stops import clear_stop, raise_stop
 from acrobot_mj.train.checkpoint import CheckpointError
@@ -25,6 +25,7 @@ COMMANDS = (
     tools.add_render,
     tools.add_validate,
     balance.add_balance,
+    olympics.add_olympics,
     learning.add_sweep,
     evaluation.add_curves,
     tools.add_bench,

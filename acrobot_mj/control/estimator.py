@@ -23,12 +23,15 @@ class Observer:
     """Estimates ``(q1, q2, dq1, dq2)`` [rad, rad/s] from measurements ``y`` of the same form:
     ``x- = step(x, u)`` on ``params`` by ``method``, then ``q = q- + r`` with the angle innovation
     ``r = wrap(y_q - q-)`` and ``dq = dq- + angle_gain r / dt + velocity_gain (y_dq - dq-)``
-    (``angle_gain`` per step, ``velocity_gain`` dimensionless, both in [0, 1])."""
+    (``angle_gain`` per step, ``velocity_gain`` dimensionless, both in [0, 1]); an innovation
+    past ``jump`` [rad] (the arm moved by something else) restarts it from ``y``."""
 
     params: AcrobotParams
     method: str = "rk4"
     angle_gain: float = 0.5
     velocity_gain: float = 0.05
+    #: An angle innovation [rad] past which the estimate restarts from the measurement.
+    jump: float = 0.1
     estimate: np.ndarray | None = field(default=None, init=False)
     torque: float = field(default=0.0, init=False)
 
@@ -51,6 +54,9 @@ class Observer:
                 self.estimate, self.torque, self.params, method=self.method
             )
             r = wrap_angle(y[:2] - pred[:2])
+            if np.abs(r).max() > self.jump:  # not this model's motion: start again from y
+                self.estimate = None
+                return self(y)
             x = np.empty(4)
             x[:2] = pred[:2] + r
             x[2:] = pred[2:] + self.angle_gain * r / self.params.dt

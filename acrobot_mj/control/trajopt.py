@@ -140,7 +140,7 @@ TARGETS = tuple(
     for q1 in (np.pi / 2, -3 * np.pi / 2)
     for q2 in (0.0, 2 * np.pi, -2 * np.pi)
 )
-_IPOPT = {"print_level": 0, "max_iter": 3000, "tol": 1e-10, "constr_viol_tol": 1e-12}
+IPOPT = {"print_level": 0, "max_iter": 3000, "tol": 1e-10, "constr_viol_tol": 1e-12}
 #: A trajectory as arrays: states ``(N + 1, 4)`` and torques ``(N,)``.
 Arrays = tuple[np.ndarray, np.ndarray]
 
@@ -241,7 +241,7 @@ class Optimiser:
         opti.subject_to(opti.bounded(-p.max_vel2, xs[3, :], p.max_vel2))
         # expand: the NLP as SX, whose derivatives evaluate about 3x faster than MX's (one warm
         # start of the search: 44 s -> 14 s, the same trajectory).
-        opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, _IPOPT)
+        opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, IPOPT)
         return opti, xs, us, h
 
     def solve(

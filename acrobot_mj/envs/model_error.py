@@ -52,7 +52,7 @@ def check_parameters(values: Mapping[str, float]) -> dict[str, float]:
     for name, value in values.items():
         low = -1e3 if name[:1] in "bc" else 0.0  # friction may be negative (the protocol's)
         checked[name] = check_float(name, value, low, 1e3)
-        if name[:1] in "mI" and checked[name] <= 0.0:
+        if name != "Ir" and name[:1] in "mI" and checked[name] <= 0.0:
             raise ValueError(f"{name} must be > 0, got {value:g}")
     return checked
 

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.control.feedback import FunnelController, FunnelSettings
-from acrobot_mj.control.trajopt import _IPOPT, Trajectory, solve_or_none
+from acrobot_mj.control.trajopt import IPOPT, Trajectory, solve_or_none
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.models import AcrobotModel, resolve
@@ -66,7 +66,7 @@ def performance_swing_up(
     opti.set_initial(xs, np.linspace(HANGING, UPRIGHT, decisions + 1).T)
     rng = np.random.default_rng(decisions)
     opti.set_initial(us, 0.1 * rng.standard_normal((1, decisions)))
-    opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, _IPOPT)
+    opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, IPOPT)
     solution = solve_or_none(opti)
     if solution is None:
         raise ValueError(f"IPOPT found no swing-up in {decisions} decisions of {h:g} s")

@@ -129,6 +129,7 @@ def _calls(entry: str, model: str, category: Category, seed: int) -> list[tuple]
                 episode_seed = int(
                     np.random.SeedSequence([seed, base, s, level, rep]).generate_state(1)[0]
                 )
+                disturbance: dict[str, Any]
                 if category.key == "perturbation":
                     pulses = ROBUSTNESS.perturbations.draw(
                         np.random.default_rng(episode_seed), ROBUSTNESS.t_final
@@ -191,7 +192,7 @@ class OlympicsRun:
             for record in each:
                 records.append(record)
                 bar.done("robustness")
-            global_run, draws = None, {}
+            global_run, draws = None, dict[str, Any]()
             if "global" in self.parts:
                 global_run, draws = global_episode(self.entry, self.model, self.seed)
                 bar.done("global")

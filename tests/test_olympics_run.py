@@ -1,0 +1,164 @@
+"""The AI Olympics runner: the state estimator, the global policy's testing controller, the
+planned swing-up, an episode of the protocol and the ``olympics`` command."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from acrobot_mj.cli import main
+from acrobot_mj.control.estimator import Observer
+from acrobot_mj.olympics import entries
+from acrobot_mj.olympics.controllers import performance_swing_up, shipped_swing_up
+from acrobot_mj.olympics.globaltest import GlobalTester
+from acrobot_mj.olympics.protocol import from_protocol
+from acrobot_mj.olympics.run import Conditions, episode
+from acrobot_mj.olympics.scores import final_success, performance
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.physics.models import MODELS
+
+OLYMPICS = MODELS["ai_olympics"]
+
+
+def test_observer_is_exact_on_its_own_model() -> None:
+    """Noise-free measurements of the observer's own model: the prediction is the next state,
+    so the estimate equals it to rounding (1e-9 over 200 steps of a swinging arm)."""
+    p, observer = OLYMPICS.params, Observer(OLYMPICS.params)
+    x, rng = HANGING + np.array([0.3, -0.5, 1.0, -2.0]), np.random.default_rng(0)
+    for _ in range(200):
+        estimate = observer(x)
+        assert np.abs(estimate - x).max() < 1e-9
+        u = float(rng.uniform(-6, 6))
+        observer.applied(u)
+        x = integrators.step_states(x, u, p, method="rk4")
+
+
+def test_observer_ignores_velocity_noise() -> None:
+    """Velocity noise of sigma 0.5 rad/s (the protocol's largest level), angles exact: the
+    estimated velocities' RMS error after 50 steps is under 0.1 rad/s, a fifth of the noise
+    (with velocity_gain 0.05 the noise passes as an AR(1) of std 0.05 x 0.5 / sqrt(1 - 0.95^2),
+    about 0.08 rad/s)."""
+    p, observer = OLYMPICS.params, Observer(OLYMPICS.params)
+    x, rng = HANGING + np.array([1.0, 0.0, 0.0, 0.0]), np.random.default_rng(1)
+    errors = []
+    for k in range(400):
+        y = x + np.r_[0.0, 0.0, rng.normal(0.0, 0.5, 2)]
+        error = (observer(y) - x)[2:]
+        if k > 50:
+            errors.extend(error)
+        observer.applied(0.0)
+        x = integrators.step_states(x, 0.0, p, method="rk4")
+    assert np.sqrt(np.mean(np.square(errors))) < 0.1
+
+
+def test_observer_restarts_after_a_jump_and_refuses_bad_gains() -> None:
+    observer = Observer(OLYMPICS.params)
+    observer(HANGING)
+    jumped = HANGING + np.array([1.0, 1.0, 0.5, 0.5])
+    assert np.array_equal(observer(jumped), jumped)  # taken as it is, not a huge velocity
+    with pytest.raises(ValueError, match="angle_gain"):
+        Observer(OLYMPICS.params, angle_gain=2.0)
+
+
+class Constant:
+    def reset(self) -> None:
+        pass
+
+    def __call__(self, obs: np.ndarray) -> float:
+        return 1.5
+
+
+def test_global_tester_resets_by_the_protocols_rule() -> None:
+    """Before the first reset time the entry acts (shoulder 0); at it the PID with gravity
+    compensation takes over for more than 0.2 s, then hands back; torques within +-6 N m."""
+    targets = np.zeros((151, 4))
+    targets[0, :2] = (np.pi, 0.0)  # to upright (protocol angles)
+    tester = GlobalTester(Constant(), OLYMPICS, targets, np.array([1.0] + [70.0] * 14))
+    state = HANGING.copy()
+    assert tester(0.998, state, state) == (0.0, 1.5)
+    shoulder, elbow = tester(1.0, state, state)
+    # The first PID call: P only (kp 10 x pi, clipped to 6) plus gravity compensation (0
+    # hanging, to rounding: cos(-pi/2) is 6e-17).
+    assert shoulder == 6.0 and abs(elbow) < 1e-15
+    t = 1.0
+    while tester.resetting:
+        t += 0.002
+        tester(t, state, state)
+    assert 1.2 < t <= 1.21  # more than reset_length, by one step
+    assert tester(t + 0.002, state, state) == (0.0, 1.5)
+
+
+def test_gravity_compensation_is_the_plants_gravity_torque() -> None:
+    """At the protocol's theta = (pi/2, 0) (arm horizontal) the shoulder holds the whole arm:
+    (m1 r1 + m2 l1 + m2 r2) g, the elbow m2 r2 g, by hand from the model's numbers."""
+    tester = GlobalTester(Constant(), OLYMPICS, np.zeros((151, 4)), np.full(15, 70.0))
+    p = OLYMPICS.params
+    x = from_protocol(np.array([np.pi / 2, 0.0, 0.0, 0.0]))
+    expected = [(p.m1 * p.lc1 + p.m2 * p.l1 + p.m2 * p.lc2) * p.g, p.m2 * p.lc2 * p.g]
+    assert np.allclose(tester.gravity(x), expected, rtol=0, atol=1e-12)
+
+
+def test_shipped_swing_up_loads_and_is_exact() -> None:
+    trajectory = shipped_swing_up("ai_olympics")
+    assert trajectory.steps == 1000 and trajectory.dt == 0.002 and trajectory.u_max == 6.0
+    assert trajectory.residual() < 1e-9
+    with pytest.raises(ValueError, match="no planned swing-up"):
+        shipped_swing_up("report")
+
+
+@pytest.mark.slow
+def test_planning_reproduces_the_shipped_swing_up() -> None:
+    """The NLP from the model's parameters alone gives the shipped torques (IPOPT is
+    deterministic; 1e-6 N m is far above its tolerance, far below any other optimum)."""
+    planned = performance_swing_up(OLYMPICS, decisions=200, hold=5)
+    assert np.abs(planned.torques - shipped_swing_up("ai_olympics").torques).max() < 1e-6
+
+
+def test_performance_episode_of_the_funnel() -> None:
+    """The funnel entry's performance episode in MuJoCo: its v2 score (0.6882, above the
+    leaderboard's best 0.655; MuJoCo and the planning model agree to 1e-10, so 1e-4 is loose
+    for platforms yet would catch any change of controller or scoring)."""
+    run = performance(episode("funnel", "ai_olympics", 10.0, Conditions(), 0), 0.2, 0.3)
+    assert run["success"] and abs(run["score"] - 0.68817) < 1e-4
+    assert math.isclose(run["swingup_time"], 1.254, abs_tol=1e-9)
+
+
+def test_robustness_episode_under_velocity_noise() -> None:
+    """The protocol's largest velocity noise (0.5 rad/s on both velocities): upright at the end."""
+    conditions = Conditions(sensor={"sigma": (0.0, 0.0, 0.5, 0.5)})
+    recording = episode("funnel", "ai_olympics", 10.0, conditions, 3)
+    assert final_success(recording.X[-1])
+
+
+def test_olympics_command_writes_the_record(tmp_path, capsys) -> None:
+    out = tmp_path / "o"
+    main(["olympics", "tvlqr", "--scores", "performance", "--out", str(out), "--no-progress"])
+    record = json.loads((out / "olympics.json").read_text())
+    assert record["performance"]["success"] is True
+    assert abs(record["performance"]["score"] - 0.68817) < 1e-4
+    assert (out / "performance.png").is_file()
+    assert "performance 0.688" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["olympics", "nobody", "--out", "x"], "invalid choice"),
+        (["olympics", "funnel", "--scores", "speed", "--out", "x"], "--scores"),
+        (["olympics", "funnel", "--model", "report", "--out", "x"], "no planned swing-up"),
+    ],
+)
+def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(argv)
+    err = capsys.readouterr().err.strip()
+    assert match in err and "\n" not in err
+
+
+def test_entries_refuse_an_unknown_name() -> None:
+    with pytest.raises(ValueError, match="unknown controller"):
+        entries.build("nobody", "ai_olympics")
