@@ -393,3 +393,12 @@ def test_model_errors_follow_the_protocols_plant(values, gap) -> None:
     expected = plant_run(torques.astype(float), values)
     assert np.abs(np.array(states) - expected).max() <= gap
     assert np.abs(expected - plant_run(torques.astype(float), {})).max() > 1.0
+
+
+def test_zero_motor_inertia_is_a_level() -> None:
+    """The protocol's first motor-inertia level is 0 kg m^2 (linspace(0, 1e-4)): accepted."""
+    from acrobot_mj.envs.model_error import check_parameters
+
+    assert check_parameters({"Ir": 0.0}) == {"Ir": 0.0}
+    with pytest.raises(ValueError, match="m2 must be > 0"):
+        check_parameters({"m2": 0.0})
