@@ -22,6 +22,7 @@ from acrobot_mj.physics.models import resolve
 LEVELS = FunnelSettings(upright=7_500.0, track=5_000.0, entry=500.0, horizon=0)
 #: Energy pumping's gain [N m / (J rad/s)] where the funnel does not act.
 PUMPING_GAIN = 50.0
+#: The entries by name.
 ENTRIES = ("tvlqr", "funnel")
 _BUILT: dict[tuple[str, str], Any] = {}
 

@@ -145,7 +145,8 @@ def _calls(entry: str, model: str, category: Category, seed: int) -> list[tuple]
 
 @dataclass(frozen=True)
 class OlympicsRun:
-    """One run of the protocol: ``entry`` (a name in :data:`entries.ENTRIES`) on ``model``,
+    """One run of the protocol: ``entry`` (a name in
+    :data:`~acrobot_mj.olympics.entries.ENTRIES`) on ``model``,
     the ``parts`` of :data:`PARTS`, every draw from ``seed``, episodes on ``jobs`` processes,
     a bar on stderr with ``progress``."""
 
@@ -163,7 +164,8 @@ class OlympicsRun:
             raise ValueError(f"scores must be some of {list(PARTS)}, got {list(self.parts)}")
 
     def run(self) -> Olympics:
-        """Every episode of the parts asked for, scored into an :class:`Olympics`."""
+        """Every episode of the parts asked for, for
+        :class:`~acrobot_mj.olympics.report.Olympics` to score."""
         model = resolve(self.model)
         categories = ROBUSTNESS.categories(model) if "robustness" in self.parts else ()
         work = [
