@@ -125,12 +125,13 @@ class Trajectory:
             raise ValueError(f"{path} is not a usable trajectory: {error}") from None
 
 
-def shipped(name: str) -> Trajectory:
-    """A trajectory shipped with the package (``"min_time"`` or ``"reserve"``)."""
-    path = SHIPPED / f"{name}.json"
+def shipped(name: str, folder: Path = SHIPPED, what: str = "shipped trajectory") -> Trajectory:
+    """A trajectory shipped with the package in ``folder`` (here: ``"min_time"`` or
+    ``"reserve"``); ``what`` names it in the error for an unknown ``name``."""
+    path = folder / f"{name}.json"
     if not path.is_file():
-        known = sorted(p.stem for p in SHIPPED.glob("*.json"))
-        raise ValueError(f"no shipped trajectory {name!r}; shipped: {known}")
+        known = sorted(p.stem for p in folder.glob("*.json"))
+        raise ValueError(f"no {what} {name!r}; there are: {known}")
     return Trajectory.load(path)
 
 

@@ -1,7 +1,6 @@
-"""The project's controllers for the AI Olympics acrobot, built from its parameters alone: a
-swing-up planned for the performance score (:func:`performance_swing_up`) and the state-feedback
-funnel along it (:class:`~acrobot_mj.control.feedback.FunnelController`: TVLQR on the swing-up,
-LQR at upright, energy removal elsewhere), which every category of the protocol runs."""
+"""The swing-up the AI Olympics entries follow, planned from an acrobot's parameters alone
+(:func:`performance_swing_up`), and the plans shipped with the package (:func:`shipped_swing_up`);
+the entries built on them are :mod:`acrobot_mj.olympics.entries`."""
 
 from __future__ import annotations
 
@@ -11,11 +10,10 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.feedback import FunnelController, FunnelSettings
-from acrobot_mj.control.trajopt import IPOPT, Trajectory, solve_or_none
+from acrobot_mj.control.trajopt import IPOPT, Trajectory, shipped, solve_or_none
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
-from acrobot_mj.physics.models import AcrobotModel, resolve
+from acrobot_mj.physics.models import AcrobotModel
 from acrobot_mj.physics.xp import symbolic
 
 #: Where the planned swing-ups are shipped, by model name.
@@ -77,15 +75,4 @@ def performance_swing_up(
 
 def shipped_swing_up(name: str) -> Trajectory:
     """The swing-up planned for the model ``name`` (``ai_olympics``), shipped with the package."""
-    path = SHIPPED / f"{name}.json"
-    if not path.is_file():
-        known = sorted(f.stem for f in SHIPPED.glob("*.json"))
-        raise ValueError(f"no planned swing-up for the model {name!r}; planned: {known}")
-    return Trajectory.load(path)
-
-
-def funnel(model: str, settings: FunnelSettings | None = None) -> FunnelController:
-    """The state-feedback funnel along ``model``'s planned swing-up."""
-    trajectory = shipped_swing_up(model)
-    resolve(model)  # a known model
-    return FunnelController(trajectory, settings or FunnelSettings(horizon=0))
+    return shipped(name, SHIPPED, "planned swing-up for the model")
