@@ -17,9 +17,10 @@ from acrobot_mj.control.policies import energy_pumping_torque
 from acrobot_mj.olympics.controllers import shipped_swing_up
 from acrobot_mj.physics.models import resolve
 
-#: The funnel's cost levels at 500 decisions a second: FunnelSettings' (chosen at 20 a
-#: second) times 25, the ratio of the Riccati costs' scale.
-LEVELS = FunnelSettings(upright=7_500.0, track=5_000.0, entry=500.0, horizon=0)
+#: The funnel's cost levels at 500 decisions a second (the LQR's costs grow with the rate):
+#: chosen on the global policy's episodes of seeds 0 to 2 (uptime 0.42 against 0.28 with
+#: FunnelSettings' levels times 25); the robustness and performance seeds were not used.
+LEVELS = FunnelSettings(upright=30_000.0, track=20_000.0, entry=2_000.0, horizon=0)
 #: Energy pumping's gain [N m / (J rad/s)] where the funnel does not act.
 PUMPING_GAIN = 50.0
 #: The entries by name.
