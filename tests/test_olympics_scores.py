@@ -21,7 +21,6 @@ from acrobot_mj.olympics.protocol import (
     episode_times,
     from_protocol,
     get_par_list,
-    joint_inertias,
     step_count,
     to_protocol,
 )
@@ -33,7 +32,7 @@ from acrobot_mj.olympics.report import (
     write_olympics,
 )
 from acrobot_mj.olympics.scores import Recording
-from acrobot_mj.physics.models import MODELS
+from acrobot_mj.physics.models import MODELS, joint_inertias
 
 MODEL = MODELS["ai_olympics"]
 L1, L2 = MODEL.params.l1, MODEL.params.l2

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.physics.models import ModelSpec, resolve
+from acrobot_mj.physics.models import ModelSpec, joint_inertias, resolve
 
 #: The protocol's parameters in its order: motor inertia [kg m^2], m1 r1 [kg m], I1 about the
 #: shoulder [kg m^2], b1 [N m s/rad], cf1 [N m], then link 2's and m2 [kg].
@@ -33,9 +33,10 @@ def nominal(model: ModelSpec = "ai_olympics", gear_ratio: float = GEAR_RATIO) ->
     m = resolve(model)
     p = m.params
     values = {"Ir": m.motor_inertia[1] / gear_ratio**2}
-    for k, (mass, lc, inertia) in enumerate(((p.m1, p.lc1, p.I1), (p.m2, p.lc2, p.I2))):
+    about_joints = joint_inertias(m)
+    for k, (mass, lc) in enumerate(((p.m1, p.lc1), (p.m2, p.lc2))):
         j = str(k + 1)
-        values |= {f"m{j}r{j}": mass * lc, f"I{j}": inertia + mass * lc**2}
+        values |= {f"m{j}r{j}": mass * lc, f"I{j}": about_joints[k]}
         values |= {f"b{j}": m.damping[k], f"cf{j}": m.friction[k]}
     values["m2"] = p.m2
     return {name: float(values[name]) for name in PARAMETERS}

@@ -8,7 +8,8 @@ src/python/double_pendulum/controller/global_policy_testing_controller.py (globa
 Their convention: ``theta1`` from hanging, ``theta2`` relative; hanging is ``(0, 0)``, upright
 ``(pi, 0)``. Ours: ``q1`` from the horizontal, so ``q1 = theta1 - pi/2``, ``q2 = theta2``
 (:func:`to_protocol`, :func:`from_protocol`: the one conversion). Their plant takes inertias
-about the joint axes; ours are about the centres of mass (:func:`joint_inertias`)."""
+about the joint axes; ours are about the centres of mass
+(:func:`~acrobot_mj.physics.models.joint_inertias`)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acrobot_mj.physics.models import AcrobotModel
+from acrobot_mj.physics.models import AcrobotModel, joint_inertias
 
 #: The robustness categories' keys (the protocol's), in the leaderboard's order.
 CATEGORY_KEYS = (
@@ -66,13 +67,6 @@ def from_protocol(states: np.ndarray) -> np.ndarray:
     ours = np.array(states, dtype=float)
     ours[..., 0] -= math.pi / 2
     return ours
-
-
-def joint_inertias(model: AcrobotModel) -> tuple[float, float]:
-    """The links' inertias about their joint axes [kg m^2], as the protocol's plant takes them:
-    ours (about the centres of mass) plus ``m lc^2``."""
-    p = model.params
-    return p.I1 + p.m1 * p.lc1**2, p.I2 + p.m2 * p.lc2**2
 
 
 def wrap_top(state: np.ndarray) -> np.ndarray:

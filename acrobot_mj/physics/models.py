@@ -80,6 +80,13 @@ class AcrobotModel:
         return self.params
 
 
+def joint_inertias(model: AcrobotModel) -> tuple[float, float]:
+    """The links' inertias about their joint axes [kg m^2], as the protocol's plant takes them:
+    ours (about the centres of mass) plus ``m lc^2``."""
+    p = model.params
+    return p.I1 + p.m1 * p.lc1**2, p.I2 + p.m2 * p.lc2**2
+
+
 def _gymnasium() -> AcrobotModel:
     # Farama-Foundation/Gymnasium, gymnasium/envs/classic_control/acrobot.py: LINK_LENGTH_1/2 =
     # 1, LINK_MASS_1/2 = 1, LINK_COM_POS_1/2 = 0.5, LINK_MOI = 1 (about the centre of mass: its
