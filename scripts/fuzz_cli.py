@@ -61,7 +61,17 @@ class Case:
 def hand_written() -> list[Case]:
     """Cases written by hand: what users tried, and its neighbours; new commands first."""
     ev = ["evaluate", "fb", "--episodes", "1", "--seconds", "2"]
+    ol = ["olympics", "funnel", "--scores", "performance", "--out", "o"]
     cases = [
+        Case("olympics unknown controller", ["olympics", "nobody", "--out", "o"], "nobody"),
+        Case("olympics unknown score", [*ol, "--scores", "speed"], "--scores"),
+        Case("olympics empty scores", [*ol, "--scores", ","], "--scores"),
+        Case("olympics unknown model", [*ol, "--model", "nobody"], "model must be one of"),
+        Case("olympics model without a plan", [*ol, "--model", "gymnasium"], "no planned"),
+        Case("olympics jobs 0", [*ol, "--jobs", "0"], "--jobs"),
+        Case("olympics out a file", [*ol[:-1], "c.txt"], "is a file, not a folder"),
+        Case("olympics no out", ol[:-2], "--out"),
+        Case("olympics performance", ol, None),
         Case(
             "evaluate push shorter than a decision",
             [*ev, "--push-every", "0.03", "--push-size", "0.5"],

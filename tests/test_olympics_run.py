@@ -142,6 +142,22 @@ def test_olympics_command_writes_the_record(tmp_path, capsys) -> None:
     assert abs(record["performance"]["score"] - 0.68817) < 1e-4
     assert (out / "performance.png").is_file()
     assert "performance 0.688" in capsys.readouterr().out
+    again = ["olympics", "tvlqr", "--scores", "global", "--out", str(out), "--no-progress"]
+    before = (out / "olympics.json").read_bytes()
+    with pytest.raises(SystemExit):
+        main(again)
+    assert "already holds olympics.json" in capsys.readouterr().err
+    assert (out / "olympics.json").read_bytes() == before
+
+
+def test_olympics_command_refuses_a_file_as_out(tmp_path, capsys) -> None:
+    """Refused before any episode runs, the file untouched."""
+    out = tmp_path / "o"
+    out.write_text("mine")
+    with pytest.raises(SystemExit):
+        main(["olympics", "funnel", "--out", str(out), "--no-progress"])
+    assert "is a file, not a folder" in capsys.readouterr().err
+    assert out.read_text() == "mine"
 
 
 @pytest.mark.parametrize(

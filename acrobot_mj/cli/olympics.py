@@ -8,7 +8,7 @@ from typing import Any
 
 from acrobot_mj.cli import tools
 from acrobot_mj.olympics.entries import ENTRIES
-from acrobot_mj.olympics.report import read_olympics, write_olympics
+from acrobot_mj.olympics.report import RECORD_FILE, read_olympics, write_olympics
 from acrobot_mj.olympics.run import PARTS, OlympicsRun
 
 
@@ -45,10 +45,21 @@ def add_olympics(commands: tools.Commands) -> None:
     p.add_argument("--out", type=tools.path_text, required=True, help="folder for olympics.json")
     p.add_argument("--seed", type=tools.seed, default=0, help="seed of every draw")
     p.add_argument("--jobs", type=tools.positive_int, default=1, help="processes for episodes")
+    p.add_argument("--force", action="store_true", help="replace a record already in --out")
     tools.add_progress(p)
 
 
+def check_out(folder: Path, force: bool) -> None:
+    """Refuse at once, not after the episodes, an ``--out`` that is not a folder or that already
+    holds a record (unless ``force``)."""
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"--out {folder} is a file, not a folder")
+    if (folder / RECORD_FILE).exists() and not force:
+        raise ValueError(f"{folder} already holds {RECORD_FILE}; --force replaces it")
+
+
 def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
+    check_out(Path(args.out), args.force)
     run = OlympicsRun(
         args.controller,
         args.model,
