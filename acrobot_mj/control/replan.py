@@ -173,11 +173,13 @@ class Planner:
 class ReplanSettings:
     """When :class:`Replanning` plans: within ``window`` [J] of the upright energy; from the
     ``targets`` (1 to 3) nearest upright states; after a failed plan, not again for ``wait``
-    calls; a jump of the estimated angles past ``jump`` [rad] between calls is a reset."""
+    calls (0.5 s at 0.002 s: a failed solve costs seconds of wall time, and the states that
+    fail, spinning fast, take a while to slow down); a jump of the estimated angles past
+    ``jump`` [rad] between calls is a reset."""
 
     window: float = 8.0
     targets: int = 3
-    wait: int = 50
+    wait: int = 250
     jump: float = 0.1
 
     def __post_init__(self) -> None:
