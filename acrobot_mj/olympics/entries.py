@@ -1,7 +1,8 @@
 """The controllers the protocol can score, by name, built for a model from its parameters
 alone (once per process, a fresh copy per episode): the state-feedback funnel along the planned
 swing-up, with energy removal elsewhere (``tvlqr``: TVLQR and LQR as the leaderboard's entry) or
-with energy pumping elsewhere and a state estimator (``funnel``)."""
+with energy pumping elsewhere and a state estimator (``funnel``); the funnel with swing-ups
+planned online from wherever it is not (``replan``, :mod:`acrobot_mj.control.replan`)."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ LEVELS = FunnelSettings(upright=30_000.0, track=20_000.0, entry=2_000.0, horizon
 #: Energy pumping's gain [N m / (J rad/s)] where the funnel does not act.
 PUMPING_GAIN = 50.0
 #: The entries by name.
-ENTRIES = ("tvlqr", "funnel")
+ENTRIES = ("tvlqr", "funnel", "replan")
 _BUILT: dict[tuple[str, str], Any] = {}
 
 
@@ -45,7 +46,11 @@ def _build(entry: str, model: str) -> Any:
     if entry == "tvlqr":
         return FunnelController(trajectory, LEVELS)
     law = partial(_pumping, params=trajectory.params)
-    funnel = FunnelController(trajectory, LEVELS, elsewhere=law)
+    funnel: Any = FunnelController(trajectory, LEVELS, elsewhere=law)
+    if entry == "replan":
+        from acrobot_mj.control.replan import Planner, Replanning  # CasADi: the control extra
+
+        funnel = Replanning(funnel, Planner(trajectory.params, trajectory.method))
     return Estimated(funnel, Observer(trajectory.params, trajectory.method))
 
 

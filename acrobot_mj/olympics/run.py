@@ -73,15 +73,16 @@ def episode(entry: str, model: str, seconds: float, conditions: Conditions, seed
     return Recording(times, np.array(states), motor.applied[:, motor.dof])
 
 
-def global_episode(entry: str, model: str, seed: int) -> tuple[Recording, dict[str, Any]]:
-    """The global-policy episode: ``entry`` inside the protocol's testing controller (random
-    targets, PID resets), both joints driven within +-6 N m (the shoulder through MuJoCo's
+def global_run(
+    controller: Any, model: str, targets: np.ndarray, reset_times: np.ndarray, seconds: float
+) -> Recording:
+    """``controller`` (``reset()``, ``controller(obs) -> elbow torque``) for ``seconds`` [s]
+    from hanging inside the protocol's testing controller (resets to ``targets`` at
+    ``reset_times``), both joints driven within +-6 N m (the shoulder through MuJoCo's
     ``qfrc_applied``: the env's motor drives the elbow only)."""
-    rng = np.random.default_rng(seed)
-    targets, reset_times = GLOBAL.draw(rng)
-    tester = GlobalTester(entries.build(entry, model), resolve(model), targets, reset_times)
+    tester = GlobalTester(controller, resolve(model), targets, reset_times)
     env = AcrobotEnv(model=model, continuous=True, task="balance")
-    times = protocol.episode_times(GLOBAL.t_final)
+    times = protocol.episode_times(seconds)
     obs, _ = env.reset(options={"state": HANGING})
     tester.reset()
     states, torques = [env.state], []
@@ -92,8 +93,15 @@ def global_episode(entry: str, model: str, seed: int) -> tuple[Recording, dict[s
         states.append(env.state)
         torques.append(elbow)
     env.close()
-    draws = {"targets": targets.tolist(), "reset_times": reset_times.tolist()}
-    return Recording(times, np.array(states), np.array(torques)), draws
+    return Recording(times, np.array(states), np.array(torques))
+
+
+def global_episode(entry: str, model: str, seed: int) -> tuple[Recording, dict[str, Any]]:
+    """The global-policy episode of ``seed``: ``entry`` in :func:`global_run` for the protocol's
+    60 s and its random targets and reset times."""
+    targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
+    recording = global_run(entries.build(entry, model), model, targets, reset_times, GLOBAL.t_final)
+    return recording, {"targets": targets.tolist(), "reset_times": reset_times.tolist()}
 
 
 def _level_conditions(category: Category, parameter: str, value: float) -> Conditions:

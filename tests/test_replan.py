@@ -1,0 +1,145 @@
+"""Swing-ups planned online (:mod:`acrobot_mj.control.replan`): the planner's plans on the
+analytic model, the controller's input checks, its equality with the funnel from hanging, and
+one stretch of the global policy's episode."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acrobot_mj.control.feedback import FunnelController
+from acrobot_mj.control.replan import (
+    END_TOLERANCE,
+    Planner,
+    Replanning,
+    ReplanSettings,
+    solve_stats,
+    upright_targets,
+)
+from acrobot_mj.olympics import entries
+from acrobot_mj.olympics.controllers import shipped_swing_up
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
+from acrobot_mj.physics.models import MODELS
+
+pytest.importorskip("casadi", reason="the planner needs the control extra")
+
+OLYMPICS = MODELS["ai_olympics"]
+P = OLYMPICS.params
+
+
+def _check_plan(plan, x0: np.ndarray) -> None:
+    """A plan starts at ``x0``, keeps the torque limit, is the model's own rollout and ends at
+    upright at rest."""
+    assert np.abs(plan.states[0] - x0).max() == 0.0  # the rollout starts where it was asked
+    # 1e-12: the clip to the limit is exact; only rounding in the comparison remains.
+    assert np.abs(plan.torques).max() <= P.max_torque + 1e-12
+    # 1e-9 (trajopt.TOLERANCE): the states are the model's rollout of the torques.
+    assert plan.residual() <= 1e-9
+    # END_TOLERANCE (0.05 rad, rad/s): IPOPT's tolerance of 1e-6 and the rollout's drift away
+    # from an unstable end; the LQR at upright catches far more.
+    assert np.abs(state_error(plan.states[-1])).max() <= END_TOLERANCE
+
+
+def test_upright_targets_are_upright_and_near() -> None:
+    x = np.array([2.0, -5.0, 1.0, 1.0])
+    found = upright_targets(x)
+    assert len(found) == 3
+    for target in found:
+        assert np.abs(state_error(target)).max() < 1e-12  # each is upright at rest
+    # The nearest: each angle within pi of the state's.
+    assert np.abs(found[0][:2] - x[:2]).max() <= np.pi
+    assert len({tuple(t) for t in found}) == 3
+    assert len(upright_targets(x, 1)) == 1
+    with pytest.raises(ValueError, match="count"):
+        upright_targets(x, 4)
+
+
+def test_a_short_plan_along_the_shipped_swing_up_reaches_upright() -> None:
+    """0.5 s (50 torques held 5 steps) from the shipped swing-up's state 0.5 s before its end,
+    IPOPT warm-started from its torques: fast, and the same NLP as the entry's."""
+    shipped = shipped_swing_up("ai_olympics")
+    start = shipped.steps - 250
+    planner = Planner(P, "rk4", decisions=50, hold=5)
+    x0 = shipped.states[start]
+    found = planner.solve(x0, UPRIGHT, warm=shipped.torques[start::5])
+    assert found is not None
+    plan, objective = found
+    assert plan.steps == 250
+    assert objective >= 0.0
+    _check_plan(plan, x0)
+
+
+@pytest.mark.slow
+def test_the_planner_swings_up_from_rest_anywhere() -> None:
+    """The entry's planner (150 torques held 5 steps: 1.5 s) from three random rests, each to
+    its best of three targets."""
+    planner = Planner(P, "rk4")
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        x0 = np.r_[rng.uniform(-np.pi, np.pi, 2), 0.0, 0.0]
+        plan = planner.plan(x0)
+        assert plan is not None
+        assert plan.steps == 750
+        _check_plan(plan, x0)
+
+
+def test_bad_input_is_refused_in_one_line() -> None:
+    with pytest.raises(ValueError, match="decisions"):
+        Planner(P, decisions=1)
+    with pytest.raises(ValueError, match="integrator"):
+        Planner(P, "euler")
+    with pytest.raises(ValueError, match="targets"):
+        ReplanSettings(targets=0)
+    with pytest.raises(ValueError, match="window"):
+        ReplanSettings(window=-1.0)
+    planner = Planner(P, decisions=10)
+    with pytest.raises(ValueError, match="start"):
+        planner.plan(np.array([0.0, np.nan, 0.0, 0.0]))
+    funnel = FunnelController(shipped_swing_up("ai_olympics"))
+    with pytest.raises(ValueError, match="same model"):
+        Replanning(funnel, Planner(MODELS["report"].params, decisions=10))
+    controller = Replanning(funnel, planner)
+    with pytest.raises(ValueError, match="4 finite numbers"):
+        controller(np.array([0.0, 0.0, 0.0]))
+    with pytest.raises(ValueError, match="4 finite numbers"):
+        controller(np.array([0.0, np.inf, 0.0, 0.0]))
+
+
+def test_from_hanging_it_is_the_funnel_entry() -> None:
+    """From hanging at rest both entries follow the shipped swing-up: the same torques, to the
+    last bit, over the swing-up and 0.5 s of balance, and no plan."""
+    funnel, replan = entries.build("funnel", "ai_olympics"), entries.build("replan", "ai_olympics")
+    funnel.reset()
+    replan.reset()
+    x = HANGING.copy()
+    for _ in range(integrators.steps_in(shipped_swing_up("ai_olympics").seconds + 0.5, P.dt)):
+        u = funnel(x)
+        assert replan(x) == u
+        x = integrators.step_states(x, u, P, method="rk4")
+    assert replan.controller.log.seconds == []
+    assert np.abs(state_error(x)).max() < 0.01  # balancing upright: 0.01 of the noise-free model
+
+
+def test_solve_stats() -> None:
+    assert solve_stats([1.0, 3.0, 2.0]) == {"count": 3, "median": 2.0, "max": 3.0}
+    assert solve_stats([])["count"] == 0
+
+
+@pytest.mark.slow
+def test_a_global_stretch_swings_up_after_a_reset() -> None:
+    """One reset of the protocol (at 1.5 s, to the arm folded sideways at rest) in 5 s of the
+    global episode: the entry is up before it, plans after it and is up again at the end."""
+    from acrobot_mj.olympics.run import global_run
+    from acrobot_mj.olympics.scores import uptime
+
+    controller = entries.build("replan", "ai_olympics")
+    targets = np.array([[1.0, 2.0, 0.0, 0.0]])  # protocol angles: theta1, theta2
+    recording = global_run(controller, "ai_olympics", targets, np.array([1.5]), 5.0)
+    log = controller.controller.log
+    assert 1 <= len(log.seconds) and any(log.found)
+    tip = P.l1 * np.sin(recording.X[:, 0]) + P.l2 * np.sin(recording.X[:, 0] + recording.X[:, 1])
+    assert tip[-1] > 0.9 * (P.l1 + P.l2)  # the protocol's "up"
+    # The plan ends upright 1.5 s after the reset's end (1.7 s): 1.8 s up from 3.2 s to 5 s at
+    # least; 1.5 s leaves room for a tracking loss near the end of the plan.
+    assert uptime(recording, P.l1, P.l2, 5.0)["uptime"] > 1.5
