@@ -4,14 +4,14 @@ The protocol's constants (:mod:`~acrobot_mj.olympics.protocol`) are set for its 
 ``ai_olympics`` (reach 0.5 m, 1.15 kg, 6 N m at the elbow, a swing-up of about 2 s).
 :class:`Scales` holds the ratios, target over source, of the quantities that carry them to
 another acrobot; :class:`Scaling` maps each constant by its unit
-(:func:`dataclasses.replace`); :func:`protocol_for` builds the three parts for a model. On
+(``dataclasses.replace``); :func:`protocol_for` builds the three parts for a model. On
 ``ai_olympics`` every ratio is exactly 1 and every constant is unchanged.
 
 Three kinds of time enter: the pendulum's own time ``sqrt(l / g)`` (:attr:`Scales.time`:
 pulse widths, delays, velocities, the PID's reset), the task's time, the ratio of the planned
-swing-ups' lengths (:attr:`Scales.task`: episode lengths, pulse spacing, reset spacing), and
-the physics step (:attr:`Scales.step`). Two kinds of torque enter: what the motor can give
-(:attr:`Scales.motor`, the ratio of torque limits: every disturbance the controller must
+swing-ups' lengths (``Scales.task``: episode lengths, pulse spacing, reset spacing), and
+the physics step (``Scales.step``). Two kinds of torque enter: what the motor can give
+(``Scales.motor``, the ratio of torque limits: every disturbance the controller must
 overcome) and what gravity asks (:attr:`Scales.weight`, ``m g l``: the reset's PID, which
 must move the arm against gravity).
 """
@@ -103,7 +103,7 @@ ORIGINAL = Protocol()
 @dataclass(frozen=True)
 class Scaling:
     """Maps the protocol's constants by ``scales`` onto an acrobot stepping every ``dt`` [s]
-    (None: the source's step times :attr:`Scales.step`)."""
+    (None: the source's step times ``Scales.step``)."""
 
     scales: Scales
     dt: float | None = None
