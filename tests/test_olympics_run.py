@@ -107,7 +107,8 @@ def test_shipped_swing_up_loads_and_is_exact() -> None:
     assert trajectory.steps == 1000 and trajectory.dt == 0.002 and trajectory.u_max == 6.0
     assert trajectory.residual() < 1e-9
     with pytest.raises(ValueError, match="no planned swing-up"):
-        shipped_swing_up("report")
+        shipped_swing_up("dm_control")
+    assert shipped_swing_up("report").steps == 476  # the control package's reserve plan
 
 
 @pytest.mark.slow
@@ -163,9 +164,9 @@ def test_olympics_command_refuses_a_file_as_out(tmp_path, capsys) -> None:
 @pytest.mark.parametrize(
     ("argv", "match"),
     [
-        (["olympics", "nobody", "--out", "x"], "invalid choice"),
+        (["olympics", "nobody", "--out", "x"], "neither an entry"),
         (["olympics", "funnel", "--scores", "speed", "--out", "x"], "--scores"),
-        (["olympics", "funnel", "--model", "report", "--out", "x"], "no planned swing-up"),
+        (["olympics", "funnel", "--model", "dm_control", "--out", "x"], "no planned swing-up"),
     ],
 )
 def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:

@@ -4,6 +4,8 @@ one stretch of the global policy's episode."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -130,12 +132,15 @@ def test_solve_stats() -> None:
 def test_a_global_stretch_swings_up_after_a_reset() -> None:
     """One reset of the protocol (at 1.5 s, to the arm folded sideways at rest) in 5 s of the
     global episode: the entry is up before it, plans after it and is up again at the end."""
+    from acrobot_mj.olympics.protocol import GLOBAL
     from acrobot_mj.olympics.run import global_run
     from acrobot_mj.olympics.scores import uptime
 
     controller = entries.build("replan", "ai_olympics")
     targets = np.array([[1.0, 2.0, 0.0, 0.0]])  # protocol angles: theta1, theta2
-    recording = global_run(controller, "ai_olympics", targets, np.array([1.5]), 5.0)
+    recording = global_run(
+        controller, "ai_olympics", targets, np.array([1.5]), replace(GLOBAL, t_final=5.0)
+    )
     log = controller.controller.log
     assert 1 <= len(log.seconds) and any(log.found)
     tip = P.l1 * np.sin(recording.X[:, 0]) + P.l2 * np.sin(recording.X[:, 0] + recording.X[:, 1])

@@ -29,15 +29,23 @@ def add_olympics(commands: tools.Commands) -> None:
         "the AI Olympics protocol's scores of a controller -> olympics.json and figures",
         "The AI Olympics protocol (RealAIGym's double_pendulum leaderboards: performance, "
         "robustness, global policy) run on this project's MuJoCo model of the acrobot, with the "
-        "protocol's definitions, levels and criteria; not official leaderboard entries.",
+        "protocol's definitions, levels and criteria; not official leaderboard entries. On "
+        "another acrobot than ai_olympics, its constants are scaled to that acrobot's length, "
+        "mass, torque limit and swing-up time.",
     )
-    p.add_argument("controller", choices=ENTRIES, help="the controller to score")
+    p.add_argument(
+        "controller",
+        metavar="CONTROLLER|RUN",
+        help=f"an entry ({', '.join(ENTRIES)}) or a trained controller run's folder "
+        "(balance --feedback, train --preset black_box) trained on --model",
+    )
     p.add_argument(
         "--model",
         type=tools.acrobot_model,
         default="ai_olympics",
         metavar="NAME|FILE",
-        help="the acrobot (a planned swing-up must be shipped for it)",
+        help="the acrobot (a planned swing-up must be shipped for it); on any model but "
+        "ai_olympics the protocol is scaled to it (docs: guide/olympics-scaled)",
     )
     p.add_argument(
         "--scores", type=parts, default=PARTS, metavar="LIST", help="which scores, comma-separated"
@@ -89,4 +97,5 @@ def summary(record: dict[str, Any]) -> str:
         )
     if record.get("global"):
         words.append(f"global {record['global']['score']:.3f}")
-    return ", ".join(words)
+    scaled = record.get("protocol") not in (None, "ai_olympics")
+    return ("scaled protocol: " if scaled else "") + ", ".join(words)

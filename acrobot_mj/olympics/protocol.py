@@ -234,6 +234,16 @@ class Robustness:
     levels: int = 21
     noise_repetitions: int = 10
     perturbations: Perturbations = field(default_factory=Perturbations)
+    #: The sweeps' highest levels: motor inertia [kg m^2], damping [N m s/rad], Coulomb
+    #: friction [N m] (both signs), velocity noise [rad/s], torque noise [N m], delay [s]; and
+    #: the torque response's range (a fraction per step, no unit).
+    motor_inertia: float = 1e-4
+    damping: float = 0.1
+    friction: float = 0.2
+    velocity_noise: float = 0.5
+    torque_noise: float = 1.1
+    delay: float = 0.04
+    response: tuple[float, float] = (0.1, 2.0)
 
     def model_sweeps(self, model: AcrobotModel) -> tuple[Sweep, ...]:
         """The model category's ten sweeps around ``model``, in the protocol's order: motor
@@ -247,16 +257,16 @@ class Robustness:
             return tuple(float(v) for v in get_par_list(x0, 0.75, 1.25, n))
 
         return (
-            Sweep("Ir", "kg m^2", _linspace(0.0, 1e-4, n)),
+            Sweep("Ir", "kg m^2", _linspace(0.0, self.motor_inertia, n)),
             Sweep("m1r1", "kg m", relative(p.m1 * p.lc1)),
             Sweep("I1", "kg m^2", relative(I1)),
-            Sweep("b1", "N m s/rad", _linspace(-0.1, 0.1, n)),
-            Sweep("cf1", "N m", _linspace(-0.2, 0.2, n)),
+            Sweep("b1", "N m s/rad", _linspace(-self.damping, self.damping, n)),
+            Sweep("cf1", "N m", _linspace(-self.friction, self.friction, n)),
             Sweep("m2r2", "kg m", relative(p.m2 * p.lc2)),
             Sweep("m2", "kg", relative(p.m2)),
             Sweep("I2", "kg m^2", relative(I2)),
-            Sweep("b2", "N m s/rad", _linspace(-0.1, 0.1, n)),
-            Sweep("cf2", "N m", _linspace(-0.2, 0.2, n)),
+            Sweep("b2", "N m s/rad", _linspace(-self.damping, self.damping, n)),
+            Sweep("cf2", "N m", _linspace(-self.friction, self.friction, n)),
         )
 
     def categories(self, model: AcrobotModel) -> tuple[Category, ...]:
@@ -269,27 +279,27 @@ class Robustness:
             Category(
                 noise,
                 "Velocity Noise",
-                (Sweep("velocity noise sigma", "rad/s", _linspace(0.0, 0.5, n)),),
+                (Sweep("velocity noise sigma", "rad/s", _linspace(0.0, self.velocity_noise, n)),),
                 reps,
                 majority=True,
             ),
             Category(
                 u_noise,
                 "Torque Noise",
-                (Sweep("torque noise sigma", "N m", _linspace(0.0, 1.1, n)),),
+                (Sweep("torque noise sigma", "N m", _linspace(0.0, self.torque_noise, n)),),
                 reps,
                 majority=True,
             ),
             Category(
                 response,
                 "Torque Step Response",
-                (Sweep("torque response k", "", _linspace(0.1, 2.0, n)),),
+                (Sweep("torque response k", "", _linspace(*self.response, n)),),
                 1,
             ),
             Category(
                 delay,
                 "Time Delay",
-                (Sweep("delay (position and velocity)", "s", _linspace(0.0, 0.04, n)),),
+                (Sweep("delay (position and velocity)", "s", _linspace(0.0, self.delay, n)),),
                 1,
             ),
             Category(perturbation, "Perturbations", (pulses,), self.perturbations.episodes),

@@ -17,13 +17,8 @@ import numpy as np
 
 from acrobot_mj.files import is_sealed, read_json, sealed, versions, write_json
 from acrobot_mj.olympics import scores
-from acrobot_mj.olympics.protocol import (
-    CATEGORY_KEYS,
-    GLOBAL,
-    PERFORMANCE,
-    Category,
-    to_protocol,
-)
+from acrobot_mj.olympics.protocol import CATEGORY_KEYS, PERFORMANCE, Category, to_protocol
+from acrobot_mj.olympics.scaling import ORIGINAL, Protocol
 from acrobot_mj.olympics.scores import Recording
 from acrobot_mj.report.plots import Labels, Series, line_figure, save_figure
 
@@ -94,7 +89,9 @@ class Olympics:
     """What a run of the protocol produced: the ``model`` (as JSON) and its arm ``lengths``
     ``(l1, l2)`` [m], the ``seeds`` of every draw; the ``performance`` episode; the robustness
     ``categories`` run and their ``episodes`` by category key; the ``global_episode`` and its
-    ``global_draws`` (targets, reset times, as JSON). A part not run is None or empty."""
+    ``global_draws`` (targets, reset times, as JSON); the ``protocol`` they ran under (the
+    original or scaled, :mod:`~acrobot_mj.olympics.scaling`). A part not run is None or
+    empty."""
 
     model: Mapping[str, Any]
     lengths: tuple[float, float]
@@ -104,6 +101,7 @@ class Olympics:
     episodes: Mapping[str, Episodes] = field(default_factory=dict)
     global_episode: Recording | None = None
     global_draws: Mapping[str, Any] = field(default_factory=dict)
+    protocol: Protocol = ORIGINAL
 
 
 def _category(category: Category, episodes: Episodes) -> dict[str, Any]:
@@ -130,8 +128,10 @@ def _category(category: Category, episodes: Episodes) -> dict[str, Any]:
 
 def olympics_record(results: Olympics) -> dict[str, Any]:
     """The record of ``results``: every score, every category with its per-level success
-    fractions, every episode (:meth:`EpisodeRecord.to_dict`), the model and seeds."""
+    fractions, every episode (:meth:`EpisodeRecord.to_dict`), the model and seeds, the
+    ``protocol``'s name and its ``scaling`` (the scales and every constant)."""
     l1, l2 = results.lengths
+    used = results.protocol
     record: dict[str, Any] = {
         "kind": KIND,
         "format": FORMAT,
@@ -140,9 +140,11 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
         "lengths": [float(l1), float(l2)],
         "seeds": dict(results.seeds),
         "torques": TORQUES,
+        "protocol": used.name,
+        "scaling": used.to_dict(),
     }
     if results.performance is not None:
-        run = scores.performance(results.performance, l1, l2)
+        run = scores.performance(results.performance, l1, l2, used.performance)
         episode = EpisodeRecord.of(results.performance, bool(run["success"]))
         record["performance"] = {**run, "episode": episode.to_dict()}
     if results.categories:
@@ -156,7 +158,8 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
             robustness["overall"] = scores.overall_robustness(by_key, results.categories)
         record["robustness"] = robustness
     if results.global_episode is not None:
-        up = scores.uptime(results.global_episode, l1, l2, GLOBAL.t_final)
+        g = used.global_policy
+        up = scores.uptime(results.global_episode, l1, l2, g.t_final, g.height)
         episode = EpisodeRecord.of(results.global_episode, True, results.global_draws)
         record["global"] = {**up, "episode": episode.to_dict()}
     return sealed(record)

@@ -19,10 +19,11 @@ from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.model_error import ModelError
 from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.sensor import Sensor
-from acrobot_mj.olympics import entries, protocol
+from acrobot_mj.olympics import protocol, trained
 from acrobot_mj.olympics.globaltest import GlobalTester
-from acrobot_mj.olympics.protocol import GLOBAL, PERFORMANCE, ROBUSTNESS, Category
+from acrobot_mj.olympics.protocol import DT, GLOBAL, ROBUSTNESS, Category, GlobalPolicy, Robustness
 from acrobot_mj.olympics.report import EpisodeRecord, Olympics
+from acrobot_mj.olympics.scaling import Protocol, protocol_for
 from acrobot_mj.olympics.scores import Recording, final_success
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import resolve
@@ -56,12 +57,15 @@ def make_env(model: str, conditions: Conditions, seed: int) -> tuple[Any, Motor]
     return Sensor(motor, rng=sensor_seed, **conditions.sensor), motor
 
 
-def episode(entry: str, model: str, seconds: float, conditions: Conditions, seed: int) -> Recording:
-    """One episode of ``seconds`` [s] from hanging at rest under ``entry``'s controller for
-    ``model`` and ``conditions``: true states and the elbow torques applied."""
-    controller = entries.build(entry, model)
+def episode(
+    entry: str, model: str, seconds: float, conditions: Conditions, seed: int, dt: float = DT
+) -> Recording:
+    """One episode of ``seconds`` [s] in steps of ``dt`` [s] from hanging at rest under
+    ``entry``'s controller for ``model`` and ``conditions``: true states and the elbow torques
+    applied."""
+    controller = trained.build(entry, model)
     env, motor = make_env(model, conditions, seed)
-    times = protocol.episode_times(seconds)
+    times = protocol.episode_times(seconds, dt)
     obs, _ = env.reset(options={"state": HANGING})
     controller.reset()
     acrobot = env.unwrapped
@@ -74,33 +78,43 @@ def episode(entry: str, model: str, seconds: float, conditions: Conditions, seed
 
 
 def global_run(
-    controller: Any, model: str, targets: np.ndarray, reset_times: np.ndarray, seconds: float
+    controller: Any,
+    model: str,
+    targets: np.ndarray,
+    reset_times: np.ndarray,
+    policy: GlobalPolicy = GLOBAL,
 ) -> Recording:
-    """``controller`` (``reset()``, ``controller(obs) -> elbow torque``) for ``seconds`` [s]
-    from hanging inside the protocol's testing controller (resets to ``targets`` at
-    ``reset_times``), both joints driven within +-6 N m (the shoulder through MuJoCo's
-    ``qfrc_applied``: the env's motor drives the elbow only)."""
-    tester = GlobalTester(controller, resolve(model), targets, reset_times)
+    """``controller`` (``reset()``, ``controller(obs) -> elbow torque``) for ``policy``'s
+    episode from hanging inside the protocol's testing controller (resets to ``targets`` at
+    ``reset_times``), both joints driven within ``policy``'s limits (the shoulder through
+    MuJoCo's ``qfrc_applied``: the env's motor drives the elbow only; a reset's elbow torque
+    beyond the motor's limit acts there too)."""
+    acrobot = resolve(model)
+    tester = GlobalTester(controller, acrobot, targets, reset_times, policy)
     env = AcrobotEnv(model=model, continuous=True, task="balance")
-    times = protocol.episode_times(seconds)
+    times = protocol.episode_times(policy.t_final, policy.dt)
     obs, _ = env.reset(options={"state": HANGING})
     tester.reset()
     states, torques = [env.state], []
+    limit = acrobot.params.max_torque
     for t in times[:-1]:
         shoulder, elbow = tester(float(t), obs, env.state)
-        env.data.qfrc_applied[0] = shoulder
-        obs = env.step(np.array([elbow]))[0]
+        excess = elbow - float(np.clip(elbow, -limit, limit)) if tester.resetting else 0.0
+        env.data.qfrc_applied[:] = (shoulder, excess)
+        obs = env.step(np.array([elbow - excess]))[0]
         states.append(env.state)
         torques.append(elbow)
     env.close()
     return Recording(times, np.array(states), np.array(torques))
 
 
-def global_episode(entry: str, model: str, seed: int) -> tuple[Recording, dict[str, Any]]:
-    """The global-policy episode of ``seed``: ``entry`` in :func:`global_run` for the protocol's
-    60 s and its random targets and reset times."""
-    targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
-    recording = global_run(entries.build(entry, model), model, targets, reset_times, GLOBAL.t_final)
+def global_episode(
+    entry: str, model: str, seed: int, policy: GlobalPolicy = GLOBAL
+) -> tuple[Recording, dict[str, Any]]:
+    """The global-policy episode of ``seed``: ``entry`` (an entry or a trained run) in
+    :func:`global_run` for ``policy``'s episode, random targets and reset times."""
+    targets, reset_times = policy.draw(np.random.default_rng(seed))
+    recording = global_run(trained.build(entry, model), model, targets, reset_times, policy)
     return recording, {"targets": targets.tolist(), "reset_times": reset_times.tolist()}
 
 
@@ -121,13 +135,21 @@ def _level_conditions(category: Category, parameter: str, value: float) -> Condi
 
 
 def _robust_episode(
-    entry: str, model: str, conditions: Conditions, seed: int, disturbance: dict[str, Any]
+    entry: str,
+    model: str,
+    conditions: Conditions,
+    seed: int,
+    disturbance: dict[str, Any],
+    robustness: Robustness = ROBUSTNESS,
 ) -> EpisodeRecord:
-    recording = episode(entry, model, ROBUSTNESS.t_final, conditions, seed)
-    return EpisodeRecord.of(recording, final_success(recording.X[-1]), disturbance)
+    recording = episode(entry, model, robustness.t_final, conditions, seed, robustness.dt)
+    success = final_success(recording.X[-1], robustness.epsilon)
+    return EpisodeRecord.of(recording, success, disturbance)
 
 
-def _calls(entry: str, model: str, category: Category, seed: int) -> list[tuple]:
+def _calls(
+    entry: str, model: str, category: Category, seed: int, robustness: Robustness = ROBUSTNESS
+) -> list[tuple]:
     """The episodes of ``category`` as calls of :func:`_robust_episode`, in order."""
     calls = []
     base = protocol.CATEGORY_KEYS.index(category.key)
@@ -139,16 +161,33 @@ def _calls(entry: str, model: str, category: Category, seed: int) -> list[tuple]
                 )
                 disturbance: dict[str, Any]
                 if category.key == "perturbation":
-                    pulses = ROBUSTNESS.perturbations.draw(
-                        np.random.default_rng(episode_seed), ROBUSTNESS.t_final
+                    pulses = robustness.perturbations.draw(
+                        np.random.default_rng(episode_seed), robustness.t_final
                     )
-                    conditions = Conditions(motor={"pulses": pulses.torques(ROBUSTNESS.t_final)})
+                    torques = pulses.torques(robustness.t_final, robustness.dt)
+                    conditions = Conditions(motor={"pulses": torques})
                     disturbance = pulses.to_dict()
                 else:
                     conditions = _level_conditions(category, sweep.parameter, value)
                     disturbance = {sweep.parameter: value}
-                calls.append((entry, model, conditions, episode_seed, disturbance))
+                calls.append((entry, model, conditions, episode_seed, disturbance, robustness))
     return calls
+
+
+def _grouped(categories: tuple[Category, ...], records: list[EpisodeRecord]) -> dict[str, Any]:
+    """The episode records in the order :func:`_calls` made them, by category key, sweep and
+    level."""
+    episodes, k = {}, 0
+    for category in categories:
+        grouped = []
+        for sweep in category.sweeps:
+            levels = []
+            for _ in sweep.levels:
+                levels.append(records[k : k + category.repetitions])
+                k += category.repetitions
+            grouped.append(levels)
+        episodes[category.key] = grouped
+    return episodes
 
 
 @dataclass(frozen=True)
@@ -156,7 +195,9 @@ class OlympicsRun:
     """One run of the protocol: ``entry`` (a name in
     :data:`~acrobot_mj.olympics.entries.ENTRIES`) on ``model``,
     the ``parts`` of :data:`PARTS`, every draw from ``seed``, episodes on ``jobs`` processes,
-    a bar on stderr with ``progress``."""
+    a bar on stderr with ``progress``; ``protocol`` (None: the original on ``ai_olympics``,
+    else scaled to ``model``, :func:`~acrobot_mj.olympics.scaling.protocol_for`). ``entry``
+    may be a trained run's folder (:mod:`~acrobot_mj.olympics.trained`)."""
 
     entry: str
     model: str = "ai_olympics"
@@ -164,9 +205,12 @@ class OlympicsRun:
     seed: int = 0
     jobs: int = 1
     progress: bool = False
+    protocol: Protocol | None = None
 
     def __post_init__(self) -> None:
-        entries.check(self.entry, self.model)
+        trained.check(self.entry, self.model)
+        if self.protocol is None:
+            object.__setattr__(self, "protocol", protocol_for(self.model))
         unknown = sorted(set(self.parts) - set(PARTS))
         if unknown or not self.parts:
             raise ValueError(f"scores must be some of {list(PARTS)}, got {list(self.parts)}")
@@ -174,12 +218,14 @@ class OlympicsRun:
     def run(self) -> Olympics:
         """Every episode of the parts asked for, for
         :class:`~acrobot_mj.olympics.report.Olympics` to score."""
-        model = resolve(self.model)
-        categories = ROBUSTNESS.categories(model) if "robustness" in self.parts else ()
+        model, used = resolve(self.model), self.protocol
+        assert used is not None
+        robustness = used.robustness
+        categories = robustness.categories(model) if "robustness" in self.parts else ()
         work = [
             c
             for category in categories
-            for c in _calls(self.entry, self.model, category, self.seed)
+            for c in _calls(self.entry, self.model, category, self.seed, robustness)
         ]
         total = len(work) + ("performance" in self.parts) + ("global" in self.parts)
         pool = WorkerPool(self.jobs) if self.jobs > 1 and work else None
@@ -189,8 +235,9 @@ class OlympicsRun:
         ):
             performance = None
             if "performance" in self.parts:
+                run = used.performance
                 performance = episode(
-                    self.entry, self.model, PERFORMANCE.t_final, Conditions(), self.seed
+                    self.entry, self.model, run.t_final, Conditions(), self.seed, run.dt
                 )
                 bar.done("performance")
             records = []
@@ -204,18 +251,10 @@ class OlympicsRun:
                 bar.done("robustness")
             global_run, draws = None, dict[str, Any]()
             if "global" in self.parts:
-                global_run, draws = global_episode(self.entry, self.model, self.seed)
+                global_run, draws = global_episode(
+                    self.entry, self.model, self.seed, used.global_policy
+                )
                 bar.done("global")
-        episodes, k = {}, 0
-        for category in categories:
-            grouped = []
-            for sweep in category.sweeps:
-                levels = []
-                for _ in sweep.levels:
-                    levels.append(records[k : k + category.repetitions])
-                    k += category.repetitions
-                grouped.append(levels)
-            episodes[category.key] = grouped
         p = model.params
         return Olympics(
             model={"name": self.model, "entry": self.entry},
@@ -223,7 +262,8 @@ class OlympicsRun:
             seeds={"seed": self.seed},
             performance=performance,
             categories=categories,
-            episodes=episodes,
+            episodes=_grouped(categories, records),
             global_episode=global_run,
             global_draws=draws,
+            protocol=used,
         )

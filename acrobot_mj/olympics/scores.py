@@ -19,6 +19,7 @@ from acrobot_mj.olympics.protocol import (
     PERFORMANCE,
     ROBUSTNESS,
     Category,
+    Criterion,
     Performance,
     to_protocol,
     wrap_top,
@@ -109,7 +110,7 @@ def performance(
         "velocity_cost": float(np.einsum("ij, i, jk, ik", V[:-1], delta_t, np.eye(2), V[:-1])),
     }
     success = bool(time < T[-1])
-    score = score_v2(criteria, success)
+    score = score_v2(criteria, success, protocol.criteria)
     return {
         **criteria,
         "swingup_time": None if math.isinf(time) else time,
@@ -118,24 +119,31 @@ def performance(
     }
 
 
-def score_v2(criteria: Mapping[str, float | None], success: bool) -> float:
-    """The v2 score: ``success (1 - (1/n) sum_c tanh(pi w_c c / norm_c))`` over the protocol's
-    ``n`` weighted criteria (a ``None`` criterion is inf)."""
+def score_v2(
+    criteria: Mapping[str, float | None],
+    success: bool,
+    normalised: Sequence[Criterion] = CRITERIA,
+) -> float:
+    """The v2 score: ``success (1 - (1/n) sum_c tanh(pi w_c c / norm_c))`` over the ``n``
+    weighted criteria of ``normalised`` (the protocol's by default; a ``None`` criterion is
+    inf)."""
     total = 0.0
-    for c in CRITERIA:
+    for c in normalised:
         value = criteria[c.name]
         total += np.tanh(np.pi * c.weight * (math.inf if value is None else value) / c.norm)
-    weighted = sum(1 for c in CRITERIA if c.weight != 0.0)
+    weighted = sum(1 for c in normalised if c.weight != 0.0)
     return float(int(success) * (1.0 - 1.0 / weighted * total))
 
 
-def final_success(state: np.ndarray) -> bool:
+def final_success(
+    state: np.ndarray, epsilon: tuple[float, float, float, float] = ROBUSTNESS.epsilon
+) -> bool:
     """Whether a final true state (4,) in our convention ends a robustness episode well: within
-    the protocol's epsilons of upright at rest, after its wrapping
+    ``epsilon`` (the protocol's by default) of upright at rest, after its wrapping
     (:func:`~acrobot_mj.olympics.protocol.wrap_top`)."""
     x = wrap_top(to_protocol(np.asarray(state, dtype=float).reshape(4)))
     goal = (np.pi, 0.0, 0.0, 0.0)
-    return bool(all(abs(x[k] - goal[k]) < ROBUSTNESS.epsilon[k] for k in range(4)))
+    return bool(all(abs(x[k] - goal[k]) < epsilon[k] for k in range(4)))
 
 
 #: Successes of a category's episodes: per sweep, per level, per episode.
@@ -179,10 +187,13 @@ def overall_robustness(scores: Mapping[str, float], categories: Sequence[Categor
     return float(sum(1.0 / len(categories) * scores[c.key] for c in categories))
 
 
-def uptime(trajectory: Recording, l1: float, l2: float, t_final: float) -> dict[str, float]:
+def uptime(
+    trajectory: Recording, l1: float, l2: float, t_final: float, height: float = HEIGHT
+) -> dict[str, float]:
     """The global policy's ``uptime`` [s]: the sum of ``T[i] - T[i-1]`` over the first N rows
-    up (row 0 counts 0), and its ``score``: uptime over ``t_final`` [s]."""
+    up (above ``height (l1 + l2)``; row 0 counts 0), and its ``score``: uptime over ``t_final``
+    [s]."""
     T, X, _ = trajectory.rows()
-    up = is_up(X, l1, l2)
+    up = is_up(X, l1, l2, height)
     time = float(np.sum(np.diff(T, prepend=0.0)[up]))
     return {"uptime": time, "score": float(1.0 * time / t_final)}
