@@ -191,3 +191,43 @@ def test_it_learns_an_acrobot_whose_parameters_it_was_never_told() -> None:
     assert learner.model is not None
     miss = learner.model.errors(data["states"], data["actions"], data["next_states"])["rms"]
     assert min(miss[2:]) > 100 * max(record["model"]["held_out_errors"]["rms"])
+
+
+# -- other acrobots ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "skip", "seconds"),
+    [
+        ("report", 1, 0.05),
+        ("gymnasium", 1, 0.2),  # one step is already longer than 0.05 s
+        ("dm_control", 5, 0.05),
+        ("ai_olympics", 25, 0.05),
+        ("ai_olympics_pendubot", 25, 0.05),
+    ],
+)
+def test_each_shipped_acrobot_is_seen_through_its_own_spaces_and_a_frame_skip(
+    name, skip, seconds
+) -> None:
+    from acrobot_mj.physics.models import MODELS
+    from acrobot_mj.train.black_box import decision_seconds, frame_skip, limits_of
+
+    model = MODELS[name]
+    assert frame_skip(model.params.dt, 0.05) == skip
+    env = black_box_env(BlackBoxConfig(model=name))
+    # 25 steps of 0.002 s add up to 0.05 s only to rounding.
+    assert decision_seconds(env) == pytest.approx(seconds, abs=1e-12)
+    assert limits_of(env).max_torque == model.params.max_torque
+    assert env.unwrapped.params == model.params  # type: ignore[attr-defined]
+
+
+def test_the_report_is_the_default_model_and_a_bad_model_is_refused(tmp_path, capsys) -> None:
+    assert BlackBoxConfig(model="report") == BlackBoxConfig()
+    assert BlackBoxConfig.from_dict(BlackBoxConfig().to_dict()).model is None
+    with pytest.raises(ValueError, match="config model: model must be one of"):
+        BlackBoxConfig(model="nope")
+    with pytest.raises(ValueError, match="config decision must be"):
+        BlackBoxConfig(decision=0.0)
+    with pytest.raises(SystemExit):
+        main(["train", "--preset", "black_box", "--model", "nope", "--out", str(tmp_path / "x")])
+    assert "model must be one of" in capsys.readouterr().err

@@ -28,13 +28,15 @@ from acrobot_mj.control.library import (
 )
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
+from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
+from acrobot_mj.physics.models import resolve
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.settings import Settings, setting
+from acrobot_mj.settings import SettingError, Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import MODEL_FILE
 from acrobot_mj.train.run import Run
@@ -44,6 +46,7 @@ MODEL_FORMAT = "acrobot_mj.black_box_model"
 TOLD = (
     "the env's spaces: a Box action (a number in [-1, 1]) and four observations, the first two "
     "angles wrapped at +-pi; the bounds they declare and the seconds of a decision (env.dt)",
+    "the seconds of one physics step, to choose how many make a decision (the frame skip)",
     "the reward of each decision",
     "it may reset the env to a state it names (angles uniform on the circle, at rest)",
 )
@@ -58,7 +61,8 @@ class BlackBoxConfig(Settings):
     """Decisions of random exploration in episodes of ``episode_decisions`` (the last tenth
     held out to measure the model), the library's ``harmonics`` and ``threshold``, the share of
     the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
-    [decisions] and the seconds of each evaluation episode."""
+    [decisions] and the seconds of each evaluation episode; the acrobot ``model`` (None: the
+    report's) and the ``decision`` [s] the frame skip is chosen from (:func:`frame_skip`)."""
 
     decisions: int = setting(
         20_000,
@@ -95,7 +99,32 @@ class BlackBoxConfig(Settings):
         cli=False,
     )
 
+    model: str | None = setting(
+        None,
+        "a parameter set's name or a .json/.toml file (default: the report's)",
+        metavar="NAME|FILE",
+    )
+    decision: float = setting(
+        0.05,
+        "shortest decision: the env steps the physics the most whole times within it (once at "
+        "least)",
+        "s",
+        low=0.0,
+        low_open=True,
+        high=10.0,
+        cli=False,
+    )
+
     what = "black-box"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.model == "report":  # the default: the packaged MJCF
+            object.__setattr__(self, "model", None)
+        try:
+            resolve(self.model)
+        except (TypeError, ValueError) as error:
+            raise SettingError(f"config model: {error}") from None
 
 
 def library_terms(harmonics: int) -> int:
@@ -133,8 +162,22 @@ def check_fit(config: BlackBoxConfig) -> None:
     check_memory(f"the black box's fit of {config.decisions:,} decisions", size)
 
 
-def black_box_env(**kwargs: Any) -> gym.Env:
-    """The balance task with a Box action: the only env the learner sees."""
+def frame_skip(physics_seconds: float, decision: float) -> int:
+    """The physics steps of one decision: the most whole steps of ``physics_seconds`` within
+    ``decision`` seconds, at least one (1 for the report's 0.05 s, 5 for dm_control's 0.01 s, 25
+    for RealAIGym's 0.002 s; 1 for Gymnasium's 0.2 s)."""
+    return max(1, min(MAX_FRAME_SKIP, math.floor(decision / physics_seconds + 1e-9)))
+
+
+def black_box_env(config: BlackBoxConfig | None = None, **kwargs: Any) -> gym.Env:
+    """The balance task with a Box action on ``config``'s acrobot, each decision
+    :func:`frame_skip` physics steps: the only env the learner sees."""
+    config = config or BlackBoxConfig()
+    if config.model is not None:
+        kwargs = {"model": config.model, **kwargs}
+    skip = frame_skip(resolve(config.model).params.dt, config.decision)
+    if skip > 1:
+        kwargs = {"frame_skip": skip, **kwargs}
     return gym.make(Balance.env_id, continuous=True, **kwargs)
 
 
@@ -236,7 +279,7 @@ class BlackBoxLearner(Learner):
 
     def learn(self, run: Run) -> dict[str, Any]:
         config, clock = self.config, time.perf_counter()
-        env = self.given_env if self.given_env is not None else black_box_env()
+        env = self.given_env if self.given_env is not None else black_box_env(config)
         data = explore(env, config, self.seed)
         cut = fitted_share(len(data["actions"]))
         train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
@@ -305,7 +348,7 @@ class BlackBoxLearner(Learner):
     def env(self, **kwargs: Any) -> gym.Env:
         assert self.trajectory is not None
         steps = steps_in(self.config.seconds, self.trajectory.dt)
-        return black_box_env(**{"max_episode_steps": steps, **kwargs})
+        return black_box_env(self.config, **{"max_episode_steps": steps, **kwargs})
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
         assert self.controller is not None
