@@ -226,8 +226,16 @@ def test_the_report_is_the_default_model_and_a_bad_model_is_refused(tmp_path, ca
     assert BlackBoxConfig.from_dict(BlackBoxConfig().to_dict()).model is None
     with pytest.raises(ValueError, match="config model: model must be one of"):
         BlackBoxConfig(model="nope")
-    with pytest.raises(ValueError, match="config decision must be"):
-        BlackBoxConfig(decision=0.0)
+    with pytest.raises(ValueError, match="config decision_period must be"):
+        BlackBoxConfig(decision_period=0.0)
     with pytest.raises(SystemExit):
         main(["train", "--preset", "black_box", "--model", "nope", "--out", str(tmp_path / "x")])
     assert "model must be one of" in capsys.readouterr().err
+
+
+def test_the_plan_horizons_are_the_same_seconds_at_any_decision() -> None:
+    from acrobot_mj.train.black_box import plan_horizons
+
+    assert plan_horizons((440, 800, 40), 0.05) == list(range(440, 800, 40))  # the report's
+    assert plan_horizons((440, 800, 40), 0.2) == list(range(110, 200, 10))  # 22 to 39.5 s
+    assert plan_horizons((1, 4, 1), 0.2) == [1]  # rounded up to one decision, each once

@@ -62,7 +62,7 @@ class BlackBoxConfig(Settings):
     held out to measure the model), the library's ``harmonics`` and ``threshold``, the share of
     the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
     [decisions] and the seconds of each evaluation episode; the acrobot ``model`` (None: the
-    report's) and the ``decision`` [s] the frame skip is chosen from (:func:`frame_skip`)."""
+    report's) and the ``decision_period`` [s] the frame skip is chosen from (:func:`frame_skip`)."""
 
     decisions: int = setting(
         20_000,
@@ -87,7 +87,12 @@ class BlackBoxConfig(Settings):
         cli=False,
     )
     horizons: tuple[int, int, int] = setting(
-        (440, 800, 40), "horizons the plan tries", "decisions", low=1, sep=":", cli=False
+        (440, 800, 40),
+        "horizons the plan tries, in decisions of 0.05 s (the same seconds at another decision)",
+        "decisions",
+        low=1,
+        sep=":",
+        cli=False,
     )
     seconds: float = setting(
         100.0,
@@ -101,10 +106,11 @@ class BlackBoxConfig(Settings):
 
     model: str | None = setting(
         None,
-        "a parameter set's name or a .json/.toml file (default: the report's)",
+        "the acrobot to learn: a shipped model's name or a .json/.toml file (default: the "
+        "report's)",
         metavar="NAME|FILE",
     )
-    decision: float = setting(
+    decision_period: float = setting(
         0.05,
         "shortest decision: the env steps the physics the most whole times within it (once at "
         "least)",
@@ -175,7 +181,7 @@ def black_box_env(config: BlackBoxConfig | None = None, **kwargs: Any) -> gym.En
     config = config or BlackBoxConfig()
     if config.model is not None:
         kwargs = {"model": config.model, **kwargs}
-    skip = frame_skip(resolve(config.model).params.dt, config.decision)
+    skip = frame_skip(resolve(config.model).params.dt, config.decision_period)
     if skip > 1:
         kwargs = {"frame_skip": skip, **kwargs}
     return gym.make(Balance.env_id, continuous=True, **kwargs)
@@ -220,6 +226,18 @@ def limits_of(env: gym.Env) -> AcrobotParams:
     )
 
 
+#: The decision [s] the horizons are counted in: the report's.
+HORIZON_DECISION = 0.05
+
+
+def plan_horizons(horizons: tuple[int, int, int], dt: float) -> list[int]:
+    """The horizons ``range(*horizons)`` counted in decisions of :data:`HORIZON_DECISION`, as
+    decisions of ``dt`` seconds (the same seconds, rounded; each once): unchanged at 0.05 s, a
+    quarter at Gymnasium's 0.2 s."""
+    scale = HORIZON_DECISION / dt
+    return list(dict.fromkeys(max(1, round(h * scale)) for h in range(*horizons)))
+
+
 def swing_up(
     model: LibraryModel,
     start: np.ndarray,
@@ -234,7 +252,7 @@ def swing_up(
         config.reserve * limits.max_torque, "learned", limits, model, tuple(float(v) for v in start)
     )
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
-    for horizon in range(*config.horizons):
+    for horizon in plan_horizons(config.horizons, limits.dt):
         warm = optimiser.tiny_torques(horizon)
         for target in goals:
             found = optimiser.approach(target, warm)[1]
