@@ -239,3 +239,26 @@ def test_the_plan_horizons_are_the_same_seconds_at_any_decision() -> None:
     assert plan_horizons((440, 800, 40), 0.05) == list(range(440, 800, 40))  # the report's
     assert plan_horizons((440, 800, 40), 0.2) == list(range(110, 200, 10))  # 22 to 39.5 s
     assert plan_horizons((1, 4, 1), 0.2) == [1]  # rounded up to one decision, each once
+
+
+def test_a_model_with_no_velocity_limits_is_saved_and_read_again(tmp_path) -> None:
+    # dm_control's and RealAIGym's acrobots bound no velocity: JSON holds no infinity.
+    from acrobot_mj.control.trajopt import Trajectory
+    from acrobot_mj.physics.models import MODELS
+
+    p = MODELS["dm_control"].params
+    plan = Trajectory(np.zeros((3, 4)), np.zeros(2), p.dt, "learned", 1.6, p)
+    config = BlackBoxConfig(model="dm_control")
+    # A damped, driven, stable toy (features' order: angle products times 1, v1, v2, u, ...).
+    weights = np.zeros((250, 4))
+    weights[1, 0] = weights[2, 1] = 0.05  # q' = q + 0.05 v - 0.01 sin q
+    weights[100, 0] = weights[20, 1] = -0.01
+    weights[1, 2] = weights[2, 3] = -0.1  # v' = 0.9 v + (0.1, 0.2) u
+    weights[3, 2], weights[3, 3] = 0.1, 0.2
+    BlackBoxLearner(config, 0, built=(LibraryModel(2, weights), plan)).save(tmp_path)
+    (tmp_path / "run.json").write_text(
+        json.dumps({"kind": "black_box", "config": config.to_dict(), "seed": 0})
+    )
+    again = BlackBoxLearner.load(tmp_path)
+    assert again.trajectory is not None and again.trajectory.params == p
+    assert again.config.model == "dm_control"

@@ -261,6 +261,12 @@ def swing_up(
     raise ValueError(f"no swing-up found on the learnt model over horizons {config.horizons}")
 
 
+def finite_or_none(value: Any) -> Any:
+    """``value``, or None for an infinite bound (a velocity limit a model does not have): JSON
+    holds no infinity."""
+    return None if isinstance(value, float) and math.isinf(value) else value
+
+
 class BlackBoxLearner(Learner):
     """Learns a model from the env's observations, actions and rewards only, then plans and
     follows a funnel on it (``learn``); acts through that state feedback, with no clock."""
@@ -357,7 +363,7 @@ class BlackBoxLearner(Learner):
         return {
             "format": MODEL_FORMAT,
             "library": self.model.to_dict(),
-            "limits": dataclasses.asdict(t.params),
+            "limits": {k: finite_or_none(v) for k, v in dataclasses.asdict(t.params).items()},
             "u_max": t.u_max,
             "states": t.states.tolist(),
             "actions": t.torques.tolist(),
@@ -381,7 +387,9 @@ class BlackBoxLearner(Learner):
             if data.get("format") != MODEL_FORMAT:
                 raise ValueError(f"not a black-box model (format {data.get('format')!r})")
             model = LibraryModel.from_dict(data["library"])
-            limits = AcrobotParams(**data["limits"])
+            limits = AcrobotParams(
+                **{k: math.inf if v is None else v for k, v in data["limits"].items()}
+            )
             trajectory = Trajectory(
                 np.asarray(data["states"], dtype=float),
                 np.asarray(data["actions"], dtype=float),
