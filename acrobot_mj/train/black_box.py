@@ -118,7 +118,6 @@ class BlackBoxConfig(Settings):
         low=0.0,
         low_open=True,
         high=10.0,
-        cli=False,
     )
 
     what = "black-box"
