@@ -191,3 +191,74 @@ def test_it_learns_an_acrobot_whose_parameters_it_was_never_told() -> None:
     assert learner.model is not None
     miss = learner.model.errors(data["states"], data["actions"], data["next_states"])["rms"]
     assert min(miss[2:]) > 100 * max(record["model"]["held_out_errors"]["rms"])
+
+
+# -- other acrobots ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "skip", "seconds"),
+    [
+        ("report", 1, 0.05),
+        ("gymnasium", 1, 0.2),  # one step is already longer than 0.05 s
+        ("dm_control", 5, 0.05),
+        ("ai_olympics", 25, 0.05),
+        ("ai_olympics_pendubot", 25, 0.05),
+    ],
+)
+def test_each_shipped_acrobot_is_seen_through_its_own_spaces_and_a_frame_skip(
+    name, skip, seconds
+) -> None:
+    from acrobot_mj.physics.models import MODELS
+    from acrobot_mj.train.black_box import decision_seconds, frame_skip, limits_of
+
+    model = MODELS[name]
+    assert frame_skip(model.params.dt, 0.05) == skip
+    env = black_box_env(BlackBoxConfig(model=name))
+    # 25 steps of 0.002 s add up to 0.05 s only to rounding.
+    assert decision_seconds(env) == pytest.approx(seconds, abs=1e-12)
+    assert limits_of(env).max_torque == model.params.max_torque
+    assert env.unwrapped.params == model.params  # type: ignore[attr-defined]
+
+
+def test_the_report_is_the_default_model_and_a_bad_model_is_refused(tmp_path, capsys) -> None:
+    assert BlackBoxConfig(model="report") == BlackBoxConfig()
+    assert BlackBoxConfig.from_dict(BlackBoxConfig().to_dict()).model is None
+    with pytest.raises(ValueError, match="config model: model must be one of"):
+        BlackBoxConfig(model="nope")
+    with pytest.raises(ValueError, match="config decision_period must be"):
+        BlackBoxConfig(decision_period=0.0)
+    with pytest.raises(SystemExit):
+        main(["train", "--preset", "black_box", "--model", "nope", "--out", str(tmp_path / "x")])
+    assert "model must be one of" in capsys.readouterr().err
+
+
+def test_the_plan_horizons_are_the_same_seconds_at_any_decision() -> None:
+    from acrobot_mj.train.black_box import plan_horizons
+
+    assert plan_horizons((440, 800, 40), 0.05) == list(range(440, 800, 40))  # the report's
+    assert plan_horizons((440, 800, 40), 0.2) == list(range(110, 200, 10))  # 22 to 39.5 s
+    assert plan_horizons((1, 4, 1), 0.2) == [1]  # rounded up to one decision, each once
+
+
+def test_a_model_with_no_velocity_limits_is_saved_and_read_again(tmp_path) -> None:
+    # dm_control's and RealAIGym's acrobots bound no velocity: JSON holds no infinity.
+    from acrobot_mj.control.trajopt import Trajectory
+    from acrobot_mj.physics.models import MODELS
+
+    p = MODELS["dm_control"].params
+    plan = Trajectory(np.zeros((3, 4)), np.zeros(2), p.dt, "learned", 1.6, p)
+    config = BlackBoxConfig(model="dm_control")
+    # A damped, driven, stable toy (features' order: angle products times 1, v1, v2, u, ...).
+    weights = np.zeros((250, 4))
+    weights[1, 0] = weights[2, 1] = 0.05  # q' = q + 0.05 v - 0.01 sin q
+    weights[100, 0] = weights[20, 1] = -0.01
+    weights[1, 2] = weights[2, 3] = -0.1  # v' = 0.9 v + (0.1, 0.2) u
+    weights[3, 2], weights[3, 3] = 0.1, 0.2
+    BlackBoxLearner(config, 0, built=(LibraryModel(2, weights), plan)).save(tmp_path)
+    (tmp_path / "run.json").write_text(
+        json.dumps({"kind": "black_box", "config": config.to_dict(), "seed": 0})
+    )
+    again = BlackBoxLearner.load(tmp_path)
+    assert again.trajectory is not None and again.trajectory.params == p
+    assert again.config.model == "dm_control"

@@ -28,13 +28,15 @@ from acrobot_mj.control.library import (
 )
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Optimiser, Trajectory
+from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
+from acrobot_mj.physics.models import resolve
 from acrobot_mj.physics.params import AcrobotParams
-from acrobot_mj.settings import Settings, setting
+from acrobot_mj.settings import SettingError, Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import MODEL_FILE
 from acrobot_mj.train.run import Run
@@ -44,6 +46,7 @@ MODEL_FORMAT = "acrobot_mj.black_box_model"
 TOLD = (
     "the env's spaces: a Box action (a number in [-1, 1]) and four observations, the first two "
     "angles wrapped at +-pi; the bounds they declare and the seconds of a decision (env.dt)",
+    "the seconds of one physics step, to choose how many make a decision (the frame skip)",
     "the reward of each decision",
     "it may reset the env to a state it names (angles uniform on the circle, at rest)",
 )
@@ -58,7 +61,8 @@ class BlackBoxConfig(Settings):
     """Decisions of random exploration in episodes of ``episode_decisions`` (the last tenth
     held out to measure the model), the library's ``harmonics`` and ``threshold``, the share of
     the action bound the plan may use (``reserve``), the plan's horizons ``(start, stop, step)``
-    [decisions] and the seconds of each evaluation episode."""
+    [decisions] and the seconds of each evaluation episode; the acrobot ``model`` (None: the
+    report's) and the ``decision_period`` [s] the frame skip is chosen from (:func:`frame_skip`)."""
 
     decisions: int = setting(
         20_000,
@@ -83,7 +87,12 @@ class BlackBoxConfig(Settings):
         cli=False,
     )
     horizons: tuple[int, int, int] = setting(
-        (440, 800, 40), "horizons the plan tries", "decisions", low=1, sep=":", cli=False
+        (440, 800, 40),
+        "horizons the plan tries, in decisions of 0.05 s (the same seconds at another decision)",
+        "decisions",
+        low=1,
+        sep=":",
+        cli=False,
     )
     seconds: float = setting(
         100.0,
@@ -95,7 +104,32 @@ class BlackBoxConfig(Settings):
         cli=False,
     )
 
+    model: str | None = setting(
+        None,
+        "the acrobot to learn: a shipped model's name or a .json/.toml file (default: the "
+        "report's)",
+        metavar="NAME|FILE",
+    )
+    decision_period: float = setting(
+        0.05,
+        "shortest decision: the env steps the physics the most whole times within it (once at "
+        "least)",
+        "s",
+        low=0.0,
+        low_open=True,
+        high=10.0,
+    )
+
     what = "black-box"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.model == "report":  # the default: the packaged MJCF
+            object.__setattr__(self, "model", None)
+        try:
+            resolve(self.model)
+        except (TypeError, ValueError) as error:
+            raise SettingError(f"config model: {error}") from None
 
 
 def library_terms(harmonics: int) -> int:
@@ -133,8 +167,22 @@ def check_fit(config: BlackBoxConfig) -> None:
     check_memory(f"the black box's fit of {config.decisions:,} decisions", size)
 
 
-def black_box_env(**kwargs: Any) -> gym.Env:
-    """The balance task with a Box action: the only env the learner sees."""
+def frame_skip(physics_seconds: float, decision: float) -> int:
+    """The physics steps of one decision: the most whole steps of ``physics_seconds`` within
+    ``decision`` seconds, at least one (1 for the report's 0.05 s, 5 for dm_control's 0.01 s, 25
+    for RealAIGym's 0.002 s; 1 for Gymnasium's 0.2 s)."""
+    return max(1, min(MAX_FRAME_SKIP, math.floor(decision / physics_seconds + 1e-9)))
+
+
+def black_box_env(config: BlackBoxConfig | None = None, **kwargs: Any) -> gym.Env:
+    """The balance task with a Box action on ``config``'s acrobot, each decision
+    :func:`frame_skip` physics steps: the only env the learner sees."""
+    config = config or BlackBoxConfig()
+    if config.model is not None:
+        kwargs = {"model": config.model, **kwargs}
+    skip = frame_skip(resolve(config.model).params.dt, config.decision_period)
+    if skip > 1:
+        kwargs = {"frame_skip": skip, **kwargs}
     return gym.make(Balance.env_id, continuous=True, **kwargs)
 
 
@@ -177,6 +225,18 @@ def limits_of(env: gym.Env) -> AcrobotParams:
     )
 
 
+#: The decision [s] the horizons are counted in: the report's.
+HORIZON_DECISION = 0.05
+
+
+def plan_horizons(horizons: tuple[int, int, int], dt: float) -> list[int]:
+    """The horizons ``range(*horizons)`` counted in decisions of :data:`HORIZON_DECISION`, as
+    decisions of ``dt`` seconds (the same seconds, rounded; each once): unchanged at 0.05 s, a
+    quarter at Gymnasium's 0.2 s."""
+    scale = HORIZON_DECISION / dt
+    return list(dict.fromkeys(max(1, round(h * scale)) for h in range(*horizons)))
+
+
 def swing_up(
     model: LibraryModel,
     start: np.ndarray,
@@ -191,13 +251,19 @@ def swing_up(
         config.reserve * limits.max_torque, "learned", limits, model, tuple(float(v) for v in start)
     )
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
-    for horizon in range(*config.horizons):
+    for horizon in plan_horizons(config.horizons, limits.dt):
         warm = optimiser.tiny_torques(horizon)
         for target in goals:
             found = optimiser.approach(target, warm)[1]
             if found is not None:
                 return optimiser.trajectory(found)
     raise ValueError(f"no swing-up found on the learnt model over horizons {config.horizons}")
+
+
+def finite_or_none(value: Any) -> Any:
+    """``value``, or None for an infinite bound (a velocity limit a model does not have): JSON
+    holds no infinity."""
+    return None if isinstance(value, float) and math.isinf(value) else value
 
 
 class BlackBoxLearner(Learner):
@@ -236,7 +302,7 @@ class BlackBoxLearner(Learner):
 
     def learn(self, run: Run) -> dict[str, Any]:
         config, clock = self.config, time.perf_counter()
-        env = self.given_env if self.given_env is not None else black_box_env()
+        env = self.given_env if self.given_env is not None else black_box_env(config)
         data = explore(env, config, self.seed)
         cut = fitted_share(len(data["actions"]))
         train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
@@ -296,7 +362,7 @@ class BlackBoxLearner(Learner):
         return {
             "format": MODEL_FORMAT,
             "library": self.model.to_dict(),
-            "limits": dataclasses.asdict(t.params),
+            "limits": {k: finite_or_none(v) for k, v in dataclasses.asdict(t.params).items()},
             "u_max": t.u_max,
             "states": t.states.tolist(),
             "actions": t.torques.tolist(),
@@ -305,7 +371,7 @@ class BlackBoxLearner(Learner):
     def env(self, **kwargs: Any) -> gym.Env:
         assert self.trajectory is not None
         steps = steps_in(self.config.seconds, self.trajectory.dt)
-        return black_box_env(**{"max_episode_steps": steps, **kwargs})
+        return black_box_env(self.config, **{"max_episode_steps": steps, **kwargs})
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
         assert self.controller is not None
@@ -320,7 +386,9 @@ class BlackBoxLearner(Learner):
             if data.get("format") != MODEL_FORMAT:
                 raise ValueError(f"not a black-box model (format {data.get('format')!r})")
             model = LibraryModel.from_dict(data["library"])
-            limits = AcrobotParams(**data["limits"])
+            limits = AcrobotParams(
+                **{k: math.inf if v is None else v for k, v in data["limits"].items()}
+            )
             trajectory = Trajectory(
                 np.asarray(data["states"], dtype=float),
                 np.asarray(data["actions"], dtype=float),
