@@ -179,7 +179,9 @@ class LibraryModel:
             if np.abs(move).max() < 1e-13:
                 break
         if np.abs(self.step(x, 0.0)[2:]).max() > 1e-9 or np.abs(x[:2] - angles).max() > 0.5:
-            raise ValueError(f"the learnt model holds no state at rest near {list(angles)}")
+            raise ValueError(
+                f"the learnt model holds no state at rest near {[float(a) for a in angles]}"
+            )
         return x
 
     def to_dict(self) -> dict[str, Any]:
