@@ -22,8 +22,8 @@ _BUILT: dict[tuple[str, str], Any] = {}
 
 
 def trained_model(record: dict[str, Any]) -> str:
-    """The model a controller run was trained on: its config's ``model``, else the report's
-    (neither kind has a model setting: both train on the default acrobot)."""
+    """The model a controller run was trained on: its config's ``model`` (the black box's
+    ``--model``), else the report's (the state feedback trains on the default acrobot only)."""
     config = record.get("config")
     name = config.get("model") if isinstance(config, dict) else None
     return "report" if name is None else str(name)
