@@ -35,7 +35,7 @@ from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.models import resolve
-from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.settings import SettingError, Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner
 from acrobot_mj.train.records import MODEL_FILE
@@ -111,7 +111,7 @@ class BlackBoxConfig(Settings):
         metavar="NAME|FILE",
     )
     decision_period: float = setting(
-        0.05,
+        REPORT.dt,
         "shortest decision: the env steps the physics the most whole times within it (once at "
         "least)",
         "s",
@@ -226,7 +226,7 @@ def limits_of(env: gym.Env) -> AcrobotParams:
 
 
 #: The decision [s] the horizons are counted in: the report's.
-HORIZON_DECISION = 0.05
+HORIZON_DECISION = REPORT.dt
 
 
 def plan_horizons(horizons: tuple[int, int, int], dt: float) -> list[int]:
