@@ -292,6 +292,27 @@ def random_decision(rng, n_features: int = 200, n_actions: int = 3):
     )
 
 
+@pytest.mark.parametrize("method", ["rk4", "semi_implicit_euler", "explicit_euler"])
+def test_one_state_steps_as_the_batch_does(method) -> None:
+    """``step_states`` of one state takes the compiled ``step_one``: the numbers of the numpy
+    path that steps many, bit for bit, limits on and off, several substeps, NaN kept."""
+    from acrobot_mj.physics.integrators import step_states
+    from acrobot_mj.physics.models import resolve
+
+    p = resolve("ai_olympics").params
+    rng = np.random.default_rng(5)
+    states = rng.uniform(-40.0, 40.0, (500, 4))  # past the velocity limits too
+    torques = rng.uniform(-6.0, 6.0, 500)
+    for limits in (True, False):
+        batch = step_states(states, torques, p, 3, method, limits)
+        for x, u, expected in zip(states, torques, batch, strict=True):
+            assert step_states(x, u, p, 3, method, limits).tolist() == expected.tolist()
+    bad = np.array([[0.0, np.nan, 0.0, 0.0]])  # a NaN spreads as it does in the batch
+    one = step_states(bad[0], 0.0, p, method=method)
+    assert np.isnan(one).any()
+    np.testing.assert_array_equal(one, step_states(bad, np.zeros(1), p, method=method)[0])
+
+
 def test_the_compiled_decision_is_the_python_one() -> None:
     # One Sarsa(lambda) decision (the TD error, the traces marked, the policy's draws, the
     # update and decay with every cutoff branch) compiled and as Python: the same result and

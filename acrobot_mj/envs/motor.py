@@ -120,7 +120,7 @@ class Motor(gym.Wrapper):
         u[self.dof] = commanded
         nu = self._last + self.response * (u - self._last)
         nu = self.rng.normal(nu, self._sigmas, np.shape(nu))
-        nu = np.clip(nu, -self.limit, self.limit)
+        nu = np.minimum(np.maximum(nu, -self.limit), self.limit)  # np.clip, a third the time
         index = int(self._t / self._dt)
         if index < self._pulses.shape[1]:
             nu += self._pulses[:, index]

@@ -143,10 +143,14 @@ def step_states(
     limits: bool = True,
 ) -> NDArray:
     """:func:`step` of states ``x`` ``(..., 4)`` under torques ``tau`` ``(...)`` on ``p`` (its
-    ``dt`` and, with ``limits``, its velocity limits)."""
+    ``dt`` and, with ``limits``, its velocity limits). One state under one torque takes the
+    compiled :func:`step_one` (the same numbers, a tenth of the time)."""
     x, code = _states(x), method_code(method)
     max_vel = p.max_vel if limits else UNLIMITED
     tau = np.asarray(tau, dtype=np.float64)
+    if x.ndim == 1 and tau.ndim == 0:
+        one = compiled(step_one)(*x.tolist(), float(tau), *p.lumped, p.dt, *max_vel, substeps, code)
+        return np.array(one, dtype=np.float64)
     new = step(*np.moveaxis(x, -1, 0), tau, p.lumped, p.dt, max_vel, substeps, code, ARRAY)
     return np.stack(np.broadcast_arrays(*new), -1)
 
