@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.compiled import compiled
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.lqr import tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory
@@ -180,12 +181,9 @@ class TreeController:
     def nearest(self, x: np.ndarray) -> tuple[int, int, float]:
         """The plan, its step and the TVLQR cost ``e' S e`` of the entry point of least cost
         for state ``x`` (4,)."""
-        e = x[None] - self.points
-        e[:, :2] = wrap_angle(e[:, :2])
-        levels = np.einsum("ki,kij,kj->k", e, self.costs, e)
-        best = int(np.argmin(levels))
+        best, level = compiled(least_cost)(x, self.points, self.costs)
         i, k = self.which[best]
-        return int(i), int(k), float(levels[best])
+        return int(i), int(k), float(level)
 
     def _follow(self, x: np.ndarray) -> float | None:
         """TVLQR along the plan followed, or None where it ends or the cost passes ``track``."""
@@ -251,6 +249,27 @@ class TreeController:
             return float(funnel.elsewhere(x))
         limit = funnel.limit
         return float(np.clip(-funnel.settings.damping * x[3], -limit, limit))
+
+
+def least_cost(x, points, costs):  # kernel
+    """The index of the point of ``points`` (P, 4) of least ``e' S e`` for ``e = x - point``
+    (angles wrapped), ``S`` the point's cost (P, 4, 4), and that cost: one pass, compiled."""
+    best, level = 0, np.inf
+    e = np.empty(4)
+    for k in range(points.shape[0]):
+        for i in range(4):
+            e[i] = x[i] - points[k, i]
+        for i in range(2):
+            e[i] = (e[i] + np.pi) % (2.0 * np.pi) - np.pi
+        total = 0.0
+        for i in range(4):
+            row = 0.0
+            for j in range(4):
+                row += costs[k, i, j] * e[j]
+            total += e[i] * row
+        if total < level:
+            best, level = k, total
+    return best, level
 
 
 def warm_torques(plan: Trajectory, hold: int, decisions: int) -> np.ndarray:
