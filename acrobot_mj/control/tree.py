@@ -163,6 +163,7 @@ class TreeController:
             which.append(np.stack([np.full_like(ks, i), ks], -1))
         self.points, self.costs = np.concatenate(points), np.concatenate(costs)
         self.which = np.concatenate(which)
+        self.nearest(UPRIGHT)  # compiled now (or loaded from numba's cache), not at a call
 
     def reset(self) -> None:
         """A new episode: no plan followed, the funnel's memory cleared."""
