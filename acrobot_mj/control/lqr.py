@@ -20,27 +20,33 @@ Controller = Callable[[np.ndarray], np.ndarray]
 
 
 def step_jacobians(
-    x: np.ndarray, u: float = 0.0, method: str = "semi_implicit_euler", p: AcrobotParams = REPORT
+    x: np.ndarray,
+    u: float | np.ndarray = 0.0,
+    method: str = "semi_implicit_euler",
+    p: AcrobotParams = REPORT,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Exact Jacobians ``A`` (4, 4) and ``B`` (4, 1) of one step at ``x``, torque ``u`` [N m]."""
-    x, h = np.asarray(x, dtype=float), p.dt
+    """Exact Jacobians ``A`` (..., 4, 4) and ``B`` (..., 4, 1) of one step at ``x`` (..., 4),
+    torque ``u`` (...) [N m]: one state or many at once."""
+    x, h, tau = np.asarray(x, dtype=float), p.dt, np.asarray(u, dtype=float)
     if method == "semi_implicit_euler":
-        a_c, b_c = dynamics.linearize(x[:2], x[2:], u, p)
+        a_c, b_c = dynamics.linearize(x[..., :2], x[..., 2:], tau, p)
         eye = np.eye(2)
-        aq, av, bu = a_c[2:, :2], a_c[2:, 2:], b_c[2:]
-        a = np.block([[eye + h * h * aq, h * (eye + h * av)], [h * aq, eye + h * av]])
-        return a, np.vstack([h * h * bu, h * bu])
+        aq, av, bu = a_c[..., 2:, :2], a_c[..., 2:, 2:], b_c[..., 2:, :]
+        top = np.concatenate([eye + h * h * aq, h * (eye + h * av)], -1)
+        bottom = np.concatenate([h * aq, eye + h * av], -1)
+        return np.concatenate([top, bottom], -2), np.concatenate([h * h * bu, h * bu], -2)
     if method != "rk4":
         raise ValueError(f"method must be 'semi_implicit_euler' or 'rk4', got {method!r}")
     # The chain rule through the four stages, each stage's Jacobian at its own state.
-    j_sum, g_sum = np.zeros((4, 4)), np.zeros((4, 1))
-    j, g, slope = np.zeros((4, 4)), np.zeros((4, 1)), np.zeros(4)
+    shape = np.broadcast_shapes(x.shape[:-1], tau.shape)
+    j_sum, g_sum = np.zeros((*shape, 4, 4)), np.zeros((*shape, 4, 1))
+    j, g, slope = np.zeros((*shape, 4, 4)), np.zeros((*shape, 4, 1)), np.zeros((*shape, 4))
     for weight, fraction in ((1, 0.0), (2, 0.5), (2, 0.5), (1, 1.0)):
         stage = x + fraction * h * slope
-        a_c, b_c = dynamics.linearize(stage[:2], stage[2:], u, p)
+        a_c, b_c = dynamics.linearize(stage[..., :2], stage[..., 2:], tau, p)
         j = a_c @ (np.eye(4) + fraction * h * j)
         g = a_c @ (fraction * h * g) + b_c
-        slope = integrators.state_derivative(stage, u, p)
+        slope = integrators.state_derivative(stage, tau, p)
         j_sum, g_sum = j_sum + weight * j, g_sum + weight * g
     return np.eye(4) + h / 6 * j_sum, h / 6 * g_sum
 
@@ -321,12 +327,14 @@ def tvlqr(
     weights, torque_cost, steps = np.diag(q), np.array([[r]]), trajectory.steps
     costs, gains = np.zeros((steps + 1, 4, 4)), np.zeros((steps, 4))
     costs[steps] = lqr.cost
+    points, torques = trajectory.states[:steps], trajectory.torques
+    if linear is None:  # all the steps' Jacobians at once
+        every = step_jacobians(points, torques, trajectory.method, trajectory.params)
     for k in reversed(range(steps)):
-        x, u = trajectory.states[k], trajectory.torques[k]
         if linear is None:
-            a, b = step_jacobians(x, u, trajectory.method, trajectory.params)
+            a, b = every[0][k], every[1][k]
         else:
-            a, b = linear(x, u)
+            a, b = linear(points[k], torques[k])
         gain, costs[k] = riccati_step(a, b, weights, torque_cost, costs[k + 1])
         gains[k] = gain[0]
     return costs, gains

@@ -2,12 +2,15 @@
 alone (once per process, a fresh copy per episode): the state-feedback funnel along the planned
 swing-up, with energy removal elsewhere (``tvlqr``: TVLQR and LQR as the leaderboard's entry) or
 with energy pumping elsewhere and a state estimator (``funnel``); the funnel with swing-ups
-planned online from wherever it is not (``replan``, :mod:`acrobot_mj.control.replan`)."""
+planned online from wherever it is not (``replan``, :mod:`acrobot_mj.control.replan`); the
+funnel with a library of swing-ups planned offline (``tree``, :mod:`acrobot_mj.control.tree`,
+grown by :mod:`acrobot_mj.olympics.growing`: ``ai_olympics`` only)."""
 
 from __future__ import annotations
 
 import copy
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,7 +28,9 @@ LEVELS = FunnelSettings(upright=30_000.0, track=20_000.0, entry=2_000.0, horizon
 #: Energy pumping's gain [N m / (J rad/s)] where the funnel does not act.
 PUMPING_GAIN = 50.0
 #: The entries by name.
-ENTRIES = ("tvlqr", "funnel", "replan")
+ENTRIES = ("tvlqr", "funnel", "replan", "tree")
+#: The ``tree`` entry's plan library on ``ai_olympics`` (:mod:`acrobot_mj.olympics.growing`).
+LIBRARY = Path(__file__).resolve().parent / "trajectories" / "ai_olympics_tree.npz"
 _BUILT: dict[tuple[str, str], Any] = {}
 
 
@@ -35,13 +40,31 @@ def check(entry: str, model: str) -> None:
         raise ValueError(f"unknown controller {entry!r}; known: {list(ENTRIES)}")
     resolve(model)
     shipped_swing_up(model)
+    if entry == "tree" and model != "ai_olympics":
+        raise ValueError(f"the tree entry's plan library is for ai_olympics, not {model!r}")
 
 
 def _pumping(x: np.ndarray, params: Any) -> float:
     return float(energy_pumping_torque(x, gain=PUMPING_GAIN, p=params))
 
 
+def tree_parts(model: str, library: Any) -> tuple[Any, Observer]:
+    """The ``tree`` entry's controller on ``library`` (a
+    :class:`~acrobot_mj.control.tree.Library`) and its state estimator, unwrapped."""
+    from acrobot_mj.control.tree import TreeController
+
+    trajectory = shipped_swing_up(model)
+    law = partial(_pumping, params=trajectory.params)
+    funnel = FunnelController(trajectory, LEVELS, elsewhere=law)
+    plans = library.plans(trajectory.params, trajectory.method)
+    return TreeController(funnel, plans), Observer(trajectory.params, trajectory.method)
+
+
 def _build(entry: str, model: str) -> Any:
+    if entry == "tree":
+        from acrobot_mj.control.tree import Library
+
+        return Estimated(*tree_parts(model, Library.load(LIBRARY)))
     trajectory = shipped_swing_up(model)
     # Another acrobot steps at its own rate: FunnelSettings' levels were chosen on the report's.
     levels = LEVELS if model == "ai_olympics" else FunnelSettings(horizon=0)

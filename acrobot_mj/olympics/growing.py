@@ -1,0 +1,88 @@
+"""The ``tree`` entry's plan library (:mod:`acrobot_mj.control.tree`), grown offline on the
+global policy's episodes of seeds the evaluation does not use (1000 and up): the tree
+controller runs each episode, and wherever it can enter no plan within the energy window, a
+swing-up is planned there (:class:`~acrobot_mj.control.replan.Planner`, CasADi: the
+``control`` extra), warm-started from the nearest plan in the library, and joins it. Run
+``python -m acrobot_mj.olympics.growing SEED COUNT [MINUTES]`` to grow the shipped file."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.control.estimator import Estimated
+from acrobot_mj.control.tree import Library, TreeController, tree_stats, warm_torques
+from acrobot_mj.olympics.entries import LIBRARY, tree_parts
+from acrobot_mj.physics.xp import wrap_angle
+
+
+def empty(hold: int = 5, decisions: int = 150) -> Library:
+    """A library without plans."""
+    return Library(np.zeros((0, 4)), np.zeros((0, decisions)), hold)
+
+
+def planner_for(tree: TreeController, planner: Any) -> Any:
+    """The ``grow`` hook of ``tree``: a plan from ``x`` warm-started from plan ``near``'s torques
+    towards the upright state its own end is (shifted by whole turns as ``x`` is from its
+    start), else ``planner``'s cold plans to the two nearest upright states."""
+
+    def grow(x: np.ndarray, near: int | None) -> Any:
+        if near is not None and near > 0:
+            plan = tree.plans[near]
+            turns = x[:2] - plan.states[0, :2] - wrap_angle(x[:2] - plan.states[0, :2])
+            target = plan.states[-1].copy()
+            target[:2] += turns
+            target[2:] = 0.0
+            warm = warm_torques(plan, planner.hold, planner.decisions)
+            found = planner.solve(x, target, warm)
+            if found is not None:
+                return found[0]
+        return planner.plan(x, 2)
+
+    return grow
+
+
+def grow(first: int, count: int, minutes: float = 60.0, path: Path = LIBRARY) -> Library:
+    """Grow the library at ``path`` (or an empty one) on the global episodes of seeds
+    ``first`` to ``first + count - 1``, at most ``minutes`` of CPU in all, saving it after each
+    episode; prints each episode's uptime score and the counts."""
+    from acrobot_mj.control.replan import Planner  # CasADi: the control extra
+    from acrobot_mj.olympics.protocol import GLOBAL
+    from acrobot_mj.olympics.run import global_run
+    from acrobot_mj.olympics.scores import uptime
+    from acrobot_mj.physics.models import resolve
+
+    library = Library.load(path) if path.is_file() else empty()
+    tree, observer = tree_parts("ai_olympics", library)
+    params = tree.funnel.trajectory.params
+    planner = Planner(params, tree.funnel.trajectory.method, hold=library.hold)
+    tree.grow = planner_for(tree, planner)
+    started = time.process_time()
+    for seed in range(first, first + count):
+        targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
+        before = dict(tree_stats(tree))
+        recording = global_run(Estimated(tree, observer), "ai_olympics", targets, reset_times)
+        for plan in tree.planned[before["planned"] :]:
+            library = library.with_plan(plan)
+        library.save(path)
+        p = resolve("ai_olympics").params
+        score = uptime(recording, p.l1, p.l2, GLOBAL.t_final, GLOBAL.height)["score"]
+        cpu = time.process_time() - started
+        print(
+            f"seed {seed}: score {score:.3f}, library {len(library)} plans, "
+            f"planned {len(tree.planned) - before['planned']}, "
+            f"failed {tree.failed - before['failed']}, cpu {cpu:.0f} s",
+            flush=True,
+        )
+        if cpu > 60.0 * minutes:
+            break
+    return library
+
+
+if __name__ == "__main__":  # pragma: no cover
+    arguments = sys.argv[1:]
+    grow(int(arguments[0]), int(arguments[1]), float(arguments[2]) if arguments[2:] else 60.0)
