@@ -3,7 +3,7 @@ torques, its states regenerated on the model at load) and a controller that foll
 TVLQR and no optimisation at run time (:class:`TreeController`): a trajectory library
 (Atkeson and Stolle) entered by the LQR-tree's test of Tedrake's, ``e' S e`` below a level. The
 library is grown by planning (:class:`~acrobot_mj.control.replan.Planner`) from the states the
-controller could not enter (:attr:`TreeController.grow`), offline."""
+controller could not enter (``TreeController.grow``), offline."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.physics.xp import wrap_angle
 
-#: What a planner for :attr:`TreeController.grow` is: a state (4,) and the index of the
+#: What a planner for ``TreeController.grow`` is: a state (4,) and the index of the
 #: library's plan nearest it (or None) to a new plan from that state, or None.
 Grow = Callable[[np.ndarray, "int | None"], "Trajectory | None"]
 
@@ -207,7 +207,7 @@ class TreeController:
         return bool(np.abs(wrap_angle(x[:2] - last[:2])).max() > self.settings.jump)
 
     def _grown(self, x: np.ndarray, near: int) -> bool:
-        """Plan from ``x`` offline (:attr:`grow`) and follow the new plan; False if none."""
+        """Plan from ``x`` offline (``grow``) and follow the new plan; False if none."""
         assert self.grow is not None
         params = self.funnel.trajectory.params
         energy = float(dynamics.total_energy(x[:2], x[2:], params))
