@@ -1,29 +1,71 @@
-"""How long swing-ups from random rest poses take on a model: for each pose (both angles uniform
-in ``[-pi, pi)``, at rest, drawn from a seed), the shortest swing-up to upright at rest that a
-search of trajectory optimisation finds (horizons from 5 s, 2.5 s apart, up to ``longest``;
-the three nearest upright states; IPOPT from tiny torques, the end nearest the target first,
-then exact, as the control package's swing-up search):
+"""How long swing-ups take on a model from random starts: for each start, the shortest swing-up
+to upright at rest that a search of trajectory optimisation finds (horizons from 5 s, 2.5 s
+apart, up to ``LONGEST``; the three nearest upright states; IPOPT from tiny torques, the end
+nearest the target first, then exact, as the control package's swing-up search). The starts
+are poses at rest (both angles uniform in ``[-pi, pi)``, drawn from ``SEED``), or with
+``--resets`` the states the global policy's first resets of episode ``SEED`` leave the arm in
+(the protocol for the model, from upright at rest, where a balancing controller would be):
 
     python scripts/swing_up_times.py report 5 10
+    python scripts/swing_up_times.py report 0 1 --resets --longest 35
 
-The search is local, so each time is an upper bound on the least one. Prints each pose's
-time, its CPU time and the mean over the poses that found one.
+The search is local, so each time is an upper bound on the shortest. Prints each start, its
+time (None: none found) and CPU time, and the mean over the starts that found one.
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 
 import numpy as np
 
 from acrobot_mj.control.replan import upright_targets
 from acrobot_mj.control.trajopt import Optimiser
+from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.olympics.controllers import shipped_swing_up
+from acrobot_mj.olympics.globaltest import GlobalTester
+from acrobot_mj.olympics.protocol import from_protocol
+from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import UPRIGHT
+from acrobot_mj.physics.models import resolve
+from acrobot_mj.physics.xp import wrap_angle
 
 
-def shortest(model: str, x0: np.ndarray, longest: float = 40.0) -> float | None:
+class Idle:
+    """A controller that never acts: only the protocol's reset moves the arm."""
+
+    def reset(self) -> None:
+        pass
+
+    def __call__(self, obs: np.ndarray) -> float:
+        return 0.0
+
+
+def after_reset(model: str, target: np.ndarray) -> np.ndarray:
+    """The state [rad, rad/s] the protocol's reset to ``target`` (ours) leaves, from upright at
+    rest, stepped as :func:`acrobot_mj.olympics.run.global_run` steps it."""
+    policy, acrobot = protocol_for(model).global_policy, resolve(model)
+    tester = GlobalTester(Idle(), acrobot, target[None], np.array([0.0]), policy)
+    env = AcrobotEnv(model=model, continuous=True, task="balance")
+    obs, _ = env.reset(options={"state": UPRIGHT})
+    limit, t = acrobot.params.max_torque, 0.0
+    while True:
+        shoulder, elbow = tester(t, obs, env.state)
+        if not tester.resetting:
+            break
+        excess = elbow - float(np.clip(elbow, -limit, limit))
+        env.data.qfrc_applied[:] = (shoulder, excess)
+        obs = env.step(np.array([elbow - excess]))[0]
+        t += policy.dt
+    state = np.array(env.state, dtype=float)
+    env.close()
+    state[:2] = wrap_angle(state[:2])
+    return state
+
+
+def shortest(model: str, x0: np.ndarray, longest: float) -> float | None:
     """The length [s] of the shortest swing-up the search finds from ``x0``, or None."""
     plan = shipped_swing_up(model)
     p = plan.params
@@ -36,20 +78,34 @@ def shortest(model: str, x0: np.ndarray, longest: float = 40.0) -> float | None:
     return None
 
 
-def main(model: str, seed: int, count: int) -> None:
+def starts(model: str, seed: int, count: int, resets: bool) -> list[np.ndarray]:
+    """The starts (4,) [rad, rad/s]: rest poses, or the states after the first resets."""
     rng = np.random.default_rng(seed)
+    if resets:
+        targets = from_protocol(protocol_for(model).global_policy.draw(rng)[0])
+        return [after_reset(model, target) for target in targets[:count]]
+    return [np.append(rng.uniform(-np.pi, np.pi, 2), [0.0, 0.0]) for _ in range(count)]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("model")
+    parser.add_argument("seed", type=int)
+    parser.add_argument("count", type=int)
+    parser.add_argument("--resets", action="store_true", help="start where resets leave the arm")
+    parser.add_argument("--longest", type=float, default=40.0, help="the longest horizon [s]")
+    arguments = parser.parse_args()
     found = []
-    for _ in range(count):
-        x0 = np.zeros(4)
-        x0[:2] = rng.uniform(-np.pi, np.pi, 2)
+    for x0 in starts(arguments.model, arguments.seed, arguments.count, arguments.resets):
         started = time.process_time()
-        seconds = shortest(model, x0)
+        seconds = shortest(arguments.model, x0, arguments.longest)
         if seconds is not None:
             found.append(seconds)
         cpu = time.process_time() - started
-        print(f"from {np.round(x0, 2).tolist()} at rest: {seconds} s (cpu {cpu:.0f} s)", flush=True)
-    print(f"{len(found)} of {count} found; mean {np.mean(found):.1f} s")
+        print(f"from {np.round(x0, 2).tolist()}: {seconds} s (cpu {cpu:.0f} s)", flush=True)
+    mean = f"{np.mean(found):.1f} s" if found else "-"
+    print(f"{len(found)} of {arguments.count} found; mean {mean}")
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]))
+    main()

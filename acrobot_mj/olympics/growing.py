@@ -3,7 +3,8 @@ global policy's episodes of seeds the evaluation does not use (1000 and up): the
 controller runs each episode, and wherever it can enter no plan within the energy window, a
 swing-up is planned there (:class:`~acrobot_mj.control.replan.Planner`, CasADi: the
 ``control`` extra), warm-started from the nearest plan in the library, and joins it. Run
-``python -m acrobot_mj.olympics.growing SEED COUNT [MINUTES]`` to grow the shipped file."""
+``python -m acrobot_mj.olympics.growing SEED COUNT [MINUTES [PATH]]`` to grow the shipped file
+(or the library at ``PATH``, a new one where there is none)."""
 
 from __future__ import annotations
 
@@ -85,4 +86,6 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = LIBRARY) ->
 
 if __name__ == "__main__":  # pragma: no cover
     arguments = sys.argv[1:]
-    grow(int(arguments[0]), int(arguments[1]), float(arguments[2]) if arguments[2:] else 60.0)
+    minutes = float(arguments[2]) if arguments[2:] else 60.0
+    path = Path(arguments[3]) if arguments[3:] else LIBRARY
+    grow(int(arguments[0]), int(arguments[1]), minutes, path)
