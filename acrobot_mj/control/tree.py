@@ -20,6 +20,7 @@ from acrobot_mj.compiled import compiled
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.lqr import tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.files import write_atomic
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.params import AcrobotParams
@@ -80,8 +81,9 @@ class Library:
         return Library(starts, np.atleast_2d(held), self.hold)
 
     def save(self, path: Path) -> None:
-        """Write the library to ``path`` (.npz)."""
-        np.savez_compressed(path, starts=self.starts, held=self.held, hold=self.hold)
+        """Write the library to ``path`` (.npz), atomically."""
+        arrays = {"starts": self.starts, "held": self.held, "hold": self.hold}
+        write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
 
     @classmethod
     def load(cls, path: Path) -> Library:
