@@ -82,8 +82,8 @@ class Library:
 
     def save(self, path: Path) -> None:
         """Write the library to ``path`` (.npz), atomically."""
-        arrays = {"starts": self.starts, "held": self.held, "hold": self.hold}
-        write_atomic(path, lambda f: np.savez_compressed(f, **arrays))
+        starts, held, hold = self.starts, self.held, np.asarray(self.hold)
+        write_atomic(path, lambda f: np.savez_compressed(f, starts=starts, held=held, hold=hold))
 
     @classmethod
     def load(cls, path: Path) -> Library:
