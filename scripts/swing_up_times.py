@@ -17,52 +17,44 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from acrobot_mj.control.replan import upright_targets
 from acrobot_mj.control.trajopt import Optimiser
-from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.olympics.controllers import shipped_swing_up
-from acrobot_mj.olympics.globaltest import GlobalTester
 from acrobot_mj.olympics.protocol import from_protocol
+from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT
-from acrobot_mj.physics.models import resolve
-from acrobot_mj.physics.xp import wrap_angle
 
 
-class Idle:
-    """A controller that never acts: only the protocol's reset moves the arm."""
+class FirstCall:
+    """A controller that never acts and keeps the first observation it is given."""
+
+    def __init__(self) -> None:
+        self.obs: np.ndarray | None = None
 
     def reset(self) -> None:
-        pass
+        self.obs = None
 
     def __call__(self, obs: np.ndarray) -> float:
+        if self.obs is None:
+            self.obs = np.array(obs, dtype=float)
         return 0.0
 
 
 def after_reset(model: str, target: np.ndarray) -> np.ndarray:
-    """The state [rad, rad/s] the protocol's reset to ``target`` (ours) leaves, from upright at
-    rest, stepped as :func:`acrobot_mj.olympics.run.global_run` steps it."""
-    policy, acrobot = protocol_for(model).global_policy, resolve(model)
-    tester = GlobalTester(Idle(), acrobot, target[None], np.array([0.0]), policy)
-    env = AcrobotEnv(model=model, continuous=True, task="balance")
-    obs, _ = env.reset(options={"state": UPRIGHT})
-    limit, t = acrobot.params.max_torque, 0.0
-    while True:
-        shoulder, elbow = tester(t, obs, env.state)
-        if not tester.resetting:
-            break
-        excess = elbow - float(np.clip(elbow, -limit, limit))
-        env.data.qfrc_applied[:] = (shoulder, excess)
-        obs = env.step(np.array([elbow - excess]))[0]
-        t += policy.dt
-    state = np.array(env.state, dtype=float)
-    env.close()
-    state[:2] = wrap_angle(state[:2])
-    return state
+    """The state [rad, rad/s; angles wrapped] the protocol's reset to ``target`` (ours) leaves,
+    from upright at rest: what the controller is first given after the reset."""
+    policy = protocol_for(model).global_policy
+    first = FirstCall()
+    reset_only = replace(policy, t_final=policy.reset_length + 10 * policy.dt)
+    global_run(first, model, target[None], np.array([0.0]), reset_only, start=UPRIGHT)
+    assert first.obs is not None
+    return first.obs
 
 
 def shortest(model: str, x0: np.ndarray, longest: float) -> float | None:

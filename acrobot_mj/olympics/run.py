@@ -83,17 +83,19 @@ def global_run(
     targets: np.ndarray,
     reset_times: np.ndarray,
     policy: GlobalPolicy = GLOBAL,
+    *,
+    start: np.ndarray = HANGING,
 ) -> Recording:
     """``controller`` (``reset()``, ``controller(obs) -> elbow torque``) for ``policy``'s
-    episode from hanging inside the protocol's testing controller (resets to ``targets`` at
-    ``reset_times``), both joints driven within ``policy``'s limits (the shoulder through
-    MuJoCo's ``qfrc_applied``: the env's motor drives the elbow only; a reset's elbow torque
-    beyond the motor's limit acts there too)."""
+    episode from ``start`` (the protocol's: hanging at rest) inside the protocol's testing
+    controller (resets to ``targets`` at ``reset_times``), both joints driven within
+    ``policy``'s limits (the shoulder through MuJoCo's ``qfrc_applied``: the env's motor drives
+    the elbow only; a reset's elbow torque beyond the motor's limit acts there too)."""
     acrobot = resolve(model)
     tester = GlobalTester(controller, acrobot, targets, reset_times, policy)
     env = AcrobotEnv(model=model, continuous=True, task="balance")
     times = protocol.episode_times(policy.t_final, policy.dt)
-    obs, _ = env.reset(options={"state": HANGING})
+    obs, _ = env.reset(options={"state": start})
     tester.reset()
     states, torques = [env.state], []
     limit = acrobot.params.max_torque
