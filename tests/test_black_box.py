@@ -29,10 +29,40 @@ STATES = np.column_stack([RNG.uniform(-np.pi, np.pi, (400, 2)), RNG.uniform(-5, 
 ACTIONS = RNG.uniform(-1, 1, 400)
 
 
-def a_model(harmonics: int = 2) -> LibraryModel:
+def a_model(harmonics: int = 2, substeps: int = 0) -> LibraryModel:
     weights = np.zeros((len(features(np.zeros(4), 0.0, harmonics)), 4))
     weights[RNG.choice(len(weights), 12, replace=False)] = RNG.normal(0, 0.01, (12, 4))
-    return LibraryModel(harmonics, weights)
+    # An ODE's weights are rates: the same numbers over 0.01 s substeps.
+    return (
+        LibraryModel(harmonics, weights / 0.01, substeps, 0.01)
+        if substeps
+        else LibraryModel(harmonics, weights)
+    )
+
+
+def field(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """A pendulum-like vector field written by hand, not through features(): 1, 1, 3 and 3
+    library terms of harmonics <= 2."""
+    q1, q2, v1, v2 = x.T
+    return np.column_stack(
+        [
+            v1,
+            v2,
+            3.0 * np.cos(q1) * u - 0.2 * np.sin(2 * q2) * v1 * v2 - 9.0 * np.sin(q1),
+            0.5 * np.cos(q1) * np.sin(q2) * v2 - 4.0 * np.sin(q1 + q2),
+        ]
+    )
+
+
+def rk4(x: np.ndarray, u: np.ndarray, h: float, n: int) -> np.ndarray:
+    """``n`` classical RK4 steps of ``h`` [s] of :func:`field`, written out again here."""
+    for _ in range(n):
+        k1 = field(x, u)
+        k2 = field(x + h / 2 * k1, u)
+        k3 = field(x + h / 2 * k2, u)
+        k4 = field(x + h * k3, u)
+        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return x
 
 
 # -- the library model ------------------------------------------------------------------------
@@ -51,8 +81,73 @@ def test_the_fit_recovers_a_sparse_law_in_its_span() -> None:
     assert np.count_nonzero(model.weights, axis=0).tolist() == [0, 0, 3, 1]
 
 
-def test_numpy_and_casadi_give_the_same_step_and_jacobians_match_differences() -> None:
-    model = a_model()
+def test_the_ode_fit_recovers_a_field_integrated_by_rk4_where_the_map_cannot() -> None:
+    after = rk4(STATES, ACTIONS, 0.02, 3)  # three RK4 steps of 0.02 s make one decision
+    ode = LibraryModel.fit(STATES, ACTIONS, after, harmonics=2, ode=(3, 0.02))
+    # Data in its span: the fixed point converges to rounding (measured 7e-15 on states ~5).
+    assert np.abs(ode.step(STATES, ACTIONS) - after).max() < 1e-11
+    assert np.count_nonzero(ode.weights, axis=0).tolist() == [1, 1, 3, 3]
+    assert ode.form == "ode"
+    # Three RK4 steps are no sum of library terms: the map misses by 0.014 (measured), and
+    # keeps most terms.
+    mapped = LibraryModel.fit(STATES, ACTIONS, after, harmonics=2)
+    assert np.abs(mapped.step(STATES, ACTIONS) - after).max() > 1e-3
+    assert mapped.form == "map" and mapped.terms > 100
+
+
+def test_the_ode_fit_recovers_a_rational_field() -> None:
+    # A field divided by 1 + 0.4 cos 2 q2, as a mass matrix's determinant divides an arm's.
+    def divided(x: np.ndarray, u: np.ndarray, h: float, n: int) -> np.ndarray:
+        for _ in range(n):
+            stage, ks = x, []
+            for advance in (0.5, 0.5, 1.0, 0.0):
+                k = field(stage, u)
+                k[:, 2:] /= (1.0 + 0.4 * np.cos(2.0 * stage[:, 1]))[:, None]
+                ks.append(k)
+                stage = x + h * advance * k
+            x = x + h / 6 * (ks[0] + 2 * ks[1] + 2 * ks[2] + ks[3])
+        return x
+
+    rng = np.random.default_rng(3)  # 1,500 transitions: 400 leave the fit on a wrong valley
+    states = np.column_stack([rng.uniform(-np.pi, np.pi, (1500, 2)), rng.uniform(-5, 5, (1500, 2))])
+    actions = rng.uniform(-1, 1, 1500)
+    after = divided(states, actions, 0.02, 3)
+    ode = LibraryModel.fit(states, actions, after, harmonics=2, ode=(3, 0.02))
+    # The ridge biases the fit by about 6e-7 (measured); the polynomial start misses by 1e-2.
+    assert np.abs(ode.step(states, actions) - after).max() < 1e-5
+    assert np.count_nonzero(ode.weights, axis=0).tolist() == [1, 1, 3, 3]
+    # The velocities' denominators are 1 + 0.4 cos 2 q2; the angles' stay 1 (the ridge).
+    q2 = np.linspace(-np.pi, np.pi, 7)
+    grid = np.column_stack([np.zeros(7), q2, np.zeros((7, 2))])
+    from acrobot_mj.control.library import denominator_design
+
+    bottom = 1.0 + denominator_design(grid) @ ode.bottoms
+    assert np.abs(bottom[:, 2:] - (1.0 + 0.4 * np.cos(2 * q2))[:, None]).max() < 1e-5
+    assert np.abs(bottom[:, :2] - 1.0).max() < 1e-9
+
+
+def test_the_learner_keeps_the_form_that_predicts_held_out_data_better() -> None:
+    from types import SimpleNamespace
+
+    from acrobot_mj.train.black_box import fit_model
+
+    # What fit_model reads of an env: a decision of 3 physics steps of 0.02 s.
+    env = SimpleNamespace(unwrapped=SimpleNamespace(frame_skip=3, dt=0.06))
+    after = rk4(STATES, ACTIONS, 0.02, 3)
+    data = {"states": STATES, "actions": ACTIONS, "next_states": after}
+    train, held = ({k: v[s] for k, v in data.items()} for s in (slice(300), slice(300, None)))
+    config = BlackBoxConfig(harmonics=2)
+    assert fit_model(train, held, config, env).form == "ode"  # type: ignore[arg-type]
+    assert fit_model(train, held, BlackBoxConfig(harmonics=2, form="map"), env).form == "map"  # type: ignore[arg-type]
+    # Data of a map: the map predicts it to rounding, the ODE cannot.
+    mapped = {**data, "next_states": a_model().step(STATES, ACTIONS)}
+    train, held = ({k: v[s] for k, v in mapped.items()} for s in (slice(300), slice(300, None)))
+    assert fit_model(train, held, config, env).form == "map"  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("substeps", [0, 3])
+def test_numpy_and_casadi_give_the_same_step_and_jacobians_match_differences(substeps) -> None:
+    model = a_model(substeps=substeps)
     for x, u in zip(STATES[:5], ACTIONS[:5], strict=True):
         symbolic = np.array(model.function(x, u, 0.0)).ravel()
         assert np.abs(symbolic - model.step(x, u)).max() < 1e-13  # one sum, another order
@@ -66,11 +161,16 @@ def test_numpy_and_casadi_give_the_same_step_and_jacobians_match_differences() -
         assert np.abs(column - b[:, 0]).max() < 1e-7
 
 
-def test_a_saved_model_predicts_the_same_and_a_bad_one_is_refused() -> None:
-    model = a_model()
+@pytest.mark.parametrize("substeps", [0, 3])
+def test_a_saved_model_predicts_the_same_and_a_bad_one_is_refused(substeps) -> None:
+    model = a_model(substeps=substeps)
     again = LibraryModel.from_dict(json.loads(json.dumps(model.to_dict())))
     assert np.array_equal(again.step(STATES, ACTIONS), model.step(STATES, ACTIONS))
-    assert again.terms == 12 == model.terms
+    assert again.terms == 12 == model.terms and again.form == model.form
+    # A record written before the ODE form is a map.
+    assert "substeps" not in a_model().to_dict()
+    with pytest.raises(ValueError, match="needs substeps > 0 and h > 0 s"):
+        LibraryModel(2, np.zeros((250, 4)), 3, 0.0)
     with pytest.raises(ValueError, match=r"needs finite weights of shape \(250, 4\)"):
         LibraryModel(2, np.zeros((249, 4)))
     with pytest.raises(ValueError, match="cannot fit 250 library terms"):

@@ -54,6 +54,11 @@ TOLD = (
 EXPLORATION_BRANCH = 0xB1AC
 #: Float64 arrays of the fit's design matrix's size that the fit holds at once (measured).
 FIT_COPIES = 3
+#: The same for the ODE's fit: four columns' sensitivities, a stage's terms and the solve's.
+ODE_FIT_COPIES = 9
+#: The ODE is fitted on at most this many transitions (the first): 4,500 fit four shipped
+#: acrobots to about 4e-5 rad/s, and each costs about 10 ms of Gauss-Newton (measured).
+ODE_TRANSITIONS = 5_000
 
 
 @dataclass(frozen=True)
@@ -71,7 +76,9 @@ class BlackBoxConfig(Settings):
         low=100,
         metavar="N",
     )
-    episode_decisions: int = setting(100, "decisions of each exploration episode", low=1, cli=False)
+    episode_decisions: int = setting(
+        100, "decisions of each exploration episode", low=1, metavar="N"
+    )
     harmonics: int = setting(
         HARMONICS, "Fourier harmonics of each angle in the library", low=1, high=8, cli=False
     )
@@ -109,6 +116,13 @@ class BlackBoxConfig(Settings):
         "the acrobot to learn: a shipped model's name or a .json/.toml file (default: the "
         "report's)",
         metavar="NAME|FILE",
+    )
+    form: str = setting(
+        "best",
+        "the model's form: map (x' = x + W' phi), ode (dx/dt = W' phi by RK4 over the decision's "
+        "physics steps) or best (the one that predicts the held-out tenth better)",
+        choices=("best", "map", "ode"),
+        cli=False,
     )
     decision_period: float = setting(
         REPORT.dt,
@@ -164,6 +178,8 @@ def check_fit(config: BlackBoxConfig) -> None:
             f"tenth), got {config.decisions}"
         )
     size = FIT_COPIES * 8.0 * terms * config.decisions
+    if config.form != "map":
+        size = max(size, ODE_FIT_COPIES * 8.0 * terms * min(config.decisions, ODE_TRANSITIONS))
     check_memory(f"the black box's fit of {config.decisions:,} decisions", size)
 
 
@@ -206,6 +222,35 @@ def explore(env: gym.Env, config: BlackBoxConfig, seed: int) -> dict[str, np.nda
             if terminated or truncated:
                 break
     return {name: np.asarray(values, dtype=np.float64) for name, values in rows.items()}
+
+
+def fit_model(
+    train: dict[str, np.ndarray], held: dict[str, np.ndarray], config: BlackBoxConfig, env: gym.Env
+) -> LibraryModel:
+    """The config's form of model fitted to ``train``; with ``best``, the map and the ODE whose
+    RK4 substeps are the decision's physics steps (the learner is told their seconds; fitted on
+    the first :data:`ODE_TRANSITIONS`), whichever predicts ``held`` with the smaller largest RMS
+    error."""
+    fields = ("states", "actions", "next_states")
+    skip = int(env.unwrapped.frame_skip)  # type: ignore[attr-defined]
+    shapes: dict[str, tuple[int, float] | None] = {
+        "map": None,
+        "ode": (skip, decision_seconds(env) / skip),
+    }
+    rows = {"map": slice(None), "ode": slice(ODE_TRANSITIONS)}
+    forms = list(shapes) if config.form == "best" else [config.form]
+    fitted = [
+        LibraryModel.fit(
+            train["states"][rows[f]],
+            train["actions"][rows[f]],
+            train["next_states"][rows[f]],
+            config.harmonics,
+            config.threshold,
+            shapes[f],
+        )
+        for f in forms
+    ]
+    return min(fitted, key=lambda m: max(m.errors(*(held[k] for k in fields))["rms"]))
 
 
 def decision_seconds(env: gym.Env) -> float:
@@ -307,13 +352,7 @@ class BlackBoxLearner(Learner):
         cut = fitted_share(len(data["actions"]))
         train, held = ({k: v[s] for k, v in data.items()} for s in (slice(cut), slice(cut, None)))
         fields = ("states", "actions", "next_states")
-        self.model = LibraryModel.fit(
-            train["states"],
-            train["actions"],
-            train["next_states"],
-            config.harmonics,
-            config.threshold,
-        )
+        self.model = fit_model(train, held, config, env)
         angles, reward_rms = best_angles(train["next_states"], train["rewards"], config.harmonics)
         goal = self.model.equilibrium(angles)
         start = env.reset(seed=self.seed)[0]
@@ -332,6 +371,7 @@ class BlackBoxLearner(Learner):
                 "held_out": len(held["actions"]),
             },
             "model": {
+                "form": self.model.form,
                 "terms": self.model.terms,
                 "held_out_errors": self.model.errors(*(held[k] for k in fields)),
                 "reward_rms": reward_rms,
