@@ -290,11 +290,11 @@ def swing_up(
     limits: AcrobotParams,
 ) -> Trajectory:
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
-    from ``start``, over the config's horizons, each warm-started from the model's rollout of
-    tiny random actions (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`)."""
-    optimiser = Optimiser(
-        config.reserve * limits.max_torque, "learned", limits, model, tuple(float(v) for v in start)
-    )
+    (an ODE by one RK4 step per decision: :meth:`~LibraryModel.coarse`) from ``start``, over
+    the config's horizons, each warm-started from the model's rollout of tiny random actions
+    (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`)."""
+    bound, at = config.reserve * limits.max_torque, tuple(float(v) for v in start)
+    optimiser = Optimiser(bound, "learned", limits, model.coarse(), at)
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
     for horizon in plan_horizons(config.horizons, limits.dt):
         warm = optimiser.tiny_torques(horizon)
