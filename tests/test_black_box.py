@@ -344,6 +344,16 @@ def test_the_report_is_the_default_model_and_a_bad_model_is_refused(tmp_path, ca
     assert "model must be one of" in capsys.readouterr().err
 
 
+def test_the_balance_and_black_box_presets_share_one_horizons_flag() -> None:
+    from acrobot_mj.cli import build_parser
+    from acrobot_mj.cli.learning import config_of
+
+    parser = build_parser()
+    for preset in ("black_box", "balance"):
+        args = parser.parse_args(["train", "--preset", preset, "--horizons", "20:200:20"])
+        assert config_of(args).horizons == (20, 200, 20)  # type: ignore[union-attr]
+
+
 def test_the_plan_horizons_are_the_same_seconds_at_any_decision() -> None:
     from acrobot_mj.train.black_box import plan_horizons
 

@@ -75,8 +75,11 @@ def add_train(commands: tools.Commands) -> None:
         "balance preset (identify, plan, TVLQR)",
         "black_box preset (told nothing of the equations)",
     )
+    added = set(field_names())
     for kind, title in zip(PRESET_KINDS, titles, strict=True):
-        names = [n for n in cli_names(kind) if n not in field_names()]
+        # A setting two presets share (--horizons) has one flag, its help the first one's.
+        names = [n for n in cli_names(kind) if n not in added]
+        added.update(names)
         add_arguments(p.add_argument_group(title), kind, names, typed=False)
 
 

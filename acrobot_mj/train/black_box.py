@@ -99,7 +99,6 @@ class BlackBoxConfig(Settings):
         "decisions",
         low=1,
         sep=":",
-        cli=False,
     )
     seconds: float = setting(
         100.0,
