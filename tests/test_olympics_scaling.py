@@ -181,3 +181,30 @@ def test_feedback_run_as_the_controller(tmp_path: Path) -> None:
     record = read_olympics(out)
     assert record["performance"]["success"]
     assert record["global"]["score"] > 0.0
+
+
+class _Counting:
+    """A feedback that answers 2 N m x its call count and keeps the torques it is told."""
+
+    def __init__(self) -> None:
+        self.calls, self.told = 0, []
+
+    def fresh(self) -> _Counting:
+        return _Counting()
+
+    def __call__(self, obs: object) -> float:
+        self.calls += 1
+        return 2.0 * self.calls
+
+    def record(self, torque: float) -> None:
+        self.told.append(torque)
+
+
+def test_a_run_that_decides_every_few_steps_holds_its_torque_between() -> None:
+    controller = trained.RunController(_Counting(), limit=5.0, every=5)
+    torques = [controller([0.0] * 4) for _ in range(12)]
+    # Asked at calls 0, 5 and 10 (2, 4, 6 N m, the last clipped to the 5 N m limit).
+    assert torques == [2.0] * 5 + [4.0] * 5 + [5.0] * 2
+    assert controller.current.told == [2.0, 4.0, 5.0]
+    controller.reset()  # a new episode asks at once, from a fresh feedback
+    assert controller([0.0] * 4) == 2.0 and controller.current.calls == 1

@@ -59,20 +59,25 @@ def check(entry: str, model: str) -> None:
 
 class RunController:
     """A run's state feedback as an entry: ``reset()`` starts a fresh copy; ``controller(obs)``
-    is the elbow torque [N m] within the model's limit, the feedback told each torque."""
+    is the elbow torque [N m] within the model's limit, the feedback told each torque. A run
+    that decides every ``every`` physics steps (the black box on RealAIGym's acrobot: 0.01 s)
+    is asked every ``every`` calls, its torque held in between."""
 
-    def __init__(self, feedback: Any, limit: float) -> None:
-        self.feedback, self.limit = feedback, limit
-        self.current = feedback.fresh()
+    def __init__(self, feedback: Any, limit: float, every: int = 1) -> None:
+        self.feedback, self.limit, self.every = feedback, limit, every
+        self.reset()
 
     def reset(self) -> None:
         """A new episode: a fresh copy of the feedback, with no memory."""
-        self.current = self.feedback.fresh()
+        self.current, self.calls, self.held = self.feedback.fresh(), 0, 0.0
 
     def __call__(self, obs: np.ndarray) -> float:
-        u = float(np.clip(self.current(np.asarray(obs, dtype=float)), -self.limit, self.limit))
-        self.current.record(u)
-        return u
+        if self.calls % self.every == 0:
+            u = self.current(np.asarray(obs, dtype=float))
+            self.held = float(np.clip(u, -self.limit, self.limit))
+            self.current.record(self.held)
+        self.calls += 1
+        return self.held
 
 
 def _build(run_dir: str, model: str) -> RunController:
@@ -80,7 +85,9 @@ def _build(run_dir: str, model: str) -> RunController:
 
     learner: Any = load_learner(run_dir)
     feedback = learner.feedback() if hasattr(learner, "feedback") else learner.controller
-    return RunController(feedback, resolve(model).params.max_torque)
+    params = resolve(model).params
+    decision = learner.trajectory.dt if hasattr(learner, "trajectory") else params.dt
+    return RunController(feedback, params.max_torque, max(1, round(decision / params.dt)))
 
 
 def build(entry: str, model: str) -> Any:
