@@ -289,8 +289,9 @@ def swing_up(
     limits: AcrobotParams,
 ) -> Trajectory:
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
-    (an ODE by one RK4 step per decision: :meth:`~LibraryModel.coarse`) from ``start``, over
-    the config's horizons, each warm-started from the model's rollout of tiny random actions
+    (an ODE by one RK4 step per decision:
+    :meth:`~acrobot_mj.control.library.LibraryModel.coarse`) from ``start``, over the config's
+    horizons, each warm-started from the model's rollout of tiny random actions
     (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`)."""
     bound, at = config.reserve * limits.max_torque, tuple(float(v) for v in start)
     optimiser = Optimiser(bound, "learned", limits, model.coarse(), at)
