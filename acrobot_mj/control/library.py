@@ -31,6 +31,11 @@ def angle_terms(angle: Any, harmonics: int, xp: Any) -> list[Any]:
     return [1.0] + [f(k * angle) for k in range(1, harmonics + 1) for f in (xp.cos, xp.sin)]
 
 
+def angle_products(q1: Any, q2: Any, harmonics: int, xp: Any) -> list[Any]:
+    """Every product of :func:`angle_terms` of ``q1`` with those of ``q2`` (the constant first)."""
+    return [a * b for a in angle_terms(q1, harmonics, xp) for b in angle_terms(q2, harmonics, xp)]
+
+
 def monomial_terms(v1: Any, v2: Any, u: Any) -> list[Any]:
     """The monomials of degree <= 2 in the velocities and the action."""
     return [1.0, v1, v2, u, v1 * v1, v1 * v2, v2 * v2, v1 * u, v2 * u, u * u]
@@ -40,7 +45,7 @@ def features(x: Any, u: Any, harmonics: int, xp: Any = np) -> list[Any]:
     """``phi(x, u)``: ``(1 + 2H)^2 * 10`` terms of state ``x`` (four numbers, rows or symbols)
     and action ``u``."""
     q1, q2, v1, v2 = (x[i] for i in range(4))
-    angles = [a * b for a in angle_terms(q1, harmonics, xp) for b in angle_terms(q2, harmonics, xp)]
+    angles = angle_products(q1, q2, harmonics, xp)
     return [a * m for a in angles for m in monomial_terms(v1, v2, u)]
 
 
@@ -384,11 +389,7 @@ class LibraryModel:
         if not self.substeps:
             weighted = casadi.Function("weighted", [x, u], [top])
             return casadi.Function("step", [x, u, h], [x + weighted(x, u)])
-        angles = [
-            a * b
-            for a in angle_terms(x[0], DENOMINATOR_HARMONICS, casadi)
-            for b in angle_terms(x[1], DENOMINATOR_HARMONICS, casadi)
-        ][1:]
+        angles = angle_products(x[0], x[1], DENOMINATOR_HARMONICS, casadi)[1:]
         bottom = 1.0 + casadi.mtimes(self.bottoms.T, casadi.vertcat(*angles))
         weighted = casadi.Function("weighted", [x, u], [top / bottom])
         end, dt = x, self.h
@@ -460,7 +461,7 @@ class LibraryModel:
 def reward_terms(states: np.ndarray, harmonics: int) -> np.ndarray:
     """The angle part of :func:`features` of rows (angles first): ``(n, (1 + 2H)^2)``."""
     q1, q2 = np.asarray(states, dtype=np.float64)[:, :2].T
-    terms = [a * b for a in angle_terms(q1, harmonics, np) for b in angle_terms(q2, harmonics, np)]
+    terms = angle_products(q1, q2, harmonics, np)
     return np.stack(np.broadcast_arrays(*terms), axis=1)
 
 
