@@ -12,6 +12,7 @@ model the data fitted."""
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -72,14 +73,19 @@ def increments(states: np.ndarray, next_states: np.ndarray) -> np.ndarray:
     return delta
 
 
+def unit_columns(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``a`` with each column divided by its RMS (an all-zero column by 1), and those RMS."""
+    scale = np.sqrt(np.mean(a * a, axis=0))
+    scale[scale == 0.0] = 1.0
+    return a / scale, scale
+
+
 def thresholded_least_squares(
     a: np.ndarray, b: np.ndarray, threshold: float, rounds: int = 5
 ) -> np.ndarray:
     """``W`` minimising ``|a W - b|`` column by column, the terms with ``|W| rms(a) <
     threshold`` dropped and the rest refitted, ``rounds`` times."""
-    scale = np.sqrt(np.mean(a * a, axis=0))
-    scale[scale == 0.0] = 1.0
-    scaled = a / scale
+    scaled, scale = unit_columns(a)
     weights = np.linalg.lstsq(scaled, b, rcond=None)[0]
     for _ in range(rounds):
         keep = np.abs(weights) >= threshold
@@ -107,9 +113,8 @@ RIDGE = 1e-8
 
 def scaled_least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``W`` minimising ``|a W - b|``, the columns of ``a`` scaled to unit RMS."""
-    scale = np.sqrt(np.mean(a * a, axis=0))
-    scale[scale == 0.0] = 1.0
-    return np.linalg.lstsq(a / scale, b, rcond=None)[0] / scale[:, None]
+    scaled, scale = unit_columns(a)
+    return np.linalg.lstsq(scaled, b, rcond=None)[0] / scale[:, None]
 
 
 def denominator_design(states: np.ndarray) -> np.ndarray:
@@ -135,6 +140,17 @@ def rates(
 RK4 = ((1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0))
 
 
+def rk4_step(rate: Callable[[Any], Any], x: Any, h: float) -> Any:
+    """One classical RK4 step of ``h`` [s] of ``dx/dt = rate(x)`` from ``x`` (rows or CasADi
+    symbols)."""
+    stage, total = x, 0.0
+    for weight, advance in RK4:
+        k = rate(stage)
+        total = total + weight * k
+        stage = x + (h * advance) * k
+    return x + h / 6.0 * total
+
+
 @dataclass(frozen=True)
 class Substeps:
     """One decision as ``n`` RK4 steps of ``h`` [s] of a library model's ``harmonics``."""
@@ -152,14 +168,11 @@ def rk4_end(
     steps: Substeps,
 ) -> np.ndarray:
     """``steps`` of :func:`rates` from rows ``states``."""
-    x, h = np.asarray(states, dtype=np.float64), steps.h
+    x = np.asarray(states, dtype=np.float64)
     for _ in range(steps.n):
-        stage, total = x, np.zeros_like(x)
-        for weight, advance in RK4:
-            k = rates(stage, actions, weights, denominators, steps.harmonics)[0]
-            total = total + weight * k
-            stage = x + (h * advance) * k
-        x = x + h / 6.0 * total
+        x = rk4_step(
+            lambda s: rates(s, actions, weights, denominators, steps.harmonics)[0], x, steps.h
+        )
     return x
 
 
@@ -201,8 +214,7 @@ def gauss_newton_step(
         jacobian = np.hstack([by_top[i], by_bottom[i]])
         prior = np.zeros((len(denominators), jacobian.shape[1]))
         prior[:, count:] = ridge * np.eye(len(denominators))
-        scale = np.sqrt(np.mean(jacobian * jacobian, axis=0))
-        scale[scale == 0.0] = 1.0
+        scale = unit_columns(jacobian)[1]
         rows = np.vstack([jacobian, prior]) / scale
         target = np.concatenate([miss[:, i], -ridge * denominators[:, i]])
         step[:, i] = np.linalg.lstsq(rows, target, rcond=None)[0] / scale
@@ -392,13 +404,9 @@ class LibraryModel:
         angles = angle_products(x[0], x[1], DENOMINATOR_HARMONICS, casadi)[1:]
         bottom = 1.0 + casadi.mtimes(self.bottoms.T, casadi.vertcat(*angles))
         weighted = casadi.Function("weighted", [x, u], [top / bottom])
-        end, dt = x, self.h
+        end = x
         for _ in range(self.substeps):
-            k1 = weighted(end, u)
-            k2 = weighted(end + dt / 2 * k1, u)
-            k3 = weighted(end + dt / 2 * k2, u)
-            k4 = weighted(end + dt * k3, u)
-            end = end + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            end = rk4_step(lambda s: weighted(s, u), end, self.h)
         return casadi.Function("step", [x, u, h], [end])
 
     @functools.cached_property
