@@ -258,31 +258,50 @@ def box_qp(h: np.ndarray, f: np.ndarray, limit: float) -> np.ndarray:
     raise RuntimeError("the box-constrained QP did not converge")
 
 
+def condensed(lqr: LQR, horizon: int) -> tuple[np.ndarray, np.ndarray]:
+    """The constrained LQR's QP over ``horizon`` steps of ``lqr``'s linear model, condensed to
+    the torques: its Hessian ``H`` and ``F`` of its linear term ``F e_0`` in the start's error."""
+    a, b, q = lqr.a, lqr.b, np.diag(lqr.q)
+    # The errors e_1..e_N as ``Phi e_0 + Gamma u``: powers of A, and A^(k-1-j) B.
+    powers = [np.eye(4)]
+    for _ in range(horizon):
+        powers.append(a @ powers[-1])
+    phi = np.stack(powers[1:])
+    gamma = np.zeros((horizon, 4, horizon))
+    for k in range(horizon):
+        for j in range(k + 1):
+            gamma[k, :, j] = (powers[k - j] @ b)[:, 0]
+    weights = np.stack([q] * (horizon - 1) + [lqr.cost])
+    hessian = lqr.r * np.eye(horizon) + np.einsum("kim,kij,kjn->mn", gamma, weights, gamma)
+    return hessian, np.einsum("kim,kij,kjn->mn", gamma, weights, phi)
+
+
+#: The largest condition number of the constrained LQR's QP. Condensed over ``N`` steps its
+#: Hessian grows as the unstable mode's ``|lambda|^(2N)``: on Gymnasium's acrobot (0.2 s steps,
+#: ``|lambda|`` 1.74) 40 steps give 1e21 and a first torque 110 N m off the LQR's, 15 steps give
+#: 7e8 and 2e-6 N m; the report's 40 steps give 1.8e6 (measured).
+MAX_CONDITION = 1e8
+
+
 class MPC:
     """The constrained LQR at ``lqr``'s target: over ``horizon`` steps of its linear model it
     minimises ``sum e' Q e + r u^2`` plus its cost-to-go ``e' S e`` at the end, subject to
     ``|u| <= max_torque`` N m, and applies the first torque (linear MPC). Where no torque of the
     plan saturates this is the LQR exactly; where they saturate it uses the torque it has, so
     its basin approaches the :class:`NullRegion` (measured: docs/guide/balance.md). A function
-    of the state alone: it keeps no memory between calls."""
+    of the state alone: it keeps no memory between calls. ``horizon`` is shortened to the longest
+    whose QP has a condition number within :data:`MAX_CONDITION` (only where the unstable mode
+    grows fast over a step)."""
 
     def __init__(self, lqr: LQR, horizon: int = 40) -> None:
         if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
             raise ValueError(f"horizon must be a positive number of steps, got {horizon!r}")
-        self.lqr, self.horizon, self.limit = lqr, horizon, lqr.p.max_torque
-        a, b, q = lqr.a, lqr.b, np.diag(lqr.q)
-        # The errors e_1..e_N as ``Phi e_0 + Gamma u``: powers of A, and A^(k-1-j) B.
-        powers = [np.eye(4)]
-        for _ in range(horizon):
-            powers.append(a @ powers[-1])
-        phi = np.stack(powers[1:])
-        gamma = np.zeros((horizon, 4, horizon))
-        for k in range(horizon):
-            for j in range(k + 1):
-                gamma[k, :, j] = (powers[k - j] @ b)[:, 0]
-        weights = np.stack([q] * (horizon - 1) + [lqr.cost])
-        self.hessian = lqr.r * np.eye(horizon) + np.einsum("kim,kij,kjn->mn", gamma, weights, gamma)
-        self.linear_term = np.einsum("kim,kij,kjn->mn", gamma, weights, phi)  # f = F e_0
+        self.lqr, self.limit = lqr, lqr.p.max_torque
+        self.hessian, self.linear_term = condensed(lqr, horizon)
+        while horizon > 1 and np.linalg.cond(self.hessian) > MAX_CONDITION:
+            horizon -= 1
+            self.hessian, self.linear_term = condensed(lqr, horizon)
+        self.horizon = horizon
         self.free = -np.linalg.solve(self.hessian, self.linear_term)  # the plan with no bound
 
     def plan(self, x: np.ndarray) -> tuple[np.ndarray, bool]:
