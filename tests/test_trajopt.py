@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acrobot_mj.control.trajopt import TOLERANCE, shipped
+from acrobot_mj.control.trajopt import TOLERANCE, miss, shipped, waiting
 from acrobot_mj.physics import integrators
 
 casadi = pytest.importorskip("casadi", reason="trajectory optimisation needs the control extra")
@@ -122,3 +122,18 @@ def test_a_signal_during_a_solve_stops_it_and_is_raised() -> None:
         assert signal.getsignal(signal.SIGTERM) is stop  # the caller's handler is back
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_path_led_by_a_wait_at_rest_is_as_feasible_as_the_path() -> None:
+    # The shipped swing-up starts hanging at rest, an equilibrium: waiting there with zero torque
+    # and then following the plan is a path of the model too (the black box's continuation).
+    path = shipped("reserve")
+    states, torques = waiting(path.states, path.torques, path.steps + 40)
+    assert len(torques) == path.steps + 40 and not torques[:40].any()
+    np.testing.assert_array_equal(states[40:], path.states)
+    replay = integrators.simulate(states[0], torques, path.method, path.params)
+    plain = integrators.simulate(path.states[0], path.torques, path.method, path.params)
+    # The wait adds rounding only: the two replays end 5e-10 apart (measured), 1e-8 allows
+    # for another machine's; a wait that moved the arm would leave it radians off.
+    assert np.abs(replay[-1] - plain[-1]).max() < 1e-8
+    assert miss(states, path.states[-1]) == 0.0

@@ -283,13 +283,21 @@ class Optimiser:
             us.append(u)
         return np.array(xs), np.array(us)
 
-    def approach(self, target: np.ndarray, warm: Arrays) -> tuple[Arrays | None, Arrays | None]:
-        """``(nearest to target, exact if the nearest is within 0.1)``, None where not found."""
+    def reach(self, target: np.ndarray, warm: Arrays) -> tuple[Arrays, Arrays | None]:
+        """``(nearest to target, exact if the nearest ends within`` :data:`NEAR` ``of it)``, the
+        exact None where not found."""
         near = self.solve(target, warm, "closest")
-        if near is None or np.abs(near[0][-1] - target).max() > 0.1:
-            return None, None
+        assert near is not None  # "closest" answers with the nearest point IPOPT found
+        if miss(near[0], target) > NEAR:
+            return near[:2], None
         exact = self.solve(target, near[:2])
         return near[:2], None if exact is None else exact[:2]
+
+    def approach(self, target: np.ndarray, warm: Arrays) -> tuple[Arrays | None, Arrays | None]:
+        """``(nearest to target, exact if the nearest is within`` :data:`NEAR` ``)``, None where
+        not found."""
+        near, exact = self.reach(target, warm)
+        return (None, None) if miss(near[0], target) > NEAR else (near, exact)
 
     def shorten(self, target: np.ndarray, start: Arrays) -> Arrays | None:
         """The free-time optimum near ``start``, rounded up to whole steps."""
@@ -328,6 +336,25 @@ class Optimiser:
 
     def trajectory(self, path: Arrays) -> Trajectory:
         return Trajectory(path[0], path[1], self.p.dt, self.method, self.u_max, self.p)
+
+
+#: How near [rad, rad/s] the nearest path must end to the target for the exact solve to start
+#: from it.
+NEAR = 0.1
+
+
+def miss(states: np.ndarray, target: np.ndarray) -> float:
+    """How far the path ``states`` ends from ``target``: the largest difference."""
+    return float(np.abs(states[-1] - target).max())
+
+
+def waiting(states: np.ndarray, torques: np.ndarray, horizon: int) -> Arrays:
+    """The path stretched to ``horizon`` steps by first waiting at its start with zero torque:
+    as feasible as the path where its start is a rest point (a warm start for a longer plan)."""
+    wait = horizon - len(torques)
+    return np.vstack([np.repeat(states[:1], wait, axis=0), states]), np.concatenate(
+        [np.zeros(wait), torques]
+    )
 
 
 def resample(states: np.ndarray, torques: np.ndarray, horizon: int) -> Arrays:

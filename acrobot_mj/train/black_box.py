@@ -27,7 +27,7 @@ from acrobot_mj.control.library import (
     features,
 )
 from acrobot_mj.control.lqr import LQR
-from acrobot_mj.control.trajopt import Optimiser, Trajectory
+from acrobot_mj.control.trajopt import Arrays, Optimiser, Trajectory, miss, waiting
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
 from acrobot_mj.envs.rollout import Actor
@@ -291,17 +291,25 @@ def swing_up(
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
     (an ODE by one RK4 step per decision:
     :meth:`~acrobot_mj.control.library.LibraryModel.coarse`) from ``start``, over the config's
-    horizons, each warm-started from the model's rollout of tiny random actions
-    (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`)."""
+    horizons. Each is warm-started from the model's rollout of tiny random actions
+    (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`), then, if that fails, from the
+    nearest path found so far led by a wait at the start
+    (:func:`~acrobot_mj.control.trajopt.waiting`; a continuation in the horizon)."""
     bound, at = config.reserve * limits.max_torque, tuple(float(v) for v in start)
     optimiser = Optimiser(bound, "learned", limits, model.coarse(), at)
     goals = [goal + np.array([0.0, turn, 0.0, 0.0]) for turn in (0.0, 2 * np.pi, -2 * np.pi)]
+    nearest: tuple[float, Arrays, np.ndarray] | None = None  # (miss, path, its target)
     for horizon in plan_horizons(config.horizons, limits.dt):
-        warm = optimiser.tiny_torques(horizon)
-        for target in goals:
-            found = optimiser.approach(target, warm)[1]
-            if found is not None:
-                return optimiser.trajectory(found)
+        tries = [(optimiser.tiny_torques(horizon), goals)]
+        if nearest is not None:
+            tries.append((waiting(*nearest[1], horizon), [nearest[2]]))
+        for warm, targets in tries:
+            for target in targets:
+                near, found = optimiser.reach(target, warm)
+                if found is not None:
+                    return optimiser.trajectory(found)
+                if nearest is None or miss(near[0], target) < nearest[0]:
+                    nearest = (miss(near[0], target), near, target)
     raise ValueError(f"no swing-up found on the learnt model over horizons {config.horizons}")
 
 
