@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
@@ -19,13 +20,9 @@ import numpy as np
 
 from acrobot_mj.checks import check_memory
 from acrobot_mj.control.feedback import FunnelController
-from acrobot_mj.control.library import (
-    HARMONICS,
-    THRESHOLD,
-    LibraryModel,
-    best_angles,
-    features,
-)
+from acrobot_mj.control.library import LibraryModel, best_angles, library_size
+from acrobot_mj.control.library_fit import THRESHOLD
+from acrobot_mj.control.library_terms import DENOMINATOR_TERMS, HARMONICS
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Arrays, Optimiser, Trajectory, miss, waiting
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
@@ -80,7 +77,7 @@ class BlackBoxConfig(Settings):
         100, "decisions of each exploration episode", low=1, metavar="N"
     )
     harmonics: int = setting(
-        HARMONICS, "Fourier harmonics of each angle in the library", low=1, high=8, cli=False
+        HARMONICS, "Fourier harmonics of each angle in the library", low=1, high=8
     )
     threshold: float = setting(
         THRESHOLD, "library terms below this are dropped (SINDy)", low=0.0, high=1.0, cli=False
@@ -118,10 +115,10 @@ class BlackBoxConfig(Settings):
     )
     form: str = setting(
         "best",
-        "the model's form: map (x' = x + W' phi), ode (dx/dt = W' phi by RK4 over the decision's "
-        "physics steps) or best (the one that predicts the held-out tenth better)",
-        choices=("best", "map", "ode"),
-        cli=False,
+        "the model's form: map (x' = x + W' phi), rational (x' = x + W' phi / (1 + w' psi(q))), "
+        "ode (dx/dt = W' phi / (1 + w' psi(q)) by RK4 over the decision's physics steps) or "
+        "best (the map or the ODE, whichever predicts the held-out tenth better)",
+        choices=("best", "map", "rational", "ode"),
     )
     decision_period: float = setting(
         REPORT.dt,
@@ -145,10 +142,10 @@ class BlackBoxConfig(Settings):
             raise SettingError(f"config model: {error}") from None
 
 
-def library_terms(harmonics: int) -> int:
+def library_terms(harmonics: int, form: str = "map") -> int:
     """How many terms the library of ``harmonics`` has
-    (:func:`~acrobot_mj.control.library.features`)."""
-    return len(features(np.zeros(4), 0.0, harmonics))
+    (:func:`~acrobot_mj.control.library.library_size`), and a rational map's denominators."""
+    return library_size(harmonics) + (DENOMINATOR_TERMS if form == "rational" else 0)
 
 
 def fitted_share(decisions: int) -> int:
@@ -156,10 +153,10 @@ def fitted_share(decisions: int) -> int:
     return int(0.9 * decisions)
 
 
-def fewest_decisions(harmonics: int) -> int:
-    """The fewest decisions whose fitted share holds as many transitions as the library has
-    terms."""
-    terms = library_terms(harmonics)
+def fewest_decisions(harmonics: int, form: str = "map") -> int:
+    """The fewest decisions whose fitted share holds as many transitions as the ``form``'s
+    library has terms."""
+    terms = library_terms(harmonics, form)
     least = math.ceil(terms / 0.9)
     while fitted_share(least) < terms:
         least += 1
@@ -169,7 +166,8 @@ def fewest_decisions(harmonics: int) -> int:
 def check_fit(config: BlackBoxConfig) -> None:
     """Refuse, before any work, a fit that cannot be: fewer decisions than the library's terms
     need, or more than free memory holds."""
-    terms, least = library_terms(config.harmonics), fewest_decisions(config.harmonics)
+    terms = library_terms(config.harmonics, config.form)
+    least = fewest_decisions(config.harmonics, config.form)
     if config.decisions < least:
         raise ValueError(
             f"config decisions must be >= {least} with {config.harmonics} harmonics (the "
@@ -177,7 +175,7 @@ def check_fit(config: BlackBoxConfig) -> None:
             f"tenth), got {config.decisions}"
         )
     size = FIT_COPIES * 8.0 * terms * config.decisions
-    if config.form != "map":
+    if config.form in ("best", "ode"):
         size = max(size, ODE_FIT_COPIES * 8.0 * terms * min(config.decisions, ODE_TRANSITIONS))
     check_memory(f"the black box's fit of {config.decisions:,} decisions", size)
 
@@ -232,20 +230,21 @@ def fit_model(
     error."""
     fields = ("states", "actions", "next_states")
     skip = int(env.unwrapped.frame_skip)  # type: ignore[attr-defined]
-    shapes: dict[str, tuple[int, float] | None] = {
-        "map": None,
-        "ode": (skip, decision_seconds(env) / skip),
+    ode = (skip, decision_seconds(env) / skip)
+    fits: dict[str, Callable[..., LibraryModel]] = {
+        "map": LibraryModel.fit,
+        "rational": LibraryModel.fit_rational,
+        "ode": lambda *rows: LibraryModel.fit(*rows, ode=ode),
     }
-    rows = {"map": slice(None), "ode": slice(ODE_TRANSITIONS)}
-    forms = list(shapes) if config.form == "best" else [config.form]
+    rows = {"map": slice(None), "rational": slice(None), "ode": slice(ODE_TRANSITIONS)}
+    forms = ["map", "ode"] if config.form == "best" else [config.form]
     fitted = [
-        LibraryModel.fit(
+        fits[f](
             train["states"][rows[f]],
             train["actions"][rows[f]],
             train["next_states"][rows[f]],
             config.harmonics,
             config.threshold,
-            shapes[f],
         )
         for f in forms
     ]
