@@ -40,15 +40,17 @@ from acrobot_mj.control.library_terms import (
 
 
 def library_size(harmonics: int) -> int:
-    """How many terms :func:`features` of ``harmonics`` has: ``(1 + 2H)^2 * 10``."""
+    """How many terms :func:`~acrobot_mj.control.library_terms.features` of ``harmonics``
+    has: ``(1 + 2H)^2 * 10``."""
     return len(features(np.zeros(4), 0.0, harmonics))
 
 
 def transitions(
     states: np.ndarray, actions: np.ndarray, next_states: np.ndarray, terms: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """States and actions as floats and the increments (:func:`increments`), refused where
-    fewer than the ``terms`` a fit solves for."""
+    """States and actions as floats and the increments
+    (:func:`~acrobot_mj.control.library_terms.increments`), refused where fewer than the
+    ``terms`` a fit solves for."""
     states, actions = np.asarray(states, dtype=np.float64), np.asarray(actions, dtype=np.float64)
     if len(states) < terms:
         raise ValueError(f"{len(states)} transitions cannot fit {terms} library terms")
@@ -60,8 +62,9 @@ class LibraryModel:
     """``x' = x + (weights' phi(x, u)) / (1 + denominators' psi(q))`` (``substeps`` 0: a map,
     rational where it has denominators), or ``dx/dt = (weights' phi(x, u)) / (1 +
     denominators' psi(q))`` integrated by ``substeps`` RK4 steps of ``h`` [s] (an ODE):
-    ``weights`` ``(features, 4)`` over :func:`features` of ``harmonics``, ``denominators`` ``(24,
-    4)`` over :func:`denominator_design` (None: all 1)."""
+    ``weights`` ``(features, 4)`` over :func:`~acrobot_mj.control.library_terms.features` of
+    ``harmonics``, ``denominators`` ``(24, 4)`` over
+    :func:`~acrobot_mj.control.library_terms.denominator_design` (None: all 1)."""
 
     harmonics: int
     weights: np.ndarray
@@ -124,7 +127,7 @@ class LibraryModel:
     ) -> LibraryModel:
         """The model of the transitions ``(states[i], actions[i], next_states[i])``: a map, or
         with ``ode = (substeps, h)`` an ODE of that many RK4 steps of ``h`` [s]
-        (:func:`ode_fit`)."""
+        (:func:`~acrobot_mj.control.library_fit.ode_fit`)."""
         states, actions, delta = transitions(states, actions, next_states, library_size(harmonics))
         if ode is not None:
             substeps, h = ode
@@ -143,7 +146,8 @@ class LibraryModel:
         harmonics: int = HARMONICS,
         threshold: float = THRESHOLD,
     ) -> LibraryModel:
-        """The map with denominators of the transitions (:func:`rational_fit`)."""
+        """The map with denominators of the transitions
+        (:func:`~acrobot_mj.control.library_fit.rational_fit`)."""
         terms = library_size(harmonics) + DENOMINATOR_TERMS
         states, actions, delta = transitions(states, actions, next_states, terms)
         phi, psi = design(states, actions, harmonics), denominator_design(states)

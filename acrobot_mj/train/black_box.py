@@ -8,6 +8,7 @@ learnt model's state at rest of highest learnt reward, plans a swing-up to it on
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -234,7 +235,7 @@ def fit_model(
     fits: dict[str, Callable[..., LibraryModel]] = {
         "map": LibraryModel.fit,
         "rational": LibraryModel.fit_rational,
-        "ode": lambda *rows: LibraryModel.fit(*rows, ode=ode),
+        "ode": functools.partial(LibraryModel.fit, ode=ode),
     }
     rows = {"map": slice(None), "rational": slice(None), "ode": slice(ODE_TRANSITIONS)}
     forms = ["map", "ode"] if config.form == "best" else [config.form]
