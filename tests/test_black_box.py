@@ -299,7 +299,9 @@ def test_bad_settings_are_refused(settings, words) -> None:
 
 def test_a_rational_fit_needs_transitions_for_its_denominators_too() -> None:
     check_fit(BlackBoxConfig(decisions=927, form="rational"))  # 834 fitted: 810 + 24 terms
-    with pytest.raises(ValueError, match=r">= 927 with 4 harmonics \(the fit's 834 library"):
+    with pytest.raises(
+        ValueError, match=r">= 927 with 4 harmonics and form rational \(the fit's 834 terms"
+    ):
         check_fit(BlackBoxConfig(decisions=926, form="rational"))
     with pytest.raises(ValueError, match="form"):
         BlackBoxConfig(form="polynomial")
@@ -417,6 +419,45 @@ def test_the_plan_horizons_are_the_same_seconds_at_any_decision() -> None:
     assert plan_horizons((440, 800, 40), 0.05) == list(range(440, 800, 40))  # the report's
     assert plan_horizons((440, 800, 40), 0.2) == list(range(110, 200, 10))  # 22 to 39.5 s
     assert plan_horizons((1, 4, 1), 0.2) == [1]  # rounded up to one decision, each once
+
+
+def test_a_failed_horizon_is_tried_again_from_the_nearest_path_led_by_a_wait(monkeypatch) -> None:
+    # A stand-in optimiser records each solve: every path from tiny actions misses, the 10-step
+    # one by 0.5 rad towards the goal itself; the 20-step plan comes from that path led by a wait
+    # (as dm_control's did: tiny actions at 12 s ended 0.82 rad away, the continuation found it).
+    from acrobot_mj.physics.params import AcrobotParams
+    from acrobot_mj.train import black_box
+
+    calls: list[tuple[int, bool, float]] = []
+
+    class Stand:
+        def __init__(self, *args: object) -> None:
+            pass
+
+        def tiny_torques(self, horizon: int):
+            return np.zeros((horizon + 1, 4)), np.full(horizon, 0.01)
+
+        def reach(self, target: np.ndarray, warm):
+            horizon, waited = len(warm[1]), not warm[1][0]
+            calls.append((horizon, waited, float(target[1])))
+            states = np.repeat(target[None], horizon + 1, axis=0)
+            if waited:
+                return (states, warm[1]), (states, warm[1])
+            states[-1, 0] += 0.5 if (horizon, target[1]) == (10, goal[1]) else 2.0
+            return (states, warm[1]), None
+
+        def trajectory(self, path):
+            return path
+
+    monkeypatch.setattr(black_box, "Optimiser", Stand)
+    goal = np.array([np.pi / 2, 0.0, 0.0, 0.0])
+    config, limits = BlackBoxConfig(horizons=(10, 30, 10)), AcrobotParams(dt=0.05)
+    plan = black_box.swing_up(a_model(), np.zeros(4), goal, config, limits)
+    turns = [0.0, 2 * np.pi, -2 * np.pi]
+    assert calls == [(10, False, t) for t in turns] + [(20, False, t) for t in turns] + [
+        (20, True, 0.0)
+    ]
+    assert not plan[1][:10].any() and (plan[1][10:] == 0.01).all()  # waits 10, then the path
 
 
 def test_a_model_with_no_velocity_limits_is_saved_and_read_again(tmp_path) -> None:

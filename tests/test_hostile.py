@@ -256,7 +256,10 @@ def test_a_stop_while_the_feedback_video_renders_says_the_run_is_whole(tmp_path)
 @pytest.mark.parametrize(
     ("decisions", "says"),
     [
-        ("100", "config decisions must be >= 900 with 4 harmonics (the fit's 810 library terms"),
+        (
+            "100",
+            "config decisions must be >= 900 with 4 harmonics and form best (the fit's 810 terms",
+        ),
         ("899", "config decisions must be >= 900"),
         ("99999999999", "the black box's fit of 99,999,999,999 decisions needs"),
     ],

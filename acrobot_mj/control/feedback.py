@@ -46,7 +46,13 @@ class FunnelSettings:
     damping: float = setting(
         1.0, "gain of the energy removal elsewhere", "N m s/rad", low=0.0, low_open=True
     )
-    horizon: int = setting(40, "constrained LQR's horizon (0: the saturated LQR)", "steps", low=0)
+    horizon: int = setting(
+        40,
+        "constrained LQR's horizon, shortened where its QP is ill-conditioned (0: the saturated "
+        "LQR)",
+        "steps",
+        low=0,
+    )
 
     def __post_init__(self) -> None:
         check(self)

@@ -1,13 +1,15 @@
-"""A model of one env decision learnt from data alone: ``x' = x + W' phi(x, u)`` (a map), or
-``dx/dt = W' phi(x, u) / (1 + w' psi(q))`` integrated by ``substeps`` RK4 steps of ``h``
-seconds (an ODE). ``phi`` holds every product of a Fourier harmonic of each angle (up to
-``harmonics``) with a monomial of degree at most 2 in the two velocities and the action, ``psi``
-the angle products of harmonics up to 2; ``W`` comes from sequentially thresholded least squares
-(SINDy: Brunton, Proctor and Kutz 2016). It is told only that the first two observations are
-angles, and for the ODE how many physics steps of what seconds make a decision; nothing of
-masses, lengths, the equations or the integrator. The same ``phi`` serves numpy rows and CasADi
-symbols (:mod:`~acrobot_mj.physics.xp`), so the planner and the feedback gains use the very
-model the data fitted."""
+"""A model of one env decision learnt from data alone: ``x' = x + W' phi(x, u)`` (a map),
+``x' = x + W' phi(x, u) / (1 + w' psi(q))`` (a rational map), or ``dx/dt = W' phi(x, u) / (1 +
+w' psi(q))`` integrated by ``substeps`` RK4 steps of ``h`` seconds (an ODE). ``phi`` holds every
+product of a Fourier harmonic of each angle (up to ``harmonics``) with a monomial of degree at
+most 2 in the two velocities and the action, ``psi`` the angle products of harmonics up to 2
+(:mod:`~acrobot_mj.control.library_terms`); the weights come from sequentially thresholded least
+squares (SINDy: Brunton, Proctor and Kutz 2016), on the rational map's implicit form, or through
+the RK4 steps by Gauss-Newton (:mod:`~acrobot_mj.control.library_fit`). It is told only that the
+first two observations are angles, and for the ODE how many physics steps of what seconds make
+a decision; nothing of masses, lengths, the equations or the integrator. The same ``phi``
+serves numpy rows and CasADi symbols (:mod:`~acrobot_mj.physics.xp`), so the planner and the
+feedback gains use the very model the data fitted."""
 
 from __future__ import annotations
 
@@ -243,14 +245,14 @@ class LibraryModel:
         return x
 
     def to_dict(self) -> dict[str, Any]:
-        ode = {"substeps": self.substeps, "h": self.h} if self.substeps else {}
+        form = {"substeps": self.substeps, "h": self.h} if self.substeps else {}
         if self.denominators is not None:
-            ode["denominators"] = self.bottoms.tolist()
+            form["denominators"] = self.bottoms.tolist()
         return {
             "harmonics": self.harmonics,
             "terms": self.used.tolist(),
             "weights": self.weights[self.used].tolist(),
-            **ode,
+            **form,
         }
 
     @classmethod

@@ -62,7 +62,8 @@ def increments(states: np.ndarray, next_states: np.ndarray) -> np.ndarray:
     return delta
 
 
-#: Harmonics of each angle in an ODE's denominators: a two-link arm's mass matrix has
+#: Harmonics of each angle in the denominators (an ODE's, a rational map's): a two-link arm's
+#: mass matrix has
 #: determinant ``a - b cos^2 q2``, of harmonic 2, and its inverse no finite Fourier sum.
 DENOMINATOR_HARMONICS = 2
 #: The denominators' terms (:func:`denominator_design`).

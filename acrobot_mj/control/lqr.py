@@ -278,8 +278,8 @@ def condensed(lqr: LQR, horizon: int) -> tuple[np.ndarray, np.ndarray]:
 
 #: The largest condition number of the constrained LQR's QP. Condensed over ``N`` steps its
 #: Hessian grows as the unstable mode's ``|lambda|^(2N)``: on Gymnasium's acrobot (0.2 s steps,
-#: ``|lambda|`` 1.74) 40 steps give 1e21 and a first torque 110 N m off the LQR's, 15 steps give
-#: 7e8 and 2e-6 N m; the report's 40 steps give 1.8e6 (measured).
+#: ``|lambda|`` 1.74) 40 steps give 1e21 and a first-step gain 110 N m/rad off the LQR's, 13
+#: give 5.6e7 and 14 give 1.8e8; the report's 40 steps give 1.8e6 (measured).
 MAX_CONDITION = 1e8
 
 

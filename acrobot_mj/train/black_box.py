@@ -143,7 +143,7 @@ class BlackBoxConfig(Settings):
             raise SettingError(f"config model: {error}") from None
 
 
-def library_terms(harmonics: int, form: str = "map") -> int:
+def fitted_terms(harmonics: int, form: str = "map") -> int:
     """How many terms the library of ``harmonics`` has
     (:func:`~acrobot_mj.control.library.library_size`), and a rational map's denominators."""
     return library_size(harmonics) + (DENOMINATOR_TERMS if form == "rational" else 0)
@@ -157,7 +157,7 @@ def fitted_share(decisions: int) -> int:
 def fewest_decisions(harmonics: int, form: str = "map") -> int:
     """The fewest decisions whose fitted share holds as many transitions as the ``form``'s
     library has terms."""
-    terms = library_terms(harmonics, form)
+    terms = fitted_terms(harmonics, form)
     least = math.ceil(terms / 0.9)
     while fitted_share(least) < terms:
         least += 1
@@ -167,13 +167,13 @@ def fewest_decisions(harmonics: int, form: str = "map") -> int:
 def check_fit(config: BlackBoxConfig) -> None:
     """Refuse, before any work, a fit that cannot be: fewer decisions than the library's terms
     need, or more than free memory holds."""
-    terms = library_terms(config.harmonics, config.form)
+    terms = fitted_terms(config.harmonics, config.form)
     least = fewest_decisions(config.harmonics, config.form)
     if config.decisions < least:
         raise ValueError(
-            f"config decisions must be >= {least} with {config.harmonics} harmonics (the "
-            f"fit's {terms} library terms need as many transitions besides the held-out "
-            f"tenth), got {config.decisions}"
+            f"config decisions must be >= {least} with {config.harmonics} harmonics and form "
+            f"{config.form} (the fit's {terms} terms need as many transitions besides the "
+            f"held-out tenth), got {config.decisions}"
         )
     size = FIT_COPIES * 8.0 * terms * config.decisions
     if config.form in ("best", "ode"):
