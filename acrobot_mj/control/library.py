@@ -23,6 +23,7 @@ from acrobot_mj.control.library_fit import (
     THRESHOLD,
     Substeps,
     ode_fit,
+    rates,
     rational_fit,
     rk4_end,
     rk4_step,
@@ -41,10 +42,12 @@ from acrobot_mj.control.library_terms import (
 )
 
 
-def library_size(harmonics: int) -> int:
-    """How many terms :func:`~acrobot_mj.control.library_terms.features` of ``harmonics``
-    has: ``(1 + 2H)^2 * 10``."""
-    return len(features(np.zeros(4), 0.0, harmonics))
+def library_size(harmonics: int, form: str = "map") -> int:
+    """How many weights per state variable a ``form`` of ``harmonics`` fits: the ``(1 + 2H)^2 *
+    10`` terms of :func:`~acrobot_mj.control.library_terms.features`, and a rational map's
+    :data:`~acrobot_mj.control.library_terms.DENOMINATOR_TERMS` denominators."""
+    terms = len(features(np.zeros(4), 0.0, harmonics))
+    return terms + (DENOMINATOR_TERMS if form == "rational" else 0)
 
 
 def transitions(
@@ -150,7 +153,7 @@ class LibraryModel:
     ) -> LibraryModel:
         """The map with denominators of the transitions
         (:func:`~acrobot_mj.control.library_fit.rational_fit`)."""
-        terms = library_size(harmonics) + DENOMINATOR_TERMS
+        terms = library_size(harmonics, "rational")
         states, actions, delta = transitions(states, actions, next_states, terms)
         phi, psi = design(states, actions, harmonics), denominator_design(states)
         top, bottom = rational_fit(phi, psi, delta, threshold)
@@ -180,10 +183,10 @@ class LibraryModel:
             steps = Substeps(self.harmonics, self.h, self.substeps)
             end = rk4_end(rows, actions, self.weights, self.bottoms, steps)
             return end.reshape(states.shape)
-        top = design(rows, actions, self.harmonics) @ self.weights
         if self.denominators is not None:
-            top = top / (1.0 + denominator_design(rows) @ self.denominators)
-        return (rows + top).reshape(states.shape)
+            change = rates(rows, actions, self.weights, self.denominators, self.harmonics)[0]
+            return (rows + change).reshape(states.shape)
+        return (rows + design(rows, actions, self.harmonics) @ self.weights).reshape(states.shape)
 
     def errors(self, states: np.ndarray, actions: np.ndarray, next_states: np.ndarray) -> dict:
         """RMS and largest prediction errors [rad, rad/s] per state variable on transitions."""
@@ -245,14 +248,14 @@ class LibraryModel:
         return x
 
     def to_dict(self) -> dict[str, Any]:
-        form = {"substeps": self.substeps, "h": self.h} if self.substeps else {}
+        extra = {"substeps": self.substeps, "h": self.h} if self.substeps else {}
         if self.denominators is not None:
-            form["denominators"] = self.bottoms.tolist()
+            extra["denominators"] = self.bottoms.tolist()
         return {
             "harmonics": self.harmonics,
             "terms": self.used.tolist(),
             "weights": self.weights[self.used].tolist(),
-            **form,
+            **extra,
         }
 
     @classmethod

@@ -63,8 +63,8 @@ def increments(states: np.ndarray, next_states: np.ndarray) -> np.ndarray:
 
 
 #: Harmonics of each angle in the denominators (an ODE's, a rational map's): a two-link arm's
-#: mass matrix has
-#: determinant ``a - b cos^2 q2``, of harmonic 2, and its inverse no finite Fourier sum.
+#: mass matrix has determinant ``a - b cos^2 q2``, of harmonic 2, and its inverse no finite
+#: Fourier sum.
 DENOMINATOR_HARMONICS = 2
 #: The denominators' terms (:func:`denominator_design`).
 DENOMINATOR_TERMS = (1 + 2 * DENOMINATOR_HARMONICS) ** 2 - 1

@@ -23,7 +23,7 @@ from acrobot_mj.checks import check_memory
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.library import LibraryModel, best_angles, library_size
 from acrobot_mj.control.library_fit import THRESHOLD
-from acrobot_mj.control.library_terms import DENOMINATOR_TERMS, HARMONICS
+from acrobot_mj.control.library_terms import HARMONICS
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.trajopt import Arrays, Optimiser, Trajectory, miss, waiting
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
@@ -143,12 +143,6 @@ class BlackBoxConfig(Settings):
             raise SettingError(f"config model: {error}") from None
 
 
-def fitted_terms(harmonics: int, form: str = "map") -> int:
-    """How many terms the library of ``harmonics`` has
-    (:func:`~acrobot_mj.control.library.library_size`), and a rational map's denominators."""
-    return library_size(harmonics) + (DENOMINATOR_TERMS if form == "rational" else 0)
-
-
 def fitted_share(decisions: int) -> int:
     """How many of ``decisions`` transitions the model is fitted on: all but the last tenth."""
     return int(0.9 * decisions)
@@ -157,7 +151,7 @@ def fitted_share(decisions: int) -> int:
 def fewest_decisions(harmonics: int, form: str = "map") -> int:
     """The fewest decisions whose fitted share holds as many transitions as the ``form``'s
     library has terms."""
-    terms = fitted_terms(harmonics, form)
+    terms = library_size(harmonics, form)
     least = math.ceil(terms / 0.9)
     while fitted_share(least) < terms:
         least += 1
@@ -167,7 +161,7 @@ def fewest_decisions(harmonics: int, form: str = "map") -> int:
 def check_fit(config: BlackBoxConfig) -> None:
     """Refuse, before any work, a fit that cannot be: fewer decisions than the library's terms
     need, or more than free memory holds."""
-    terms = fitted_terms(config.harmonics, config.form)
+    terms = library_size(config.harmonics, config.form)
     least = fewest_decisions(config.harmonics, config.form)
     if config.decisions < least:
         raise ValueError(
@@ -308,8 +302,9 @@ def swing_up(
                 near, found = optimiser.reach(target, warm)
                 if found is not None:
                     return optimiser.trajectory(found)
-                if nearest is None or miss(near[0], target) < nearest[0]:
-                    nearest = (miss(near[0], target), near, target)
+                off = miss(near[0], target)
+                if nearest is None or off < nearest[0]:
+                    nearest = (off, near, target)
     raise ValueError(f"no swing-up found on the learnt model over horizons {config.horizons}")
 
 
