@@ -32,10 +32,10 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
     ):
         assert result["ratios"][key] > 0 and key in text
     assert len(result["rates_steps_per_second"]) == 11
-    # The robustness score's 1,135 episodes of 5,000 steps, from the episode row, on 2 workers.
+    # The robustness score's 722 episodes of 5,000 steps, from the episode row, on 2 workers.
     rate = result["rates_steps_per_second"]["olympics robustness episode (steps)"]
-    assert result["robustness_minutes_2_workers"] == pytest.approx(1135 * 5000 / rate / 2 / 60)
-    assert "olympics robustness (1,135 episodes) projected on 2 workers" in text
+    assert result["robustness_minutes_2_workers"] == pytest.approx(722 * 5000 / rate / 2 / 60)
+    assert "olympics robustness (722 episodes) projected on 2 workers" in text
     assert "book learner (decisions)" in text and "tuned learner (decisions)" in text
     assert result["targets"]["book_vs_gymnasium_env_step"] == 1.5
     seeds = result["tuned_seeds"]  # 2 seeds of the CLI's whole run, between two baselines

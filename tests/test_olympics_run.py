@@ -179,3 +179,19 @@ def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
 def test_entries_refuse_an_unknown_name() -> None:
     with pytest.raises(ValueError, match="unknown controller"):
         entries.build("nobody", "ai_olympics")
+    with pytest.raises(ValueError, match="replan entry is for ai_olympics"):
+        entries.build("replan", "report")  # its 0.1 rad jump is per 0.002 s step
+
+
+def test_the_mpc_entry_balances_with_the_constrained_lqr() -> None:
+    """``mpc`` is ``funnel`` with the constrained LQR at upright: 250 steps (0.5 s) on
+    ai_olympics, the feedback's 40 elsewhere; its swing-up episode is funnel's to the bit (the
+    plan is the same, and its balancer's first torque where it saturates is the clipped LQR's)."""
+    from acrobot_mj.control.lqr import MPC
+
+    for model, horizon in (("ai_olympics", entries.MPC_HORIZON), ("report", 40)):
+        balancer = entries.build("mpc", model).controller.balancer
+        assert isinstance(balancer, MPC) and balancer.horizon == horizon
+    assert not isinstance(entries.build("funnel", "ai_olympics").controller.balancer, MPC)
+    ours, theirs = (episode(e, "ai_olympics", 10.0, Conditions(), 0) for e in ("mpc", "funnel"))
+    assert np.array_equal(ours.U, theirs.U)

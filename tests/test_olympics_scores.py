@@ -190,6 +190,7 @@ def test_the_levels_are_the_protocols() -> None:
     categories = ROBUSTNESS.categories(MODEL)
     assert tuple(c.key for c in categories) == CATEGORY_KEYS
     assert [c.episodes for c in categories] == [210, 210, 210, 21, 21, 50]
+    assert ROBUSTNESS.episodes(MODEL) == 722  # their sum: what the bench projects
     sweeps = {s.parameter: s.levels for s in categories[0].sweeps}
     assert list(sweeps) == ["Ir", "m1r1", "I1", "b1", "cf1", "m2r2", "m2", "I2", "b2", "cf2"]
     m1, r1 = MODEL.params.m1, MODEL.params.lc1

@@ -269,6 +269,10 @@ class Robustness:
             Sweep("cf2", "N m", _linspace(-self.friction, self.friction, n)),
         )
 
+    def episodes(self, model: AcrobotModel) -> int:
+        """How many episodes the six categories around ``model`` take (722 for the protocol)."""
+        return sum(category.episodes for category in self.categories(model))
+
     def categories(self, model: AcrobotModel) -> tuple[Category, ...]:
         """The six categories around the nominal ``model``, in the leaderboard's order."""
         n, reps = self.levels, self.noise_repetitions
