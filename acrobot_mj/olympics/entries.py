@@ -2,11 +2,11 @@
 alone (once per process, a fresh copy per episode): the state-feedback funnel along the planned
 swing-up, with energy removal elsewhere (``tvlqr``: TVLQR and LQR as the leaderboard's entry) or
 with energy pumping elsewhere and a state estimator (``funnel``); ``funnel`` balancing with the
-constrained LQR instead of the saturated one (``mpc``, :class:`~acrobot_mj.control.lqr.MPC`); the
-funnel with swing-ups
-planned online from wherever it is not (``replan``, :mod:`acrobot_mj.control.replan`); the
-funnel with a library of swing-ups planned offline (``tree``, :mod:`acrobot_mj.control.tree`,
-grown by :mod:`acrobot_mj.olympics.growing`: ``ai_olympics`` only)."""
+constrained LQR instead of the saturated one (``mpc``, :class:`~acrobot_mj.control.lqr.MPC`);
+``funnel`` with swing-ups planned online from wherever it is not (``replan``,
+:mod:`acrobot_mj.control.replan`) or with a library of swing-ups planned offline (``tree``,
+:mod:`acrobot_mj.control.tree`, grown by :mod:`acrobot_mj.olympics.growing`); these two on
+``ai_olympics`` only (:data:`ONLY_AI_OLYMPICS`)."""
 
 from __future__ import annotations
 
