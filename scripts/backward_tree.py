@@ -16,12 +16,10 @@ Prints the plans' lengths, each seed's uptime and how many times a plan was ente
 from __future__ import annotations
 
 import argparse
-from functools import partial
 
 import numpy as np
 
-from acrobot_mj.control.estimator import Estimated, Observer
-from acrobot_mj.control.feedback import FunnelController, FunnelSettings
+from acrobot_mj.control.estimator import Estimated
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.control.tree import TreeController, TreeSettings
 from acrobot_mj.olympics import entries
@@ -113,15 +111,13 @@ def main() -> None:
             plans.append(found)
     lengths = np.percentile([q.steps for q in plans], [0, 50, 100]) * p.dt
     print(f"{len(plans)} plans; lengths [s]: min, median, max {lengths.round(2).tolist()}")
-    pumping = partial(entries._pumping, params=p)
-    funnel = FunnelController(swing_up, FunnelSettings(horizon=0), elsewhere=pumping)
-    tree = TreeController(funnel, plans, TreeSettings(jump=JUMP))
+    funnel = entries.build("funnel", "report")  # the entry: its funnel and its estimator
+    tree = TreeController(funnel.controller, plans, TreeSettings(jump=JUMP))
     policy = protocol_for("report").global_policy
     for seed in (int(s) for s in arguments.seeds.split(",")):
         targets, times = policy.draw(np.random.default_rng(seed))
         counted = Entries(tree.fresh())
-        observer = Observer(p, swing_up.method)
-        run = global_run(Estimated(counted, observer), "report", targets, times, policy)
+        run = global_run(Estimated(counted, funnel.observer), "report", targets, times, policy)
         score = uptime(run, p.l1, p.l2, policy.t_final, policy.height)["score"]
         print(f"seed {seed}: uptime {score:.3f}, plans entered {counted.entered}", flush=True)
 

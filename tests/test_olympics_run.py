@@ -176,7 +176,7 @@ def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
     assert match in err and "\n" not in err
 
 
-def test_entries_refuse_an_unknown_name() -> None:
+def test_entries_refuse_an_unknown_name_or_a_model_they_are_not_set_for() -> None:
     with pytest.raises(ValueError, match="unknown controller"):
         entries.build("nobody", "ai_olympics")
     with pytest.raises(ValueError, match="replan entry is for ai_olympics"):
