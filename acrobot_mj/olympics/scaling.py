@@ -12,8 +12,9 @@ pulse widths, delays, velocities, the PID's reset), the task's time, the ratio o
 swing-ups' lengths (``Scales.task``: episode lengths, pulse spacing, reset spacing), and
 the physics step (``Scales.step``). Two kinds of torque enter: what the motor can give
 (``Scales.motor``, the ratio of torque limits: every disturbance the controller must
-overcome) and what gravity asks (:attr:`Scales.weight`, ``m g l``: the reset's PID, which
-must move the arm against gravity).
+overcome) and what gravity asks (``Scales.weight``, the ratio of gravity's torques on the
+arms held out straight, ``(m1 lc1 + m2 l1 + m2 lc2) g``: the reset's PID, which must move the
+arm against gravity, and a swing-up's work, twice that torque in joules).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from acrobot_mj.olympics.protocol import (
     Robustness,
 )
 from acrobot_mj.physics.models import MODELS, AcrobotModel
+from acrobot_mj.physics.params import AcrobotParams
 
 #: The model the protocol's constants are set for.
 SOURCE = "ai_olympics"
@@ -40,7 +42,9 @@ SOURCE = "ai_olympics"
 class Scales:
     """Ratios, target over source (dimensionless), of the arm's ``length`` (the reach
     ``l1 + l2``), its ``mass`` (``m1 + m2``), ``gravity``, the ``motor``'s torque limit, the
-    ``task``'s time (the planned swing-ups' lengths) and the physics ``step``."""
+    ``task``'s time (the planned swing-ups' lengths), the physics ``step`` and gravity's
+    torque on the arm held out straight (``weight``, ``(m1 lc1 + m2 l1 + m2 lc2) g`` [N m]:
+    half the potential energy a swing-up gains, the torque the reset's PID works against)."""
 
     length: float = 1.0
     mass: float = 1.0
@@ -48,6 +52,7 @@ class Scales:
     motor: float = 1.0
     task: float = 1.0
     step: float = 1.0
+    weight: float = 1.0
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
@@ -60,18 +65,13 @@ class Scales:
         return math.sqrt(self.length / self.gravity)
 
     @property
-    def weight(self) -> float:
-        """Gravity's torque ``mass gravity length``."""
-        return self.mass * self.gravity * self.length
-
-    @property
     def inertia(self) -> float:
         """A moment of inertia, ``mass length^2``."""
         return self.mass * self.length**2
 
     def to_dict(self) -> dict[str, float]:
         """The ratios and the derived ones, as JSON."""
-        derived = {"time": self.time, "weight": self.weight, "inertia": self.inertia}
+        derived = {"time": self.time, "inertia": self.inertia}
         return {**asdict(self), **derived}
 
 
@@ -114,9 +114,9 @@ class Scaling:
     def performance(self, p: Performance = PERFORMANCE) -> Performance:
         """The swing-up episode: its length by the task's time, the torque limit by the
         motor's; the criteria's normalisers: time by the task, energy [J] by gravity's torque
-        (a swing-up's work lifts the arm), torque cost [N^2 m^2 s] by motor^2 task, smoothness
-        (a torque's change per step) by motor step / task, velocity cost [rad^2/s] by task /
-        time^2."""
+        (a swing-up's work, twice it, lifts the arm), torque cost [N^2 m^2 s] by motor^2 task,
+        smoothness (a torque's change per step) by motor step / task, velocity cost [rad^2/s]
+        by task / time^2."""
         s = self.scales
         norm = {
             "swingup_time": s.task,
@@ -170,8 +170,9 @@ class Scaling:
         """The global episode: its length and the resets' jitter by the task's time (the
         number of resets kept, so their spacing follows the swing-up's length); the reset's
         length by the pendulum's time; the reset PID's torque limit and gains by gravity's
-        torque ``m g l`` (``kp`` [N m/rad], ``ki`` over time, ``kd`` times time), so it moves
-        the arm against gravity as it does on the source; the PID's own step by the physics
+        torque (``kp`` [N m/rad], ``ki`` over time, ``kd`` times time), so it moves the arm
+        against gravity as it does on the source (a reset from upright leaves the arm with
+        as large a share of a swing-up's energy to lose: tested); the PID's own step by the physics
         step (its ratio to the episode's step kept)."""
         s = self.scales
         return replace(
@@ -208,7 +209,14 @@ def scales_between(
         motor=q.max_torque / p.max_torque,
         task=target_swing_up / source_swing_up,
         step=q.dt / p.dt,
+        weight=gravity_torque(q) / gravity_torque(p),
     )
+
+
+def gravity_torque(p: AcrobotParams) -> float:
+    """Gravity's torque [N m] about the shoulder on the arm held out straight and level,
+    ``(m1 lc1 + m2 l1 + m2 lc2) g``."""
+    return (p.m1 * p.lc1 + p.m2 * (p.l1 + p.lc2)) * p.g
 
 
 def protocol_for(model: str) -> Protocol:
