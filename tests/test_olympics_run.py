@@ -195,3 +195,15 @@ def test_the_mpc_entry_balances_with_the_constrained_lqr() -> None:
     assert not isinstance(entries.build("funnel", "ai_olympics").controller.balancer, MPC)
     ours, theirs = (episode(e, "ai_olympics", 10.0, Conditions(), 0) for e in ("mpc", "funnel"))
     assert np.array_equal(ours.U, theirs.U)
+
+
+def test_the_funnel_entry_pumps_energy_only_on_ai_olympics() -> None:
+    """Away from its funnel (the arm out level, the elbow turning at 2 rad/s, below upright's
+    energy) the ``funnel`` entry pumps energy on ai_olympics (its torque along the elbow's
+    velocity) and removes it on the report's acrobot (against it), where pumping kept the arm
+    whirling (:data:`~acrobot_mj.olympics.entries.PUMPING_ONLY`)."""
+    x = np.array([0.0, 0.0, 0.0, 2.0])
+    for model, sign in (("ai_olympics", 1.0), ("report", -1.0)):
+        funnel = entries.build("funnel", model).controller
+        assert funnel.mode(x) not in ("upright", "funnel")
+        assert sign * funnel(x) * x[3] > 0.0, model

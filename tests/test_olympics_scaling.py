@@ -255,8 +255,8 @@ def test_the_scaled_reset_throws_the_arm_as_the_original(start: np.ndarray) -> N
     """The reset's PID, scaled by gravity's torque, throws the report's acrobot as hard as the
     original throws ai_olympics: the same share of a swing-up's energy to lose after a reset
     from upright at rest, and from upright with the elbow wound a turn (the PID sees unwrapped
-    angles and unwinds it; the shipped swing-ups end so). Over seed 0's first 20 targets:
-    0.47 and 1.38 on ai_olympics, 0.46 and 1.53 scaled. Within 15 % of the original, as the
+    angles and unwinds it; the report's shipped swing-up ends so). Over seed 0's first 20
+    targets: 0.47 and 1.38 on ai_olympics, 0.46 and 1.53 scaled. Within 15 % of the original, as the
     arms' shapes differ; scaled by ``m g l`` (1.36 times stronger) the first was 0.87."""
     original = _reset_energy("ai_olympics", GLOBAL, start)
     scaled = _reset_energy("report", protocol_for("report").global_policy, start)
