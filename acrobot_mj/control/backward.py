@@ -2,10 +2,10 @@
 and each plan ends at upright by construction. A plan leaves upright (``start_noise`` [rad] off)
 backwards under torques that, run forwards, pump energy (``pump`` times ``reserve`` times the
 sign of the elbow's velocity plus ``jitter`` times a torque within ``reserve`` held 1 to
-``longest_hold`` steps),
-until the energy falls to a level drawn uniformly between hanging's and upright's; it is then
-rolled out forwards from where it ended, on the model's own steps. A
-:class:`~acrobot_mj.control.tree.TreeController` enters them as it enters a grown library."""
+``longest_hold`` steps), until the energy falls to a level drawn uniformly between hanging's
+and upright's; it is then rolled out forwards from where it ended, on the model's own steps.
+A :class:`~acrobot_mj.control.tree.TreeController` enters them as it enters a grown
+library."""
 
 from __future__ import annotations
 
@@ -27,10 +27,9 @@ METHOD = "semi_implicit_euler"
 class BackwardSettings:
     """``count`` plans drawn from ``seed``; torques within ``reserve`` [N m] (the shipped plan's:
     TVLQR keeps the rest of the motor), ``pump`` of it along the elbow's velocity, ``jitter``
-    of a random torque; at most
-    ``longest`` steps; a plan that passes ``speed`` of a velocity limit, is shorter than
-    ``shortest`` steps or whose forward rollout ends more than ``tolerance`` [rad, rad/s] off
-    upright is dropped."""
+    of a random torque; at most ``longest`` steps; a plan that passes ``speed`` of a velocity
+    limit, is shorter than ``shortest`` steps or whose forward rollout ends more than
+    ``tolerance`` [rad, rad/s] off upright is dropped."""
 
     count: int = 300
     seed: int = 12345

@@ -97,8 +97,14 @@ def backward_tree(model: str, settings: Any = None) -> Any:
 
     trajectory = shipped_swing_up(model)
     plans = backward_library(trajectory.params, trajectory.method, settings or BackwardSettings())
-    funnel = FunnelController(trajectory, FunnelSettings(horizon=0))
+    funnel = FunnelController(trajectory, _levels(model))
     return TreeController(funnel, plans, TreeSettings(jump=BACKWARD_JUMP))
+
+
+def _levels(model: str) -> FunnelSettings:
+    """The funnel's levels on ``model``: :data:`LEVELS` on ``ai_olympics``; another acrobot
+    steps at its own rate, and FunnelSettings' levels were chosen on the report's."""
+    return LEVELS if model == "ai_olympics" else FunnelSettings(horizon=0)
 
 
 def _build(entry: str, model: str) -> Any:
@@ -107,8 +113,7 @@ def _build(entry: str, model: str) -> Any:
 
         return Estimated(*tree_parts(model, Library.load(LIBRARY)))
     trajectory = shipped_swing_up(model)
-    # Another acrobot steps at its own rate: FunnelSettings' levels were chosen on the report's.
-    levels = LEVELS if model == "ai_olympics" else FunnelSettings(horizon=0)
+    levels = _levels(model)
     observer = Observer(trajectory.params, trajectory.method)
     if entry == "backward":
         return Estimated(backward_tree(model), observer)

@@ -172,8 +172,8 @@ class Scaling:
         length by the pendulum's time; the reset PID's torque limit and gains by gravity's
         torque (``kp`` [N m/rad], ``ki`` over time, ``kd`` times time), so it moves the arm
         against gravity as it does on the source (a reset from upright leaves the arm with
-        as large a share of a swing-up's energy to lose: tested); the PID's own step by the physics
-        step (its ratio to the episode's step kept)."""
+        as large a share of a swing-up's energy to lose: tested); the PID's own step by the
+        physics step (its ratio to the episode's step kept)."""
         s = self.scales
         return replace(
             g,
@@ -215,8 +215,9 @@ def scales_between(
 
 def gravity_torque(p: AcrobotParams) -> float:
     """Gravity's torque [N m] about the shoulder on the arm held out straight and level,
-    ``(m1 lc1 + m2 l1 + m2 lc2) g``."""
-    return (p.m1 * p.lc1 + p.m2 * (p.l1 + p.lc2)) * p.g
+    ``(m1 lc1 + m2 l1 + m2 lc2) g``: the lumped ``d + e``."""
+    *_, d, e = p.lumped
+    return d + e
 
 
 def protocol_for(model: str) -> Protocol:
