@@ -63,7 +63,7 @@ class FunnelSettings:
 class FunnelController:
     """``u = pi(x)`` [N m] on ``trajectory``'s model: the constrained LQR inside the LQR's level
     set at upright, else TVLQR at the funnel point it follows (entered at the point of least
-    cost), else energy removal (or the law ``elsewhere``); ``linear`` and ``step``: the
+    cost), else :meth:`removal`; ``linear`` and ``step``: the
     Jacobians and the step ``x' = step(x, u)`` of a learnt model the trajectory was planned on
     (without ``step`` a learnt model's entries are not checked by rollout); ``check``: whether
     to check entries by rollout at all (its rollout applies continuous torques, so not for
@@ -95,14 +95,28 @@ class FunnelController:
         self.index: int | None = None  # the funnel point followed now
 
     def reset(self) -> None:
-        """Follow no funnel point: the memory of a new episode."""
+        """Follow no funnel point, and reset the law ``elsewhere`` where it keeps a memory: a
+        new episode."""
         self.index = None
+        reset = getattr(self.elsewhere, "reset", None)
+        if reset is not None:
+            reset()
 
     def fresh(self) -> FunnelController:
-        """A copy that shares the gains and follows nothing yet."""
+        """A copy that shares the gains and follows nothing yet (with its own law
+        ``elsewhere``)."""
         other = copy.copy(self)
+        other.elsewhere = copy.deepcopy(self.elsewhere)
         other.reset()
         return other
+
+    def removal(self, x: np.ndarray) -> float:
+        """The torque [N m] where the funnel does not act: the law ``elsewhere``, and where it
+        has none or gives None, energy removal ``-clip(damping dq2)``."""
+        torque = None if self.elsewhere is None else self.elsewhere(x)
+        if torque is None:
+            return float(np.clip(-self.settings.damping * x[3], -self.limit, self.limit))
+        return float(torque)
 
     def record(self, torque: float) -> None:
         """The torque [N m] the env applied after the last call: unused (it does not adapt)."""
@@ -155,9 +169,7 @@ class FunnelController:
         if mode == "upright":
             return float(self.balancer(x))
         if mode == "damping":
-            if self.elsewhere is not None:
-                return float(self.elsewhere(x))
-            return float(np.clip(-self.settings.damping * x[3], -self.limit, self.limit))
+            return self.removal(x)
         k = self.index
         assert k is not None
         self.index = k + 1 if k + 1 < self.trajectory.steps else None

@@ -10,7 +10,6 @@ import copy
 import logging
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -303,11 +302,7 @@ class Replanning:
             torque = self._follow(x)
             if torque is not None:
                 return torque
-        elsewhere: Callable[[np.ndarray], Any] | None = self.funnel.elsewhere
-        if elsewhere is not None:
-            return float(elsewhere(x))
-        limit = self.planner.params.max_torque
-        return float(np.clip(-self.funnel.settings.damping * x[3], -limit, limit))
+        return self.funnel.removal(x)
 
 
 def _funnel_step(funnel: FunnelController, x: np.ndarray) -> float:

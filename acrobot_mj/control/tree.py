@@ -118,7 +118,7 @@ class TreeController:
     """``u = pi(x)`` [N m]: TVLQR along the plan it follows (``funnel``'s weights and levels)
     while the tracking cost stays below ``funnel``'s ``track``; else ``funnel``'s balancer in
     the LQR's level set at upright; else the entry point of least TVLQR cost over ``plans``
-    and ``funnel``'s own swing-up, where below ``entry``; else ``funnel``'s law elsewhere.
+    and ``funnel``'s own swing-up, where below ``entry``; else ``funnel``'s removal.
     ``grow``: offline only, a planner called where no point can be entered (within the energy
     window), whose plan joins the library. Call :meth:`reset` before each episode."""
 
@@ -248,10 +248,7 @@ class TreeController:
             torque = self._follow(x)
             if torque is not None:
                 return torque
-        if funnel.elsewhere is not None:
-            return float(funnel.elsewhere(x))
-        limit = funnel.limit
-        return float(np.clip(-funnel.settings.damping * x[3], -limit, limit))
+        return funnel.removal(x)
 
 
 def least_cost(x, points, costs):  # kernel
