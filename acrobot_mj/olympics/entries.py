@@ -8,7 +8,8 @@ constrained LQR instead of the saturated one (``mpc``, :class:`~acrobot_mj.contr
 :mod:`acrobot_mj.control.replan`) or with a library of swing-ups planned offline (``tree``,
 :mod:`acrobot_mj.control.tree`, grown by :mod:`acrobot_mj.olympics.growing`), these two on
 ``ai_olympics`` only; or with swing-ups integrated backwards from upright (``backward``,
-:mod:`acrobot_mj.control.backward`), on the report's acrobot only (:data:`ONLY_ON`)."""
+:mod:`acrobot_mj.control.backward`) and energy removal planned on the model's steps
+(:mod:`acrobot_mj.control.shooting`), on the report's acrobot only (:data:`ONLY_ON`)."""
 
 from __future__ import annotations
 
@@ -91,13 +92,17 @@ def backward_tree(model: str, settings: Any = None) -> Any:
     """The ``backward`` entry's controller on ``model``, unestimated: a
     :class:`~acrobot_mj.control.tree.TreeController` over a library of swing-ups integrated
     backwards from upright (``settings``: :class:`~acrobot_mj.control.backward.BackwardSettings`,
-    None for its defaults), with the funnel's energy removal elsewhere."""
+    None for its defaults); elsewhere energy removal planned on the model's steps
+    (:class:`~acrobot_mj.control.shooting.EnergyShooting`) above upright's energy, the funnel's
+    own removal below it."""
     from acrobot_mj.control.backward import BackwardSettings, backward_library
+    from acrobot_mj.control.shooting import EnergyShooting
     from acrobot_mj.control.tree import TreeController, TreeSettings
 
     trajectory = shipped_swing_up(model)
-    plans = backward_library(trajectory.params, trajectory.method, settings or BackwardSettings())
-    funnel = FunnelController(trajectory, _levels(model))
+    p, method = trajectory.params, trajectory.method
+    plans = backward_library(p, method, settings or BackwardSettings())
+    funnel = FunnelController(trajectory, _levels(model), elsewhere=EnergyShooting(p, method))
     return TreeController(funnel, plans, TreeSettings(jump=BACKWARD_JUMP))
 
 
