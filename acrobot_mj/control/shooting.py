@@ -45,7 +45,8 @@ class EnergyShooting:
     the first torque of the one whose energy stays nearest upright's over the horizon's second
     half, on ``params``' steps by ``method`` with its velocity limits. ``None`` within ``above``
     of upright's energy or below it: about 2 ms a call on one core of a shared 2-core machine,
-    real-time at the report's 0.05 s a step. Call :meth:`reset` before each episode."""
+    real-time at the report's 0.05 s a step. Call it once a step of ``params.dt`` (the kept
+    plan moves on a step a call), and :meth:`reset` before each episode."""
 
     def __init__(
         self, params: AcrobotParams, method: str, settings: ShootingSettings = ShootingSettings()
