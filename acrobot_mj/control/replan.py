@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.checks import check_float, check_int, check_state
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.lqr import tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory, solve_or_none
@@ -124,9 +124,7 @@ class Planner:
         objective, rolled out on the model, one torque a physics step; ``warm``: torques
         (``decisions``,) to start IPOPT from (default: none, the states on a straight line).
         None where IPOPT finds none or the rollout ends more than :data:`END_TOLERANCE` off."""
-        x0, target = np.asarray(x0, dtype=float), np.asarray(target, dtype=float)
-        if x0.shape != (4,) or not np.isfinite(x0).all():
-            raise ValueError(f"the start must be 4 finite numbers, got {x0.tolist()}")
+        x0, target = check_state("the start", x0), np.asarray(target, dtype=float)
         if self._nlp is None:
             self._nlp = self._build()
         opti, xs, us, start, end = self._nlp
@@ -156,9 +154,7 @@ class Planner:
         """The best (least objective) of the plans from ``x0`` to its ``targets`` nearest
         upright states (:func:`upright_targets`), or None if none is found. ``x0``'s angles
         are wrapped into ``[-pi, pi)`` first."""
-        x0 = np.asarray(x0, dtype=float).copy()
-        if x0.shape != (4,) or not np.isfinite(x0).all():
-            raise ValueError(f"the start must be 4 finite numbers, got {x0.tolist()}")
+        x0 = check_state("the start", x0)
         x0[:2] = wrap_angle(x0[:2])
         best: tuple[Trajectory, float] | None = None
         for target in upright_targets(x0, targets):
@@ -279,9 +275,7 @@ class Replanning:
 
     def __call__(self, x: np.ndarray) -> float:
         """The torque [N m] in state ``x`` (4,)."""
-        x = np.asarray(x, dtype=float)
-        if x.shape != (4,) or not np.isfinite(x).all():
-            raise ValueError(f"the state must be 4 finite numbers, got {np.ravel(x).tolist()}")
+        x = check_state("the state", x)
         self.calls += 1
         if self._jumped(x):  # a reset moved the arm: start again from here
             self.plan, self.blocked = None, 0

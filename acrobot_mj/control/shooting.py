@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.checks import check_float, check_int, check_state
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, total_energy
 from acrobot_mj.physics.params import AcrobotParams
@@ -71,9 +71,7 @@ class EnergyShooting:
 
     def __call__(self, x: np.ndarray) -> float | None:
         """The torque [N m] in state ``x`` (4,), or None where it does not act."""
-        x = np.asarray(x, dtype=float)
-        if x.shape != (4,) or not np.isfinite(x).all():
-            raise ValueError(f"the state must be 4 finite numbers, got {np.ravel(x).tolist()}")
+        x = check_state("the state", x)
         if float(self.energy(x)) <= self.settings.above:
             self.plan[:] = 0.0
             return None

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.checks import check_state
 from acrobot_mj.compiled import compiled
 from acrobot_mj.control.feedback import FunnelController
 from acrobot_mj.control.lqr import tvlqr, tvlqr_torque
@@ -228,9 +229,7 @@ class TreeController:
 
     def __call__(self, x: np.ndarray) -> float:
         """The torque [N m] in state ``x`` (4,)."""
-        x = np.asarray(x, dtype=float)
-        if x.shape != (4,) or not np.isfinite(x).all():
-            raise ValueError(f"the state must be 4 finite numbers, got {np.ravel(x).tolist()}")
+        x = check_state("the state", x)
         if self._jumped(x):
             self.plan = None
         if self.plan is not None:
