@@ -22,6 +22,7 @@ from acrobot_mj.olympics.protocol import to_protocol
 from acrobot_mj.olympics.run import global_episode
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.olympics.scores import is_up
+from acrobot_mj.olympics.sources import Source
 from acrobot_mj.physics.models import resolve
 
 
@@ -37,7 +38,7 @@ def caught_after(T: np.ndarray, up: np.ndarray, start: float, end: float) -> flo
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("controller", help="an entry or a trained run's folder")
+    parser.add_argument("controller", help="what acrobot-mj olympics scores: an entry, a run...")
     parser.add_argument("--model", default="report")
     parser.add_argument("--seeds", default="0,1,2")
     arguments = parser.parse_args()
@@ -47,7 +48,8 @@ def main() -> None:
     windings: Counter[tuple[int, int]] = Counter()
     intervals = 0
     for seed in (int(s) for s in arguments.seeds.split(",")):
-        recording, drawn = global_episode(arguments.controller, arguments.model, seed, policy)
+        source = Source(arguments.controller)
+        recording, drawn = global_episode(source, arguments.model, seed, policy)
         T, X = recording.T, recording.X
         up = is_up(np.array([to_protocol(x) for x in X]), p.l1, p.l2, policy.height)
         times = [*drawn["reset_times"], policy.t_final]

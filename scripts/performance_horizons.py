@@ -15,9 +15,9 @@ import time
 
 import numpy as np
 
-from acrobot_mj.olympics.controllers import performance_swing_up
 from acrobot_mj.olympics.protocol import PERFORMANCE, episode_times
 from acrobot_mj.olympics.scores import Recording, performance
+from acrobot_mj.olympics.swing_ups import performance_swing_up
 from acrobot_mj.physics.dynamics import UPRIGHT
 from acrobot_mj.physics.models import MODELS
 

@@ -1,7 +1,9 @@
-"""Write the docs' settings tables from the configs' declarations (acrobot_mj.settings.table).
+"""Write the docs' generated tables: the configs' settings from their declarations
+(acrobot_mj.settings.table), and any table a function of the package writes.
 
-A table sits between ``<!-- settings: MODULE.CLASS -->`` and ``<!-- end settings -->`` in a page
-of docs/guide; this rewrites every such block. tests/test_settings.py checks that the committed
+A table sits between ``<!-- settings: MODULE.NAME -->`` and ``<!-- end settings -->`` in a page
+of docs/guide (``NAME`` a config class, or a function that returns the table); this rewrites
+every such block. tests/test_settings.py checks that the committed
 pages equal what this writes.
 
     python scripts/settings_tables.py           # rewrite the pages
@@ -15,6 +17,7 @@ import importlib
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 from acrobot_mj.settings import table
 
@@ -23,18 +26,19 @@ PAGES = sorted((ROOT / "docs" / "guide").glob("*.md"))
 BLOCK = re.compile(r"(<!-- settings: ([\w.]+) -->\n)(.*?)(<!-- end settings -->)", re.S)
 
 
-def config_class(dotted: str) -> type:
-    """The class ``module.Class`` a block names."""
+def named(dotted: str) -> Any:
+    """The class or function ``module.NAME`` a block names."""
     module, _, name = dotted.rpartition(".")
     return getattr(importlib.import_module(module), name)
 
 
 def rendered(text: str) -> str:
-    """``text`` with each settings block holding its class's table."""
+    """``text`` with each block holding its class's table, or its function's."""
 
     def block(match: re.Match) -> str:
         start, dotted, _, end = match.groups()
-        return f"{start}\n{table(config_class(dotted))}\n{end}"
+        found = named(dotted)
+        return f"{start}\n{table(found) if isinstance(found, type) else found()}\n{end}"
 
     return BLOCK.sub(block, text)
 

@@ -21,28 +21,29 @@ from dataclasses import replace
 
 import numpy as np
 
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.replan import upright_targets
 from acrobot_mj.control.trajopt import Optimiser
-from acrobot_mj.olympics.controllers import shipped_swing_up
 from acrobot_mj.olympics.protocol import from_protocol
 from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
+from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT
 
 
-class FirstCall:
+class FirstCall(Controller):
     """A controller that never acts and keeps the first observation it is given."""
 
     def __init__(self) -> None:
         self.obs: np.ndarray | None = None
 
-    def reset(self) -> None:
+    def reset(self, seed: int | None = None) -> None:
         self.obs = None
 
-    def __call__(self, obs: np.ndarray) -> float:
+    def act(self, x: np.ndarray, t: float) -> float:
         if self.obs is None:
-            self.obs = np.array(obs, dtype=float)
+            self.obs = np.array(x, dtype=float)
         return 0.0
 
 

@@ -10,36 +10,36 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any
 
 import numpy as np
 
-from acrobot_mj.olympics import trained
+from acrobot_mj.control.controller import Controller
+from acrobot_mj.olympics import sources
 from acrobot_mj.olympics.protocol import GLOBAL
 from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scores import uptime
 from acrobot_mj.physics.models import resolve
 
 
-class Timed:
+class Timed(Controller):
     """A controller whose calls' wall times [s] are kept."""
 
-    def __init__(self, controller: Any) -> None:
+    def __init__(self, controller: Controller) -> None:
         self.controller, self.seconds = controller, list[float]()
 
-    def reset(self) -> None:
-        self.controller.reset()
+    def reset(self, seed: int | None = None) -> None:
+        self.controller.reset(seed)
 
-    def __call__(self, obs: np.ndarray) -> float:
+    def act(self, x: np.ndarray, t: float) -> float:
         started = time.perf_counter()
-        torque = self.controller(obs)
+        torque = self.controller.act(x, t)
         self.seconds.append(time.perf_counter() - started)
         return float(torque)
 
 
 def main(entry: str, seed: int) -> None:
     started = time.perf_counter()
-    controller = Timed(trained.build(entry, "ai_olympics"))
+    controller = Timed(sources.build(sources.Source(entry), "ai_olympics"))
     built = time.perf_counter() - started
     targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
     recording = global_run(controller, "ai_olympics", targets, reset_times)

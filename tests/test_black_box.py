@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.control.feedback import FunnelController
+from acrobot_mj.control.controller import EnergyRemoval
 from acrobot_mj.control.library import LibraryModel, best_angles
 from acrobot_mj.control.library_terms import DENOMINATOR_TERMS, features
 from acrobot_mj.control.lqr import LQR, step_jacobians
+from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.control.trajopt import shipped
 from acrobot_mj.envs.disturbances import model_parameters, set_model_parameters
 from acrobot_mj.envs.tasks import Balance
@@ -256,16 +257,17 @@ def test_the_learnt_jacobians_drive_the_same_lqr_and_funnel() -> None:
     plain, told = LQR(), LQR(linear=lambda x, u: step_jacobians(x, u))
     assert np.abs(plain.gain - told.gain).max() < 1e-12  # the same Jacobians: rounding only
     reserve = shipped("reserve")
-    funnel = FunnelController(
-        reserve,
+    funnel = PlanTracker(
+        [reserve],
         linear=lambda x, u: step_jacobians(x, u, p=reserve.params),
-        elsewhere=lambda x: 0.25,
+        fallback=EnergyRemoval(damping=0.0, limit=1.0),
     )
     # Its LQR sits at the swing-up's end, (pi/2, 2 pi): the same Jacobians up to rounding in
     # the angle, which the Riccati recursion along 476 steps carries to far below 1e-9.
-    assert np.allclose(funnel.gains, FunnelController(reserve).gains, rtol=0, atol=1e-9)
+    gains, exact = funnel.tracking[0][1], PlanTracker([reserve]).tracking[0][1]
+    assert np.allclose(gains, exact, rtol=0, atol=1e-9)
     far = np.array([0.0, 2.0, 5.0, -8.0])  # no funnel point near: the law given for elsewhere
-    assert funnel.mode(far) == "damping" and funnel(far) == 0.25
+    assert funnel.act(far, 0.0) == 0.0 and funnel.mode == "fallback"
 
 
 # -- exploration -------------------------------------------------------------------------------

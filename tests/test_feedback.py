@@ -1,18 +1,18 @@
-"""The state-feedback controller: ``u = pi(x)`` with no clock, its modes, its run directory, and
-swing-up and balance from anywhere with continuous and {-1, 0, +1} torques (the CI-sized
-version of the docs' 100-start evaluation)."""
+"""The state-feedback controller (the plan tracker along one swing-up): ``u = pi(x)`` with no
+clock, its modes, its run directory, and swing-up and balance from anywhere with continuous and
+{-1, 0, +1} torques (the CI-sized version of the docs' 100-start evaluation)."""
 
 from __future__ import annotations
 
-import inspect
 import json
 
 import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.control.feedback import AdaptiveFunnel, FunnelController, FunnelSettings
+from acrobot_mj.control.adaptive import Adaptive
 from acrobot_mj.control.lqr import LQR, step_jacobians
+from acrobot_mj.control.tracker import FunnelSettings, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import shipped
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
@@ -25,45 +25,51 @@ RESERVE = shipped("reserve")
 
 
 @pytest.fixture(scope="module")
-def controller() -> FunnelController:
-    return FunnelController(RESERVE)
+def tracker() -> PlanTracker:
+    return PlanTracker([RESERVE])
 
 
-def test_it_takes_the_state_and_no_time_index(controller) -> None:
-    assert list(inspect.signature(controller.__call__).parameters) == ["x"]
-    # Its memory is the funnel point it follows: a copy that has run 100 steps and a fresh one
-    # give the same torque once both have lost the funnel (a state far from it: link 1
-    # horizontal, spinning).
-    busy, x = controller.fresh(), HANGING.copy()
-    for _ in range(100):
-        x = integrators.step_states(x, busy(x))
+def fresh(tracker: PlanTracker) -> PlanTracker:
+    tracker.reset()
+    return tracker
+
+
+def test_it_needs_no_clock(tracker) -> None:
+    # Its memory is the funnel point it follows: a tracker that has run 100 steps and a fresh
+    # one give the same torque, whatever the time, once both have lost the funnel (a state far
+    # from it: link 1 horizontal, spinning).
+    busy, x = PlanTracker([RESERVE]), HANGING.copy()
+    for k in range(100):
+        x = integrators.step_states(x, busy.act(x, k * RESERVE.dt))
     far = np.array([0.0, 2.0, 5.0, -8.0])
     # Energy removal: -clip(1 N m s/rad * -8 rad/s, -1, 1) N m.
-    assert busy(far) == controller.fresh()(far) == 1.0
-    assert busy.index is None
+    assert busy.act(far, 5.0) == fresh(tracker).act(far, 0.0) == 1.0
+    assert busy.following is None and busy.mode == "fallback"
 
 
-def test_its_three_modes(controller) -> None:
-    c = controller.fresh()
+def test_its_three_modes(tracker) -> None:
+    c = fresh(tracker)
     near = UPRIGHT + np.array([0.01, -0.01, 0.0, 0.01])  # cost 24 < 100
-    assert c.mode(near) == "upright" and c(near) == float(LQR()(near))  # the same LQR, exactly
+    assert c.act(near, 0.0) == float(LQR()(near))  # the same LQR, exactly
+    assert c.mode == "balancer"
     # Hanging at rest is the funnel's first point (zero cost): its nominal torque, then on.
-    assert c.mode(HANGING) == "funnel" and c.index == 0
     # The shipped start is hanging to 7e-28 rad: the feedback term vanishes in double precision.
-    assert c(HANGING) == RESERVE.torques[0] and c.index == 1
+    assert c.act(HANGING, 0.0) == RESERVE.torques[0] and c.mode == "plan" and c.k == 1
     # A kick of (0.05, -0.05) rad/s: cost 43, inside the level set, and at depth 0.97 of what
     # |tau| <= 1 can bring back. The constrained LQR brings it back; the saturated one falls
     # out after 19 steps and is removing energy. (Analytic model, 10 s.)
     for horizon, back in ((40, True), (0, False)):
-        c, x = FunnelController(RESERVE, FunnelSettings(horizon=horizon)), UPRIGHT.copy()
+        c, x = PlanTracker([RESERVE], FunnelSettings(horizon=horizon)), UPRIGHT.copy()
         x[2:] += [0.05, -0.05]
-        assert c.mode(x) == "upright"
+        modes = []
         for _ in range(200):
-            x = integrators.step_states(x, c(x))
+            x = integrators.step_states(x, c.act(x, 0.0))
+            modes.append(c.mode)
+        assert modes[0] == "balancer"
         assert (np.abs(state_error(x)).max() < 1e-6) == back
     swinging = np.array([-np.pi / 2 + 1.0, -2.0, 3.0, 0.4])
-    fresh = controller.fresh()
-    assert fresh.mode(swinging) == "damping" and fresh(swinging) == -0.4  # -damping * dq2
+    c = fresh(tracker)
+    assert c.act(swinging, 0.0) == -0.4 and c.mode == "fallback"  # -damping * dq2
 
 
 @pytest.mark.parametrize(
@@ -83,22 +89,25 @@ def test_bad_settings_are_refused(settings, words) -> None:
         FunnelSettings(**settings)
 
 
-def test_it_enters_the_funnel_where_its_own_rollout_reaches_upright(controller) -> None:
+def test_it_enters_the_funnel_where_its_own_rollout_reaches_upright(tracker) -> None:
     # Offsets along (1, -1, 1, 1) with a TVLQR cost of 60 at a funnel point: above the plain
     # entry level (20), below track (200). Near point 100 the rollout of the funnel on the
     # model reaches upright, so it enters (at the point of least cost, 52); near point 400 the
     # rollout leaves the funnel, so it keeps removing energy. Without the check, neither.
-    unchecked = FunnelController(RESERVE, check=False)
+    unchecked = PlanTracker([RESERVE], settings=TrackerSettings(rollout=False))
     v = np.array([1.0, -1.0, 1.0, 1.0])
+    costs = tracker.tracking[0][0]
     for k, enters in ((100, True), (400, False)):
-        x = RESERVE.states[k] + np.sqrt(60.0 / (v @ controller.costs[k] @ v)) * v
-        checked = controller.fresh()
-        assert checked.mode(x) == ("funnel" if enters else "damping")
-        assert unchecked.fresh().mode(x) == "damping"
-    assert checked.index is None and controller.fresh().reaches(RESERVE.states[0], 0)
+        x = RESERVE.states[k] + np.sqrt(60.0 / (v @ costs[k] @ v)) * v
+        checked = fresh(tracker)
+        checked.act(x, 0.0)
+        assert checked.mode == ("plan" if enters else "fallback")
+        fresh(unchecked).act(x, 0.0)
+        assert unchecked.mode == "fallback"
+    assert checked.following is None and fresh(tracker).reaches(RESERVE.states[0], 0, 0)
     # A learnt model given without its step is never rolled out: no entry is checked.
-    told = FunnelController(RESERVE, linear=lambda x, u: step_jacobians(x, u, p=RESERVE.params))
-    assert told.step is None and not told.reaches(RESERVE.states[0], 0)
+    told = PlanTracker([RESERVE], linear=lambda x, u: step_jacobians(x, u, p=RESERVE.params))
+    assert told.step is None and not told.reaches(RESERVE.states[0], 0, 0)
 
 
 @pytest.mark.parametrize("discrete", [False, True])
@@ -121,11 +130,15 @@ def test_checked_entries_reach_upright_sooner_from_uniform_starts() -> None:
     starts[:, :2] = np.random.default_rng(1).uniform(-np.pi, np.pi, (8, 2))
     steps = {}
     for check in (True, False):
-        base, steps[check] = FunnelController(RESERVE, check=check), []
+        c, steps[check] = PlanTracker([RESERVE], settings=TrackerSettings(rollout=check)), []
         for start in starts:
-            c, x, k = base.fresh(), start.copy(), 0
-            while k < 1600 and c.mode(x) != "upright":
-                x, k = integrators.step_states(x, c(x)), k + 1
+            x, k = start.copy(), 0
+            c.reset()
+            while k < 1600:
+                u = c.act(x, 0.0)
+                if c.mode == "balancer":
+                    break
+                x, k = integrators.step_states(x, u), k + 1
             steps[check].append(k)
     checked, unchecked = np.array(steps[True]), np.array(steps[False])
     assert (unchecked < 1600).all() and (checked <= unchecked).all()
@@ -203,13 +216,13 @@ def test_the_adaptive_controller_replans_on_the_model_it_identifies(tmp_path) ->
     assert isinstance(learner, FeedbackLearner) and learner.config.adaptive
 
 
-def test_the_adaptive_controller_keeps_a_model_that_predicts_its_data(controller) -> None:
+def test_the_adaptive_controller_keeps_a_model_that_predicts_its_data(tracker) -> None:
     # On the nominal model the identified parameters equal its own (to 1e-9): nothing to
     # replan, and no CasADi needed.
-    adaptive = AdaptiveFunnel(controller).fresh()
+    adaptive = Adaptive(tracker)
     x = np.array([0.3, -1.0, 0.0, 0.0])
-    for _ in range(80):
-        u = adaptive(x)
+    for k in range(80):
+        u = adaptive.act(x, k * RESERVE.dt)
         x = integrators.step_states(x, u)
-        adaptive.record(u)
+        adaptive.applied(u)
     assert adaptive.adapted == "kept"

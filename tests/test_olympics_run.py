@@ -10,13 +10,16 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.control.estimator import Observer
+from acrobot_mj.control.controller import Controller
+from acrobot_mj.control.estimator import Estimated, Observer
+from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics import entries
-from acrobot_mj.olympics.controllers import performance_swing_up, shipped_swing_up
 from acrobot_mj.olympics.globaltest import GlobalTester
 from acrobot_mj.olympics.protocol import from_protocol
 from acrobot_mj.olympics.run import Conditions, episode
 from acrobot_mj.olympics.scores import final_success, performance
+from acrobot_mj.olympics.sources import Source
+from acrobot_mj.olympics.swing_ups import performance_swing_up, shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import MODELS
@@ -64,11 +67,8 @@ def test_observer_restarts_after_a_jump_and_refuses_bad_gains() -> None:
         Observer(OLYMPICS.params, angle_gain=2.0)
 
 
-class Constant:
-    def reset(self) -> None:
-        pass
-
-    def __call__(self, obs: np.ndarray) -> float:
+class Constant(Controller):
+    def act(self, x: np.ndarray, t: float) -> float:
         return 1.5
 
 
@@ -79,17 +79,17 @@ def test_global_tester_resets_by_the_protocols_rule() -> None:
     targets[0, :2] = (np.pi, 0.0)  # to upright (protocol angles)
     tester = GlobalTester(Constant(), OLYMPICS, targets, np.array([1.0] + [70.0] * 14))
     state = HANGING.copy()
-    assert tester(0.998, state, state) == (0.0, 1.5)
-    shoulder, elbow = tester(1.0, state, state)
+    assert tester.act(state, 0.998) == 1.5 and tester.shoulder == 0.0
+    elbow = tester.act(state, 1.0)
     # The first PID call: P only (kp 10 x pi, clipped to 6) plus gravity compensation (0
     # hanging, to rounding: cos(-pi/2) is 6e-17).
-    assert shoulder == 6.0 and abs(elbow) < 1e-15
+    assert tester.shoulder == 6.0 and abs(elbow) < 1e-15
     t = 1.0
     while tester.resetting:
         t += 0.002
-        tester(t, state, state)
+        tester.act(state, t)
     assert 1.2 < t <= 1.21  # more than reset_length, by one step
-    assert tester(t + 0.002, state, state) == (0.0, 1.5)
+    assert tester.act(state, t + 0.002) == 1.5 and tester.shoulder == 0.0
 
 
 def test_gravity_compensation_is_the_plants_gravity_torque() -> None:
@@ -123,7 +123,8 @@ def test_performance_episode_of_the_funnel() -> None:
     """The funnel entry's performance episode in MuJoCo: its v2 score (0.6882, above the
     leaderboard's best 0.655; MuJoCo and the planning model agree to 1e-10, so 1e-4 is loose
     for platforms yet would catch any change of controller or scoring)."""
-    run = performance(episode("funnel", "ai_olympics", 10.0, Conditions(), 0), 0.2, 0.3)
+    recording = episode(Source("funnel"), "ai_olympics", 10.0, Conditions(), 0)
+    run = performance(recording, 0.2, 0.3)
     assert run["success"] and abs(run["score"] - 0.68817) < 1e-4
     assert math.isclose(run["swingup_time"], 1.254, abs_tol=1e-9)
 
@@ -131,19 +132,19 @@ def test_performance_episode_of_the_funnel() -> None:
 def test_robustness_episode_under_velocity_noise() -> None:
     """The protocol's largest velocity noise (0.5 rad/s on both velocities): upright at the end."""
     conditions = Conditions(sensor={"sigma": (0.0, 0.0, 0.5, 0.5)})
-    recording = episode("funnel", "ai_olympics", 10.0, conditions, 3)
+    recording = episode(Source("funnel"), "ai_olympics", 10.0, conditions, 3)
     assert final_success(recording.X[-1])
 
 
 def test_olympics_command_writes_the_record(tmp_path, capsys) -> None:
     out = tmp_path / "o"
-    main(["olympics", "tvlqr", "--scores", "performance", "--out", str(out), "--no-progress"])
+    main(["olympics", "funnel", "--scores", "performance", "--out", str(out), "--no-progress"])
     record = json.loads((out / "olympics.json").read_text())
     assert record["performance"]["success"] is True
     assert abs(record["performance"]["score"] - 0.68817) < 1e-4
     assert (out / "performance.png").is_file()
     assert "performance 0.688" in capsys.readouterr().out
-    again = ["olympics", "tvlqr", "--scores", "global", "--out", str(out), "--no-progress"]
+    again = ["olympics", "funnel", "--scores", "global", "--out", str(out), "--no-progress"]
     before = (out / "olympics.json").read_bytes()
     with pytest.raises(SystemExit):
         main(again)
@@ -176,24 +177,34 @@ def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
     assert match in err and "\n" not in err
 
 
-def test_entries_refuse_an_unknown_name_or_a_model_they_are_not_set_for() -> None:
-    with pytest.raises(ValueError, match="unknown controller"):
-        entries.build("nobody", "ai_olympics")
+def test_entries_refuse_a_model_they_are_not_set_for_or_a_bad_option() -> None:
     with pytest.raises(ValueError, match="replan entry is for ai_olympics"):
-        entries.build("replan", "report")  # its 0.1 rad jump is per 0.002 s step
+        entries.ENTRIES["replan"].build("report")  # its 0.1 rad jump is per 0.002 s step
+    with pytest.raises(ValueError, match=r"unknown funnel entry settings \['horizon'\]"):
+        entries.ENTRIES["funnel"].build("report", {"horizon": 3})
+    with pytest.raises(ValueError, match="config mpc must be True or False"):
+        entries.ENTRIES["funnel"].build("report", {"mpc": "yes"})
 
 
-def test_the_mpc_entry_balances_with_the_constrained_lqr() -> None:
-    """``mpc`` is ``funnel`` with the constrained LQR at upright: 250 steps (0.5 s) on
+def tracker_of(controller: Controller) -> PlanTracker:
+    """The tracker inside an entry's estimator."""
+    assert isinstance(controller, Estimated) and isinstance(controller.controller, PlanTracker)
+    return controller.controller
+
+
+def test_the_mpc_option_balances_with_the_constrained_lqr() -> None:
+    """``funnel`` with ``mpc`` takes the constrained LQR at upright: 250 steps (0.5 s) on
     ai_olympics, the feedback's 40 elsewhere; its swing-up episode is funnel's to the bit (the
     plan is the same, and its balancer's first torque where it saturates is the clipped LQR's)."""
     from acrobot_mj.control.lqr import MPC
 
+    funnel = entries.ENTRIES["funnel"]
     for model, horizon in (("ai_olympics", entries.MPC_HORIZON), ("report", 40)):
-        balancer = entries.build("mpc", model).controller.balancer
+        balancer = tracker_of(funnel.build(model, {"mpc": True})).balancer
         assert isinstance(balancer, MPC) and balancer.horizon == horizon
-    assert not isinstance(entries.build("funnel", "ai_olympics").controller.balancer, MPC)
-    ours, theirs = (episode(e, "ai_olympics", 10.0, Conditions(), 0) for e in ("mpc", "funnel"))
+    assert not isinstance(tracker_of(funnel.build("ai_olympics")).balancer, MPC)
+    mpc, plain = Source("funnel", {"mpc": True}), Source("funnel")
+    ours, theirs = (episode(e, "ai_olympics", 10.0, Conditions(), 0) for e in (mpc, plain))
     assert np.array_equal(ours.U, theirs.U)
 
 
@@ -201,9 +212,9 @@ def test_the_funnel_entry_pumps_energy_only_on_ai_olympics() -> None:
     """Away from its funnel (the arm out level, the elbow turning at 2 rad/s, below upright's
     energy) the ``funnel`` entry pumps energy on ai_olympics (its torque along the elbow's
     velocity) and removes it on the report's acrobot (against it), where pumping kept the arm
-    whirling (:data:`~acrobot_mj.olympics.entries.PUMPING_ONLY`)."""
+    whirling (:data:`~acrobot_mj.olympics.entries.PUMPING_ON`)."""
     x = np.array([0.0, 0.0, 0.0, 2.0])
     for model, sign in (("ai_olympics", 1.0), ("report", -1.0)):
-        funnel = entries.build("funnel", model).controller
-        assert funnel.mode(x) not in ("upright", "funnel")
-        assert sign * funnel(x) * x[3] > 0.0, model
+        funnel = tracker_of(entries.ENTRIES["funnel"].build(model))
+        assert sign * funnel.act(x, 0.0) * x[3] > 0.0, model
+        assert funnel.mode == "fallback"

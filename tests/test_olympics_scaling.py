@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.olympics import trained
+from acrobot_mj.control.controller import Controller, Held
+from acrobot_mj.olympics import sources
 from acrobot_mj.olympics.protocol import (
     GLOBAL,
     PERFORMANCE,
@@ -31,6 +32,7 @@ from acrobot_mj.olympics.scaling import (
     protocol_for,
     scales_between,
 )
+from acrobot_mj.olympics.sources import Source
 from acrobot_mj.physics import dynamics
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.models import MODELS
@@ -61,7 +63,7 @@ def test_identity_on_ai_olympics() -> None:
     model = MODELS["ai_olympics"]
     assert scaling.robustness().categories(model) == ROBUSTNESS.categories(model)
     assert protocol_for("ai_olympics") is ORIGINAL
-    assert OlympicsRun("funnel", parts=("performance",)).protocol is ORIGINAL
+    assert OlympicsRun(Source("funnel"), parts=("performance",)).protocol is ORIGINAL
 
 
 def test_scales_of_the_report_by_hand() -> None:
@@ -136,19 +138,19 @@ def test_refusals(tmp_path: Path) -> None:
     with no run, an unknown model, a model without a planned swing-up."""
     feedback = _run(tmp_path / "fb", "state_feedback", {})
     with pytest.raises(ValueError, match="was trained on the model 'report', not 'ai_olympics'"):
-        trained.check(str(feedback), "ai_olympics")
+        sources.check(Source(str(feedback)), "ai_olympics")
     agent = _run(tmp_path / "agent", "sarsa", {})
     with pytest.raises(ValueError, match="of kind 'sarsa', not a controller run"):
-        trained.check(str(agent), "report")
+        sources.check(Source(str(agent)), "report")
     with pytest.raises(ValueError, match="neither an entry"):
-        trained.check(str(tmp_path / "nothing"), "report")
+        sources.check(Source(str(tmp_path / "nothing")), "report")
     with pytest.raises(ValueError, match="not a readable trained run"):
         (tmp_path / "empty").mkdir()
-        trained.check(str(tmp_path / "empty"), "report")
+        sources.check(Source(str(tmp_path / "empty")), "report")
     with pytest.raises(ValueError, match="model must be one of"):
-        OlympicsRun("funnel", "no_such_model")
+        OlympicsRun(Source("funnel"), "no_such_model")
     with pytest.raises(ValueError, match="no planned swing-up for the model 'dm_control'"):
-        OlympicsRun("funnel", "dm_control")
+        OlympicsRun(Source("funnel"), "dm_control")
 
 
 def test_cli_refuses_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -196,40 +198,36 @@ def test_feedback_run_as_the_controller(tmp_path: Path) -> None:
     assert record["global"]["score"] > 0.0
 
 
-class _Counting:
-    """A feedback that answers 2 N m x its call count and keeps the torques it is told."""
+class _Counting(Controller):
+    """A controller that answers 2 N m x its call count and keeps the torques it is told."""
 
-    def __init__(self) -> None:
-        self.calls, self.told = 0, []
+    def reset(self, seed: int | None = None) -> None:
+        self.calls, self.told = 0, list[float]()
 
-    def fresh(self) -> _Counting:
-        return _Counting()
-
-    def __call__(self, obs: object) -> float:
+    def act(self, x: np.ndarray, t: float) -> float:
         self.calls += 1
         return 2.0 * self.calls
 
-    def record(self, torque: float) -> None:
+    def applied(self, torque: float) -> None:
         self.told.append(torque)
 
 
 def test_a_run_that_decides_every_few_steps_holds_its_torque_between() -> None:
-    controller = trained.RunController(_Counting(), limit=5.0, every=5)
-    torques = [controller([0.0] * 4) for _ in range(12)]
+    counting = _Counting()
+    controller = Held(counting, limit=5.0, every=5)
+    controller.reset()
+    torques = [controller.act(np.zeros(4), 0.002 * k) for k in range(12)]
     # Asked at calls 0, 5 and 10 (2, 4, 6 N m, the last clipped to the 5 N m limit).
     assert torques == [2.0] * 5 + [4.0] * 5 + [5.0] * 2
-    assert controller.current.told == [2.0, 4.0, 5.0]
-    controller.reset()  # a new episode asks at once, from a fresh feedback
-    assert controller([0.0] * 4) == 2.0 and controller.current.calls == 1
+    assert counting.told == [2.0, 4.0, 5.0]
+    controller.reset()  # a new episode asks at once, the inner controller reset
+    assert controller.act(np.zeros(4), 0.0) == 2.0 and counting.calls == 1
 
 
-class _Idle:
+class _Idle(Controller):
     """A controller that never acts."""
 
-    def reset(self) -> None:
-        pass
-
-    def __call__(self, obs: np.ndarray) -> float:
+    def act(self, x: np.ndarray, t: float) -> float:
         return 0.0
 
 

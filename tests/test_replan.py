@@ -9,17 +9,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from acrobot_mj.control.feedback import FunnelController
-from acrobot_mj.control.replan import (
-    END_TOLERANCE,
-    Planner,
-    Replanning,
-    ReplanSettings,
-    solve_stats,
-    upright_targets,
-)
+from acrobot_mj.control.estimator import Estimated
+from acrobot_mj.control.replan import END_TOLERANCE, Planner, replanner, upright_targets
+from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
-from acrobot_mj.olympics.controllers import shipped_swing_up
+from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
 from acrobot_mj.physics.models import MODELS
@@ -91,41 +85,35 @@ def test_bad_input_is_refused_in_one_line() -> None:
         Planner(P, decisions=1)
     with pytest.raises(ValueError, match="integrator"):
         Planner(P, "euler")
-    with pytest.raises(ValueError, match="targets"):
-        ReplanSettings(targets=0)
-    with pytest.raises(ValueError, match="window"):
-        ReplanSettings(window=-1.0)
     planner = Planner(P, decisions=10)
+    with pytest.raises(ValueError, match="targets"):
+        replanner(planner, targets=0)
+    with pytest.raises(ValueError, match=r"config window must be in \[0, inf\], got -1"):
+        TrackerSettings(window=-1.0)
     with pytest.raises(ValueError, match="start"):
         planner.plan(np.array([0.0, np.nan, 0.0, 0.0]))
-    funnel = FunnelController(shipped_swing_up("ai_olympics"))
-    with pytest.raises(ValueError, match="same model"):
-        Replanning(funnel, Planner(MODELS["report"].params, decisions=10))
-    controller = Replanning(funnel, planner)
+    controller = PlanTracker([shipped_swing_up("ai_olympics")], planner=replanner(planner))
     with pytest.raises(ValueError, match="4 finite numbers"):
-        controller(np.array([0.0, 0.0, 0.0]))
+        controller.act(np.array([0.0, 0.0, 0.0]), 0.0)
     with pytest.raises(ValueError, match="4 finite numbers"):
-        controller(np.array([0.0, np.inf, 0.0, 0.0]))
+        controller.act(np.array([0.0, np.inf, 0.0, 0.0]), 0.0)
 
 
 def test_from_hanging_it_is_the_funnel_entry() -> None:
     """From hanging at rest both entries follow the shipped swing-up: the same torques, to the
     last bit, over the swing-up and 0.5 s of balance, and no plan."""
-    funnel, replan = entries.build("funnel", "ai_olympics"), entries.build("replan", "ai_olympics")
+    funnel = entries.ENTRIES["funnel"].build("ai_olympics")
+    replan = entries.ENTRIES["replan"].build("ai_olympics")
+    assert isinstance(replan, Estimated) and isinstance(replan.controller, PlanTracker)
     funnel.reset()
     replan.reset()
     x = HANGING.copy()
-    for _ in range(integrators.steps_in(shipped_swing_up("ai_olympics").seconds + 0.5, P.dt)):
-        u = funnel(x)
-        assert replan(x) == u
+    for k in range(integrators.steps_in(shipped_swing_up("ai_olympics").seconds + 0.5, P.dt)):
+        u = funnel.act(x, k * P.dt)
+        assert replan.act(x, k * P.dt) == u
         x = integrators.step_states(x, u, P, method="rk4")
-    assert replan.controller.log.seconds == []
+    assert replan.controller.planned == [] and replan.controller.failed == 0
     assert np.abs(state_error(x)).max() < 0.01  # balancing upright: 0.01 of the noise-free model
-
-
-def test_solve_stats() -> None:
-    assert solve_stats([1.0, 3.0, 2.0]) == {"count": 3, "median": 2.0, "max": 3.0}
-    assert solve_stats([])["count"] == 0
 
 
 @pytest.mark.slow
@@ -136,13 +124,13 @@ def test_a_global_stretch_swings_up_after_a_reset() -> None:
     from acrobot_mj.olympics.run import global_run
     from acrobot_mj.olympics.scores import uptime
 
-    controller = entries.build("replan", "ai_olympics")
+    controller = entries.ENTRIES["replan"].build("ai_olympics")
+    assert isinstance(controller, Estimated) and isinstance(controller.controller, PlanTracker)
     targets = np.array([[1.0, 2.0, 0.0, 0.0]])  # protocol angles: theta1, theta2
     recording = global_run(
         controller, "ai_olympics", targets, np.array([1.5]), replace(GLOBAL, t_final=5.0)
     )
-    log = controller.controller.log
-    assert 1 <= len(log.seconds) and any(log.found)
+    assert controller.controller.planned  # it planned after the reset, and found a plan
     tip = P.l1 * np.sin(recording.X[:, 0]) + P.l2 * np.sin(recording.X[:, 0] + recording.X[:, 1])
     assert tip[-1] > 0.9 * (P.l1 + P.l2)  # the protocol's "up"
     # The plan ends upright 1.5 s after the reset's end (1.7 s): 1.8 s up from 3.2 s to 5 s at

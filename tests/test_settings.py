@@ -14,7 +14,7 @@ from acrobot_mj import settings
 from acrobot_mj.agents.features import GridConfig, TilesConfig
 from acrobot_mj.agents.sarsa import SarsaConfig
 from acrobot_mj.agents.sarsa_lambda import SarsaLambdaConfig
-from acrobot_mj.control.feedback import FunnelSettings
+from acrobot_mj.control.tracker import FunnelSettings
 from acrobot_mj.settings import SettingError, declared, parse, table
 from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.black_box import BlackBoxConfig

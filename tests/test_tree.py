@@ -1,6 +1,6 @@
-"""The plan library and its controller (:mod:`acrobot_mj.control.tree`): the shipped library's
-plans reach upright on the model, the controller enters a plan from its start and swings up on
-the analytic model without planning, and a missing or corrupt library is refused in one line."""
+"""The ``tree`` entry's plan set (:mod:`acrobot_mj.control.plans`) and its tracker: the shipped
+set's plans reach upright on the model, the tracker enters a plan from its start and swings up
+on the analytic model without planning, and a missing or corrupt set is refused in one line."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from acrobot_mj.control.plans import PlanSet, warm_torques
 from acrobot_mj.control.replan import END_TOLERANCE
-from acrobot_mj.control.tree import Library, TreeController, TreeSettings, warm_torques
+from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
-from acrobot_mj.olympics.controllers import shipped_swing_up
+from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import state_error
 from acrobot_mj.physics.models import MODELS
@@ -22,22 +23,22 @@ P = OLYMPICS.params
 SHIPPED = shipped_swing_up("ai_olympics")
 
 
-def _library() -> Library:
-    return Library.load(entries.LIBRARY)
+def _library() -> PlanSet:
+    return PlanSet.load(entries.PLANS)
 
 
-def _tree(count: int) -> TreeController:
-    """The entry's controller (no estimator) on the shipped library's first ``count`` plans."""
+def _tree(count: int) -> PlanTracker:
+    """The entry's tracker (no estimator) on the shipped set's first ``count`` plans."""
     library = _library()
-    return entries.tree_parts(
-        "ai_olympics", Library(library.starts[:count], library.held[:count], library.hold)
-    )[0]
+    return entries.tree(
+        "ai_olympics", PlanSet(library.starts[:count], library.held[:count], library.hold)
+    )
 
 
 def test_the_shipped_library_is_small_and_every_plan_ends_upright() -> None:
     library = _library()
     assert len(library) >= 10
-    assert entries.LIBRARY.stat().st_size < 1_000_000  # shipped with the package: under 1 MB
+    assert entries.PLANS.stat().st_size < 1_000_000  # shipped with the package: under 1 MB
     plans = library.plans(P, SHIPPED.method)
     for plan in plans:
         # 1e-12: the torques were clipped to the limit before they were stored.
@@ -56,11 +57,11 @@ def test_it_enters_a_plan_at_its_start_and_swings_up_on_the_analytic_model() -> 
     for start in _library().starts[:3]:
         tree.reset()
         x = start.copy()
-        u = tree(x)
-        assert tree.plan is not None  # entered at once, no fallback
+        u = tree.act(x, 0.0)
+        assert tree.mode == "plan"  # entered at once, no fallback
         for _ in range(integrators.steps_in(1.5 + 0.5, P.dt)):  # the plan and 0.5 s more
             x = integrators.step_states(x, u, P, method=SHIPPED.method)
-            u = tree(x)
+            u = tree.act(x, 0.0)
         # 0.01 rad, rad/s: balancing upright on the noise-free model (as the funnel's test).
         assert np.abs(state_error(x)).max() < 0.01
 
@@ -72,8 +73,9 @@ def test_a_whole_global_episode_scores_above_the_leaderboard() -> None:
     from acrobot_mj.olympics.protocol import GLOBAL
     from acrobot_mj.olympics.run import global_episode
     from acrobot_mj.olympics.scores import uptime
+    from acrobot_mj.olympics.sources import Source
 
-    recording, draws = global_episode("tree", "ai_olympics", 3)
+    recording, draws = global_episode(Source("tree"), "ai_olympics", 3)
     assert len(draws["reset_times"]) == GLOBAL.resets
     score = uptime(recording, P.l1, P.l2, GLOBAL.t_final, GLOBAL.height)["score"]
     # 0.508: the best stored leaderboard entry. Seed 3 scored 0.698 here; rounding moves a
@@ -91,40 +93,42 @@ def test_the_search_finds_the_point_itself() -> None:
 
 def test_a_library_grows_and_round_trips(tmp_path: Path) -> None:
     library = _library()
-    one = Library(library.starts[:1], library.held[:1], library.hold)
+    one = PlanSet(library.starts[:1], library.held[:1], library.hold)
     plan = library.plans(P, "rk4")[1]
     two = one.with_plan(plan)
     assert len(two) == 2
     np.testing.assert_array_equal(two.held[1], library.held[1])
     path = tmp_path / "lib.npz"
     two.save(path)
-    again = Library.load(path)
+    again = PlanSet.load(path)
     np.testing.assert_array_equal(again.starts, two.starts)
     np.testing.assert_array_equal(again.held, two.held)
     assert len(warm_torques(plan, 5, 200)) == 200  # padded with zeros past the plan
 
 
 def test_bad_input_is_refused_in_one_line(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="no plan library") as missing:
-        Library.load(tmp_path / "none.npz")
+    with pytest.raises(ValueError, match="no plan set") as missing:
+        PlanSet.load(tmp_path / "none.npz")
     assert "\n" not in str(missing.value)
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"PK\x03\x04 not a zip file")
     with pytest.raises(ValueError, match="unreadable") as error:
-        Library.load(corrupt)
+        PlanSet.load(corrupt)
     assert "\n" not in str(error.value)
     wrong = tmp_path / "wrong.npz"
     np.savez(wrong, starts=np.zeros((2, 3)), held=np.zeros((2, 5)), hold=5)
     with pytest.raises(ValueError, match=r"unreadable.*starts"):
-        Library.load(wrong)
+        PlanSet.load(wrong)
     with pytest.raises(ValueError, match="exceeds"):
-        Library(np.zeros((1, 4)), np.full((1, 3), 100.0), 5).plans(P, "rk4")
-    with pytest.raises(ValueError, match="tree settings"):
-        TreeSettings(stride=0)
-    with pytest.raises(ValueError, match="ai_olympics"):
-        entries.check("tree", "report")
+        PlanSet(np.zeros((1, 4)), np.full((1, 3), 100.0), 5).plans(P, "rk4")
+    with pytest.raises(
+        ValueError, match="config stride must be a whole number of steps >= 1, got 0"
+    ):
+        TrackerSettings(stride=0)
+    with pytest.raises(ValueError, match="the tree entry is for ai_olympics, not 'report'"):
+        entries.ENTRIES["tree"].check("report")
     tree = _tree(1)
     with pytest.raises(ValueError, match="4 finite numbers"):
-        tree(np.array([0.0, np.nan, 0.0, 0.0]))
+        tree.act(np.array([0.0, np.nan, 0.0, 0.0]), 0.0)
     with pytest.raises(ValueError, match="model parameters"):
-        TreeController(tree.funnel, [shipped_swing_up("report")])
+        PlanTracker([SHIPPED, shipped_swing_up("report")])

@@ -4,7 +4,7 @@ backwards under torques that, run forwards, pump energy (``pump`` times ``reserv
 sign of the elbow's velocity plus ``jitter`` times a torque within ``reserve`` held 1 to
 ``longest_hold`` steps), until the energy falls to a level drawn uniformly between hanging's
 and upright's; it is then rolled out forwards from where it ended, on the model's own steps.
-A :class:`~acrobot_mj.control.tree.TreeController` enters them as it enters a grown
+A :class:`~acrobot_mj.control.tracker.PlanTracker` enters them as it enters a grown
 library."""
 
 from __future__ import annotations

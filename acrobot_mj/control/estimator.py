@@ -6,13 +6,13 @@ robot, the velocities come from the angles and the model, not from the noisy mea
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from acrobot_mj.checks import check_float
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.physics.xp import wrap
@@ -75,20 +75,22 @@ class Observer:
         self.torque = float(torque)
 
 
-class Estimated:
-    """``controller`` acting on an :class:`Observer`'s estimate instead of the measurement."""
+class Estimated(Controller):
+    """``controller`` acting on an :class:`Observer`'s estimate instead of the measurement; the
+    observer predicts with the torque ``controller`` gave."""
 
-    def __init__(self, controller: Callable[[np.ndarray], Any], observer: Observer) -> None:
+    def __init__(self, controller: Controller, observer: Observer) -> None:
         self.controller, self.observer = controller, observer
 
-    def reset(self) -> None:
+    def reset(self, seed: int | None = None) -> None:
         """A new episode for both."""
         self.observer.reset()
-        reset = getattr(self.controller, "reset", None)
-        if reset is not None:
-            reset()
+        self.controller.reset(seed)
 
-    def __call__(self, y: np.ndarray) -> float:
-        torque = float(self.controller(self.observer(y)))
+    def act(self, x: np.ndarray, t: float) -> float:
+        torque = float(self.controller.act(self.observer(x), t))
         self.observer.applied(torque)
         return torque
+
+    def applied(self, torque: float) -> None:
+        self.controller.applied(torque)

@@ -11,12 +11,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from acrobot_mj.checks import check_float, check_int
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 
-Controller = Callable[[np.ndarray], np.ndarray]
+#: A feedback law on many states at once: states (n, 4) to torques (n,) [N m].
+BatchLaw = Callable[[np.ndarray], np.ndarray]
 
 
 def step_jacobians(
@@ -91,9 +93,10 @@ Jacobians = Callable[[np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass
-class LQR:
+class LQR(Controller):
     """Saturated LQR at ``target`` (upright at rest) on the env's discrete model, or on the model
-    whose Jacobians ``linear`` gives: ``clip(-K (x - x*), -1, 1)`` N m."""
+    whose Jacobians ``linear`` gives: ``clip(-K (x - x*), -1, 1)`` N m; called on one state or
+    many ``(..., 4)``."""
 
     q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0)
     r: float = 1.0
@@ -118,9 +121,12 @@ class LQR:
         limit = self.p.max_torque
         return np.clip(-(state_error(x, self.target) @ self.gain.T)[..., 0], -limit, limit)
 
+    def act(self, x: np.ndarray, t: float) -> float:
+        return float(self(x))
+
 
 def balances(
-    controller: Controller, starts: np.ndarray, seconds: float = 20.0, tolerance: float = 1e-3
+    controller: BatchLaw, starts: np.ndarray, seconds: float = 20.0, tolerance: float = 1e-3
 ) -> np.ndarray:
     """For each start ``(n, 4)``: is it within ``tolerance`` of upright after ``seconds``?"""
     x = np.array(starts, dtype=float)
@@ -130,7 +136,7 @@ def balances(
 
 
 def q1_basin(
-    controller: Controller, upper: float = 0.5, resolution: float = 1e-4
+    controller: BatchLaw, upper: float = 0.5, resolution: float = 1e-4
 ) -> tuple[float, float]:
     """The largest q1 offsets [rad] below and above upright that ``controller`` balances from."""
     limits = []
@@ -283,7 +289,7 @@ def condensed(lqr: LQR, horizon: int) -> tuple[np.ndarray, np.ndarray]:
 MAX_CONDITION = 1e8
 
 
-class MPC:
+class MPC(Controller):
     """The constrained LQR at ``lqr``'s target: over ``horizon`` steps of its linear model it
     minimises ``sum e' Q e + r u^2`` plus its cost-to-go ``e' S e`` at the end, subject to
     ``|u| <= max_torque`` N m, and applies the first torque (linear MPC). Where no torque of the
@@ -323,6 +329,9 @@ class MPC:
             return np.array([self(row) for row in x.reshape(-1, 4)]).reshape(x.shape[:-1])
         torques, saturated = self.plan(x)
         return np.asarray(torques[0]) if saturated else self.lqr(x)
+
+    def act(self, x: np.ndarray, t: float) -> float:
+        return float(self(x))
 
 
 def controllability_rank(a: np.ndarray, b: np.ndarray) -> int:
@@ -365,26 +374,6 @@ def tvlqr_torque(trajectory: Trajectory, gains: np.ndarray, k: int, x: np.ndarra
     u = trajectory.torques[k] - gains[k] @ state_error(x, trajectory.states[k])
     limit = trajectory.params.max_torque
     return float(np.clip(u, -limit, limit))
-
-
-class SwingUpController:
-    """``u_k = clip(u*_k - K_k (x - x*_k), -1, 1)`` N m along ``trajectory``, then the
-    constrained LQR at upright (:class:`MPC`), both on the trajectory's model; ``q`` and ``r``
-    weight state error and torque."""
-
-    def __init__(
-        self, trajectory: Trajectory, q: tuple[float, ...] = (10.0, 10.0, 1.0, 1.0), r: float = 1.0
-    ) -> None:
-        self.trajectory = trajectory
-        self.lqr = LQR(q, r, trajectory.params)
-        self.balancer = MPC(self.lqr)
-        self.gains = tvlqr(trajectory, self.lqr, q, r)[1]
-
-    def __call__(self, k: int, x: np.ndarray) -> float:
-        """The torque [N m] at physics step ``k`` (0 at the start) in state ``x``."""
-        if k >= self.trajectory.steps:
-            return float(self.balancer(x))
-        return tvlqr_torque(self.trajectory, self.gains, k, x)
 
 
 class SigmaDelta:

@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.params import REPORT, AcrobotParams
@@ -47,6 +48,17 @@ def energy_pumping_torque(
     dq2 = x[..., 3]
     tau = np.clip(gain * (goal - energy) * dq2, -p.max_torque, p.max_torque)
     return np.where(dq2 == 0.0, p.max_torque, tau)
+
+
+class EnergyPumping(Controller):
+    """:func:`energy_pumping_torque` to upright's energy at ``gain`` [N m / (J rad/s)] on the
+    model ``p``."""
+
+    def __init__(self, p: AcrobotParams, gain: float = 50.0) -> None:
+        self.p, self.gain = p, gain
+
+    def act(self, x: np.ndarray, t: float) -> float:
+        return float(energy_pumping_torque(x, gain=self.gain, p=self.p))
 
 
 def pumping_energies(dt: float = 1e-3, seconds: float = 20.0, p: AcrobotParams = REPORT):

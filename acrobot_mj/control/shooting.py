@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acrobot_mj.checks import check_float, check_int, check_state
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, total_energy
 from acrobot_mj.physics.params import AcrobotParams
@@ -39,14 +40,16 @@ class ShootingSettings:
         check_int("seed", self.seed, 0)
 
 
-class EnergyShooting:
+class EnergyShooting(Controller):
     """``tau = pi(x)`` [N m] that drives the energy to upright's: of ``candidates`` piecewise
     constant sequences over the horizon (the last decision's best, shifted on, among them),
     the first torque of the one whose energy stays nearest upright's over the horizon's second
-    half, on ``params``' steps by ``method`` with its velocity limits. ``None`` within ``above``
-    of upright's energy or below it: about 2 ms a call on one core of a shared 2-core machine,
-    real-time at the report's 0.05 s a step. Call it once a step of ``params.dt`` (the kept
-    plan moves on a step a call), and :meth:`reset` before each episode."""
+    half, on ``params``' steps by ``method`` with its velocity limits. It covers the states more
+    than ``above`` over upright's energy (a link of
+    :class:`~acrobot_mj.control.controller.Fallbacks`): about 2 ms a call on one core of a
+    shared 2-core machine, real-time at the report's 0.05 s a step. Call it once a step of
+    ``params.dt`` (the kept plan moves on a step a call), and :meth:`reset` before each
+    episode."""
 
     def __init__(
         self, params: AcrobotParams, method: str, settings: ShootingSettings = ShootingSettings()
@@ -60,21 +63,28 @@ class EnergyShooting:
         self.levels = np.array([-1.0, 0.0, 1.0]) * params.max_torque
         self.reset()
 
-    def reset(self) -> None:
-        """A new episode: the sequences re-drawn from ``seed``, no plan kept."""
-        self.rng = np.random.default_rng(self.settings.seed)
+    def reset(self, seed: int | None = None) -> None:
+        """A new episode: the sequences re-drawn from ``seed`` (None: the settings' seed), no
+        plan kept."""
+        self.rng = np.random.default_rng(self.settings.seed if seed is None else seed)
         self.plan = np.zeros(self.steps)
 
     def energy(self, x: np.ndarray) -> np.ndarray:
         """The energy [J] over upright's of states ``x`` (..., 4)."""
         return total_energy(x[..., :2], x[..., 2:], self.params) - self.upright
 
-    def __call__(self, x: np.ndarray) -> float | None:
-        """The torque [N m] in state ``x`` (4,), or None where it does not act."""
+    def covers(self, x: np.ndarray) -> bool:
+        """Whether the energy of ``x`` (4,) is more than ``above`` over upright's; where it is
+        not, the kept plan is dropped (the next one starts afresh)."""
         x = check_state("the state", x)
         if float(self.energy(x)) <= self.settings.above:
             self.plan[:] = 0.0
-            return None
+            return False
+        return True
+
+    def act(self, x: np.ndarray, t: float) -> float:
+        """The torque [N m] in state ``x`` (4,), planned as if it covers ``x``."""
+        x = check_state("the state", x)
         n, segments = self.settings.candidates, -(-self.steps // self.hold)
         drawn = self.rng.choice(self.levels, size=(n, segments))
         torques = np.repeat(drawn, self.hold, axis=1)[:, : self.steps]

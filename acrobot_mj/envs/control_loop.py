@@ -13,8 +13,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.feedback import Feedback
-from acrobot_mj.control.lqr import SigmaDelta, SwingUpController
+from acrobot_mj.control.controller import Controller
+from acrobot_mj.control.lqr import SigmaDelta
+from acrobot_mj.control.tracker import clocked
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.disturbances import Perturbation, scale_links
 from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode, run_from_rest
@@ -49,13 +50,14 @@ def hold_setting() -> float:
 
 
 class BalanceActor:
-    """The controller as an episode-loop actor (a clocked one, ``u = pi(k, x)``, is told the
-    physics step); records each step's state and applied torque."""
+    """A :class:`~acrobot_mj.control.controller.Controller` as an episode-loop actor, reset as
+    the episode begins, told the time and each applied torque; records each step's state and
+    applied torque."""
 
     def __init__(
         self,
         env: gym.Env,
-        controller: SwingUpController | Feedback,
+        controller: Controller,
         discrete: bool,
         noise: Any = None,
         observed: bool = False,
@@ -64,26 +66,23 @@ class BalanceActor:
         # observed: the controller sees the observation (angles wrapped), not MuJoCo's state.
         self.observed = observed
         self.obs: np.ndarray | None = None
-        # A state feedback has a memory of its own for this episode, and hears each torque.
-        self.feedback: Feedback | None = None
-        if isinstance(controller, SwingUpController):
-            clocked = controller
-            self.controller: Any = lambda x: clocked(len(self.torques), x)
-        else:
-            self.controller = self.feedback = controller.fresh()
+        self.controller = controller
         self.modulator = SigmaDelta() if discrete else None
         self.noise = noise  # a generator and a standard deviation, or None
         self.states: list[list[float]] = []
         self.torques: list[float] = []
 
     def _act(self) -> Any:
-        u = self.controller(self.obs if self.observed else self.env.state)
+        t = len(self.torques) * self.env.dt
+        seen = self.obs if self.observed and self.obs is not None else self.env.state
+        u = self.controller.act(seen, t)
         if self.noise is not None:
             rng, sigma = self.noise
             self.env.data.qfrc_applied[1] = sigma * rng.standard_normal()
         return np.array([u], dtype=np.float32) if self.modulator is None else self.modulator(u)
 
     def begin(self, obs: np.ndarray) -> Any:
+        self.controller.reset()
         self.obs = np.asarray(obs, dtype=np.float64)
         self.states.append(self.env.state.tolist())
         return self._act()
@@ -92,8 +91,7 @@ class BalanceActor:
         self.obs = np.asarray(obs, dtype=np.float64)
         self.states.append(self.env.state.tolist())
         self.torques.append(float(self.env.data.ctrl[0]))
-        if self.feedback is not None:
-            self.feedback.record(self.torques[-1])
+        self.controller.applied(self.torques[-1])
         return None if terminated or truncated else self._act()
 
 
@@ -132,7 +130,7 @@ def closed_loop(
     scale_links(env, perturbation.mass_scale, perturbation.inertia_scale)
     rng = np.random.default_rng(perturbation.seed)
     noise = (rng, perturbation.torque_noise) if perturbation.torque_noise > 0 else None
-    actor = BalanceActor(env, SwingUpController(trajectory), discrete, noise)
+    actor = BalanceActor(env, clocked(trajectory), discrete, noise)
     offset = np.asarray(perturbation.start_offset, dtype=float)
 
     def start(obs: np.ndarray, info: dict[str, Any]) -> None:

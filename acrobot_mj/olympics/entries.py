@@ -1,146 +1,216 @@
-"""The controllers the protocol can score, by name, built for a model from its parameters
-alone (once per process, a fresh copy per episode): the state-feedback funnel along the planned
-swing-up, with energy removal elsewhere (``tvlqr``: TVLQR and LQR as the leaderboard's entry) or
-with a state estimator and, on ``ai_olympics``, energy pumping elsewhere (``funnel``; other
-acrobots: :data:`PUMPING_ONLY`); ``funnel`` balancing with the
-constrained LQR instead of the saturated one (``mpc``, :class:`~acrobot_mj.control.lqr.MPC`);
-``funnel`` with swing-ups planned online from wherever it is not (``replan``,
-:mod:`acrobot_mj.control.replan`) or with a library of swing-ups planned offline (``tree``,
-:mod:`acrobot_mj.control.tree`, grown by :mod:`acrobot_mj.olympics.growing`), these two on
-``ai_olympics`` only; or with swing-ups integrated backwards from upright (``backward``,
-:mod:`acrobot_mj.control.backward`) and energy removal planned on the model's steps
-(:mod:`acrobot_mj.control.shooting`), on the report's acrobot only (:data:`ONLY_ON`)."""
+"""The protocol's entries, one declarative registry (:data:`ENTRIES`): each an :class:`Entry`
+with its name, what it is, its factory (a controller built for a model from the model's
+parameters alone), its options, and the model it is set for where it is set for one, with why.
+
+Every entry is a :class:`~acrobot_mj.control.tracker.PlanTracker` along the model's planned
+swing-up (:mod:`acrobot_mj.olympics.swing_ups`) on a state estimate
+(:class:`~acrobot_mj.control.estimator.Observer`): ``funnel`` alone, ``replan`` with swing-ups
+planned online from wherever it is, ``tree`` with a set of swing-ups planned offline (grown by
+:mod:`acrobot_mj.olympics.growing`), ``backward`` with swing-ups integrated backwards from
+upright (:mod:`acrobot_mj.control.backward`) and energy removal planned on the model's steps
+(:mod:`acrobot_mj.control.shooting`)."""
 
 from __future__ import annotations
 
-import copy
-import dataclasses
-from functools import partial
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from acrobot_mj.control.controller import Controller, EnergyRemoval, Fallbacks
 from acrobot_mj.control.estimator import Estimated, Observer
-from acrobot_mj.control.feedback import FunnelController, FunnelSettings
-from acrobot_mj.control.policies import energy_pumping_torque
-from acrobot_mj.olympics.controllers import shipped_swing_up
+from acrobot_mj.control.plans import PlanSet
+from acrobot_mj.control.policies import EnergyPumping
+from acrobot_mj.control.tracker import FunnelSettings, Planner, PlanTracker, TrackerSettings
+from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics.models import resolve
+from acrobot_mj.settings import Settings, setting
 
 #: The funnel's cost levels at 500 decisions a second (the LQR's costs grow with the rate):
 #: chosen on the global policy's episodes of seeds 0 to 2 (uptime 0.42 against 0.28 with
 #: FunnelSettings' levels times 25); the robustness and performance seeds were not used.
 LEVELS = FunnelSettings(upright=30_000.0, track=20_000.0, entry=2_000.0, horizon=0)
-#: The ``mpc`` entry's horizon [steps] on ``ai_olympics``: 0.5 s, 2.3 time constants of the slower
-#: unstable mode at upright (eigenvalue 4.65 /s). The QP's condition number stops it near 361
-#: steps, whose condensing took 248 s against 0.4 s for 250 (measured on 2 shared cores).
+#: The constrained LQR's horizon [steps] on ``ai_olympics``: 0.5 s, 2.3 time constants of the
+#: slower unstable mode at upright (eigenvalue 4.65 /s). The QP's condition number stops it
+#: near 361 steps, whose condensing took 248 s against 0.4 s for 250 (2 shared cores).
 MPC_HORIZON = 250
-#: Energy pumping's gain [N m / (J rad/s)] where the funnel does not act.
+#: Energy pumping's gain [N m / (J rad/s)] where no plan is followed.
 PUMPING_GAIN = 50.0
-#: The models on which the entries pump energy where the funnel does not act; elsewhere they
-#: remove it (the funnel's own law), so the arm falls to hanging, where the plan starts. On the
-#: report's acrobot, at 0.05 of gravity's torque, pumping to upright's energy kept the arm
-#: whirling, its elbow spinning at about 8 rad/s and never caught after a reset: global uptimes
-#: 0.091, 0.084, 0.113 on seeds 0-2 against 0.252, 0.300, 0.196 removing energy.
-PUMPING_ONLY = ("ai_olympics",)
-#: The entries by name.
-ENTRIES = ("tvlqr", "funnel", "mpc", "replan", "tree", "backward")
-#: The entries set for one model alone, and why. On ``ai_olympics`` a plan's length, the
-#: energy window, the waits and the jump that marks a reset are its steps of 0.002 s (at the
-#: report's 0.05 s a step, the 0.1 rad jump drops a plan whenever the arm moves at 2 rad/s).
-ONLY_ON = {
-    "tree": ("ai_olympics", "its plan library and settings are that robot's"),
-    "replan": ("ai_olympics", "its planner's and replanning's settings are that robot's"),
-    "backward": ("report", "its plans' torques and its reset test are for that acrobot's steps"),
-}
-#: The ``backward`` entry's reset test [rad]: an angle jump past it between calls. At 0.05 s a
-#: step the arm at its velocity limit, 9 pi rad/s, turns 1.4 rad.
-BACKWARD_JUMP = 2.0
-#: The ``tree`` entry's plan library on ``ai_olympics`` (:mod:`acrobot_mj.olympics.growing`).
-LIBRARY = Path(__file__).resolve().parent / "trajectories" / "ai_olympics_tree.npz"
-_BUILT: dict[tuple[str, str], Any] = {}
+#: The models on which the entries pump energy where no plan is followed; elsewhere they remove
+#: it, so the arm falls to hanging, where the plan starts. On the report's acrobot, at 0.05 of
+#: gravity's torque, pumping to upright's energy kept the arm whirling, its elbow spinning at
+#: about 8 rad/s and never caught after a reset: global uptimes 0.091, 0.084, 0.113 on seeds
+#: 0-2 against 0.252, 0.300, 0.196 removing energy.
+PUMPING_ON = ("ai_olympics",)
+#: A reset is an angle jump past this [rad] between two 0.002 s calls on ``ai_olympics``; at
+#: the report's 0.05 s a step the arm at its velocity limit, 9 pi rad/s, turns 1.4 rad.
+JUMPS = {"ai_olympics": 0.1, "report": 2.0}
+#: The ``tree`` entry's plan set on ``ai_olympics`` (:mod:`acrobot_mj.olympics.growing`).
+PLANS = Path(__file__).resolve().parent / "trajectories" / "ai_olympics_tree.npz"
 
 
-def check(entry: str, model: str) -> None:
-    """Refuse an unknown entry, or a model without a planned swing-up, in one line."""
-    if entry not in ENTRIES:
-        raise ValueError(f"unknown controller {entry!r}; known: {list(ENTRIES)}")
-    resolve(model)
-    shipped_swing_up(model)
-    if entry in ONLY_ON and model != ONLY_ON[entry][0]:
-        only, why = ONLY_ON[entry]
-        raise ValueError(f"the {entry} entry is for {only}, not {model!r}: {why}")
+@dataclass(frozen=True)
+class FunnelOptions(Settings):
+    """The ``funnel`` entry's options."""
+
+    mpc: bool = setting(
+        False,
+        "balance with the constrained LQR (250 steps on ai_olympics, 40 elsewhere) instead of "
+        "the saturated LQR",
+    )
+
+    what = "funnel entry"
 
 
-def _pumping(x: np.ndarray, params: Any) -> float:
-    return float(energy_pumping_torque(x, gain=PUMPING_GAIN, p=params))
+@dataclass(frozen=True)
+class NoOptions(Settings):
+    """An entry without options."""
+
+    what = "entry"
 
 
-def tree_parts(model: str, library: Any) -> tuple[Any, Observer]:
-    """The ``tree`` entry's controller on ``library`` (a
-    :class:`~acrobot_mj.control.tree.Library`) and its state estimator, unwrapped."""
-    from acrobot_mj.control.tree import TreeController
+@dataclass(frozen=True)
+class Entry:
+    """An entry: its ``name``, what it ``describes``, its ``factory`` (a model's name and the
+    options to a controller), its ``options`` (a :class:`~acrobot_mj.settings.Settings`), and
+    ``only``, the model it is set for (None: every model with a planned swing-up), with
+    ``why``."""
 
-    trajectory = shipped_swing_up(model)
-    law = partial(_pumping, params=trajectory.params)
-    funnel = FunnelController(trajectory, LEVELS, elsewhere=law)
-    plans = library.plans(trajectory.params, trajectory.method)
-    return TreeController(funnel, plans), Observer(trajectory.params, trajectory.method)
+    name: str
+    describes: str
+    factory: Callable[[str, Any], Controller]
+    options: type[Settings] = NoOptions
+    only: str | None = None
+    why: str = ""
 
+    def check(self, model: str) -> None:
+        """Refuse, in one line, a model the entry cannot work on."""
+        resolve(model)
+        shipped_swing_up(model)
+        if self.only is not None and model != self.only:
+            raise ValueError(f"the {self.name} entry is for {self.only}, not {model!r}: {self.why}")
 
-def backward_tree(model: str, settings: Any = None) -> Any:
-    """The ``backward`` entry's controller on ``model``, unestimated: a
-    :class:`~acrobot_mj.control.tree.TreeController` over a library of swing-ups integrated
-    backwards from upright (``settings``: :class:`~acrobot_mj.control.backward.BackwardSettings`,
-    None for its defaults); elsewhere energy removal planned on the model's steps
-    (:class:`~acrobot_mj.control.shooting.EnergyShooting`) above upright's energy, the funnel's
-    own removal below it."""
-    from acrobot_mj.control.backward import BackwardSettings, backward_library
-    from acrobot_mj.control.shooting import EnergyShooting
-    from acrobot_mj.control.tree import TreeController, TreeSettings
-
-    trajectory = shipped_swing_up(model)
-    p, method = trajectory.params, trajectory.method
-    plans = backward_library(p, method, settings or BackwardSettings())
-    funnel = FunnelController(trajectory, _levels(model), elsewhere=EnergyShooting(p, method))
-    return TreeController(funnel, plans, TreeSettings(jump=BACKWARD_JUMP))
+    def build(self, model: str, options: Mapping[str, Any] | None = None) -> Controller:
+        """The entry's controller for ``model`` with ``options`` (by name)."""
+        self.check(model)
+        return self.factory(model, self.options.from_dict(dict(options or {})))
 
 
-def _levels(model: str) -> FunnelSettings:
+def levels(model: str) -> FunnelSettings:
     """The funnel's levels on ``model``: :data:`LEVELS` on ``ai_olympics``; another acrobot
     steps at its own rate, and FunnelSettings' levels were chosen on the report's."""
     return LEVELS if model == "ai_olympics" else FunnelSettings(horizon=0)
 
 
-def _build(entry: str, model: str) -> Any:
-    if entry == "tree":
-        from acrobot_mj.control.tree import Library
+def fallback(model: str) -> Controller | None:
+    """Where no plan is followed: energy pumping on :data:`PUMPING_ON`, else removal."""
+    if model not in PUMPING_ON:
+        return None
+    return EnergyPumping(shipped_swing_up(model).params, PUMPING_GAIN)
 
-        return Estimated(*tree_parts(model, Library.load(LIBRARY)))
-    trajectory = shipped_swing_up(model)
-    levels = _levels(model)
-    observer = Observer(trajectory.params, trajectory.method)
-    if entry == "backward":
-        return Estimated(backward_tree(model), observer)
-    if entry == "mpc":  # elsewhere the default horizon: 40 steps, as `balance --feedback`
+
+def estimated(tracker: PlanTracker) -> Controller:
+    """``tracker`` on the estimate of an observer of its own model."""
+    return Estimated(tracker, Observer(tracker.params, tracker.method))
+
+
+def _funnel(model: str, options: FunnelOptions) -> Controller:
+    chosen = levels(model)
+    if options.mpc:  # elsewhere the default horizon: 40 steps, as `balance --feedback`
         horizon = MPC_HORIZON if model == "ai_olympics" else FunnelSettings().horizon
-        levels = dataclasses.replace(levels, horizon=horizon)
-    if entry == "tvlqr":
-        return FunnelController(trajectory, levels)
-    law = partial(_pumping, params=trajectory.params) if model in PUMPING_ONLY else None
-    funnel: Any = FunnelController(trajectory, levels, elsewhere=law)
-    if entry == "replan":
-        from acrobot_mj.control.replan import Planner, Replanning  # CasADi: the control extra
-
-        funnel = Replanning(funnel, Planner(trajectory.params, trajectory.method))
-    return Estimated(funnel, observer)
+        chosen = chosen.replace(horizon=horizon)
+    return estimated(PlanTracker([shipped_swing_up(model)], chosen, fallback=fallback(model)))
 
 
-def build(entry: str, model: str) -> Any:
-    """A fresh controller ``entry`` for ``model``: ``reset()`` and ``controller(obs) -> elbow
-    torque`` [N m]."""
-    key = (entry, model)
-    if key not in _BUILT:
-        check(entry, model)
-        _BUILT[key] = _build(entry, model)
-    return copy.deepcopy(_BUILT[key])
+def _replan(model: str, options: NoOptions) -> Controller:
+    from acrobot_mj.control.replan import Planner, replanner  # CasADi: the control extra
+
+    swing_up = shipped_swing_up(model)
+    planner = replanner(Planner(swing_up.params, swing_up.method))
+    settings = TrackerSettings(jump=JUMPS[model])
+    tracker = PlanTracker(
+        [swing_up], levels(model), settings, fallback=fallback(model), planner=planner
+    )
+    return estimated(tracker)
+
+
+def tree(model: str, plans: PlanSet, planner: Planner | None = None) -> PlanTracker:
+    """The ``tree`` entry's tracker on ``model`` over the shipped swing-up and ``plans``,
+    unestimated; ``planner`` (offline) adds plans to it."""
+    swing_up = shipped_swing_up(model)
+    every = [swing_up, *plans.plans(swing_up.params, swing_up.method)]
+    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[model])
+    return PlanTracker(
+        every, levels(model), settings, fallback=fallback(model), planner=planner, keep=True
+    )
+
+
+def backward(model: str, plans: list[Trajectory] | None = None) -> PlanTracker:
+    """The ``backward`` entry's tracker on ``model``, unestimated: the shipped swing-up and
+    ``plans`` (None: :func:`~acrobot_mj.control.backward.backward_library`'s), entered as
+    ``tree`` enters its set; above upright's energy, energy removal planned on the model's
+    steps (:class:`~acrobot_mj.control.shooting.EnergyShooting`), below it the funnel's."""
+    from acrobot_mj.control.backward import BackwardSettings, backward_library
+    from acrobot_mj.control.shooting import EnergyShooting
+
+    swing_up = shipped_swing_up(model)
+    p, method = swing_up.params, swing_up.method
+    plans = backward_library(p, method, BackwardSettings()) if plans is None else plans
+    chosen = levels(model)
+    removal = Fallbacks([EnergyShooting(p, method), EnergyRemoval(chosen.damping, p.max_torque)])
+    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[model])
+    return PlanTracker([swing_up, *plans], chosen, settings, fallback=removal)
+
+
+#: The entries by name.
+ENTRIES = {
+    entry.name: entry
+    for entry in (
+        Entry(
+            "funnel",
+            "TVLQR along the planned swing-up entered by state, LQR at upright, on a state "
+            "estimate; energy pumping elsewhere on ai_olympics, removal on other acrobots",
+            _funnel,
+            FunnelOptions,
+        ),
+        Entry(
+            "replan",
+            "funnel with swing-ups planned online from wherever it is (IPOPT; not real-time)",
+            _replan,
+            only="ai_olympics",
+            why="its planner's and replanning's settings are that robot's",
+        ),
+        Entry(
+            "tree",
+            "funnel with a set of swing-ups planned offline, entered by state (real-time)",
+            lambda model, options: estimated(tree(model, PlanSet.load(PLANS))),
+            only="ai_olympics",
+            why="its plan set and settings are that robot's",
+        ),
+        Entry(
+            "backward",
+            "funnel with swing-ups integrated backwards from upright and energy removal "
+            "planned on the model's steps",
+            lambda model, options: estimated(backward(model)),
+            only="report",
+            why="its plans' torques and its reset test are for that acrobot's steps",
+        ),
+    )
+}
+
+
+def support_table() -> str:
+    """A Markdown table: each entry on each shipped model, built or refused, and why."""
+    from acrobot_mj.physics.models import MODELS
+
+    rows = ["| entry | model | on it |", "|---|---|---|"]
+    for name, entry in ENTRIES.items():
+        for model in MODELS:
+            try:
+                entry.check(model)
+                verdict = "runs"
+            except ValueError as error:
+                verdict = "refused: " + str(error).replace("|", "\\|")
+            rows.append(f"| `{name}` | `{model}` | {verdict} |")
+    return "\n".join(rows) + "\n"

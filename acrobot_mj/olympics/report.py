@@ -18,7 +18,7 @@ import numpy as np
 from acrobot_mj.files import is_sealed, read_json, sealed, versions, write_json
 from acrobot_mj.olympics import scores
 from acrobot_mj.olympics.protocol import CATEGORY_KEYS, PERFORMANCE, Category, to_protocol
-from acrobot_mj.olympics.scaling import ORIGINAL, Protocol
+from acrobot_mj.olympics.scaling import ORIGINAL, Rules
 from acrobot_mj.olympics.scores import Recording
 from acrobot_mj.report.plots import Labels, Series, line_figure, save_figure
 
@@ -101,7 +101,7 @@ class Olympics:
     episodes: Mapping[str, Episodes] = field(default_factory=dict)
     global_episode: Recording | None = None
     global_draws: Mapping[str, Any] = field(default_factory=dict)
-    protocol: Protocol = ORIGINAL
+    protocol: Rules = ORIGINAL
 
 
 def _category(category: Category, episodes: Episodes) -> dict[str, Any]:

@@ -2,8 +2,9 @@
 :class:`~acrobot_mj.envs.acrobot.AcrobotEnv` stepping every 0.002 s (continuous torques), under
 the disturbance wrappers of :mod:`acrobot_mj.envs` (:class:`~acrobot_mj.envs.sensor.Sensor`,
 :class:`~acrobot_mj.envs.motor.Motor`, :class:`~acrobot_mj.envs.model_error.ModelError`), its
-controller a named entry (:mod:`acrobot_mj.olympics.entries`) built once per process; episodes
-shared over a :class:`~acrobot_mj.pool.WorkerPool`; scores and record by
+controller any :class:`~acrobot_mj.control.controller.Controller` or a
+:class:`~acrobot_mj.olympics.sources.Source` of one, built once per process; episodes shared
+over a :class:`~acrobot_mj.pool.WorkerPool`; scores and record by
 :mod:`acrobot_mj.olympics.scores` and :mod:`acrobot_mj.olympics.report`."""
 
 from __future__ import annotations
@@ -15,22 +16,26 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.bars import Steps
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.model_error import ModelError
 from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.sensor import Sensor
-from acrobot_mj.olympics import protocol, trained
+from acrobot_mj.olympics import protocol, sources
 from acrobot_mj.olympics.globaltest import GlobalTester
 from acrobot_mj.olympics.protocol import DT, GLOBAL, ROBUSTNESS, Category, GlobalPolicy, Robustness
 from acrobot_mj.olympics.report import EpisodeRecord, Olympics
-from acrobot_mj.olympics.scaling import Protocol, protocol_for
+from acrobot_mj.olympics.scaling import Rules, protocol_for
 from acrobot_mj.olympics.scores import Recording, final_success
+from acrobot_mj.olympics.sources import Source
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import resolve
 from acrobot_mj.pool import WorkerPool
 
 #: The parts of the protocol, in the order they run.
 PARTS = ("performance", "robustness", "global")
+#: What the protocol scores: a controller, or where to build one.
+Scored = Controller | Source
 
 
 @dataclass(frozen=True)
@@ -58,27 +63,31 @@ def make_env(model: str, conditions: Conditions, seed: int) -> tuple[Any, Motor]
 
 
 def episode(
-    entry: str, model: str, seconds: float, conditions: Conditions, seed: int, dt: float = DT
+    scored: Scored, model: str, seconds: float, conditions: Conditions, seed: int, dt: float = DT
 ) -> Recording:
-    """One episode of ``seconds`` [s] in steps of ``dt`` [s] from hanging at rest under
-    ``entry``'s controller for ``model`` and ``conditions``: true states and the elbow torques
-    applied."""
-    controller = trained.build(entry, model)
+    """One episode of ``seconds`` [s] in steps of ``dt`` [s] from hanging at rest under the
+    controller ``scored`` for ``model`` and ``conditions``: true states and the elbow torques
+    applied. The controller's torque is clipped to the motor's limit, as the protocol's plant
+    clips it, and the controller told the clipped torque."""
+    controller = sources.build(scored, model)
     env, motor = make_env(model, conditions, seed)
     times = protocol.episode_times(seconds, dt)
+    limit = resolve(model).params.max_torque
     obs, _ = env.reset(options={"state": HANGING})
     controller.reset()
     acrobot = env.unwrapped
     states = [acrobot.state]
-    for _ in range(len(times) - 1):
-        obs = env.step(np.array([controller(obs)]))[0]
+    for t in times[:-1]:
+        torque = min(max(controller.act(obs, float(t)), -limit), limit)
+        controller.applied(torque)
+        obs = env.step(np.array([torque]))[0]
         states.append(acrobot.state)
     env.close()
     return Recording(times, np.array(states), motor.applied[:, motor.dof])
 
 
 def global_run(
-    controller: Any,
+    controller: Controller,
     model: str,
     targets: np.ndarray,
     reset_times: np.ndarray,
@@ -86,24 +95,24 @@ def global_run(
     *,
     start: np.ndarray = HANGING,
 ) -> Recording:
-    """``controller`` (``reset()``, ``controller(obs) -> elbow torque``) for ``policy``'s
-    episode from ``start`` (the protocol's: hanging at rest) inside the protocol's testing
-    controller (resets to ``targets`` at ``reset_times``), both joints driven within
-    ``policy``'s limits (the shoulder through MuJoCo's ``qfrc_applied``: the env's motor drives
-    the elbow only; a reset's elbow torque beyond the motor's limit acts there too)."""
+    """``controller`` for ``policy``'s episode from ``start`` (the protocol's: hanging at rest)
+    inside the protocol's testing controller (resets to ``targets`` at ``reset_times``), both
+    joints driven within ``policy``'s limits (the shoulder through MuJoCo's ``qfrc_applied``:
+    the env's motor drives the elbow only; a reset's elbow torque beyond the motor's limit acts
+    there too)."""
     acrobot = resolve(model)
     tester = GlobalTester(controller, acrobot, targets, reset_times, policy)
     env = AcrobotEnv(model=model, continuous=True, task="balance")
     times = protocol.episode_times(policy.t_final, policy.dt)
-    obs, _ = env.reset(options={"state": start})
+    env.reset(options={"state": start})
     tester.reset()
     states, torques = [env.state], []
     limit = acrobot.params.max_torque
     for t in times[:-1]:
-        shoulder, elbow = tester(float(t), obs, env.state)
+        elbow = tester.act(env.state, float(t))
         excess = elbow - float(np.clip(elbow, -limit, limit)) if tester.resetting else 0.0
-        env.data.qfrc_applied[:] = (shoulder, excess)
-        obs = env.step(np.array([elbow - excess]))[0]
+        env.data.qfrc_applied[:] = (tester.shoulder, excess)
+        env.step(np.array([elbow - excess]))
         states.append(env.state)
         torques.append(elbow)
     env.close()
@@ -111,12 +120,12 @@ def global_run(
 
 
 def global_episode(
-    entry: str, model: str, seed: int, policy: GlobalPolicy = GLOBAL
+    scored: Scored, model: str, seed: int, policy: GlobalPolicy = GLOBAL
 ) -> tuple[Recording, dict[str, Any]]:
-    """The global-policy episode of ``seed``: ``entry`` (an entry or a trained run) in
-    :func:`global_run` for ``policy``'s episode, random targets and reset times."""
+    """The global-policy episode of ``seed``: the controller ``scored`` in :func:`global_run`
+    for ``policy``'s episode, random targets and reset times."""
     targets, reset_times = policy.draw(np.random.default_rng(seed))
-    recording = global_run(trained.build(entry, model), model, targets, reset_times, policy)
+    recording = global_run(sources.build(scored, model), model, targets, reset_times, policy)
     return recording, {"targets": targets.tolist(), "reset_times": reset_times.tolist()}
 
 
@@ -137,20 +146,20 @@ def _level_conditions(category: Category, parameter: str, value: float) -> Condi
 
 
 def _robust_episode(
-    entry: str,
+    scored: Scored,
     model: str,
     conditions: Conditions,
     seed: int,
     disturbance: dict[str, Any],
     robustness: Robustness = ROBUSTNESS,
 ) -> EpisodeRecord:
-    recording = episode(entry, model, robustness.t_final, conditions, seed, robustness.dt)
+    recording = episode(scored, model, robustness.t_final, conditions, seed, robustness.dt)
     success = final_success(recording.X[-1], robustness.epsilon)
     return EpisodeRecord.of(recording, success, disturbance)
 
 
 def _calls(
-    entry: str, model: str, category: Category, seed: int, robustness: Robustness = ROBUSTNESS
+    scored: Scored, model: str, category: Category, seed: int, robustness: Robustness = ROBUSTNESS
 ) -> list[tuple]:
     """The episodes of ``category`` as calls of :func:`_robust_episode`, in order."""
     calls = []
@@ -172,7 +181,7 @@ def _calls(
                 else:
                     conditions = _level_conditions(category, sweep.parameter, value)
                     disturbance = {sweep.parameter: value}
-                calls.append((entry, model, conditions, episode_seed, disturbance, robustness))
+                calls.append((scored, model, conditions, episode_seed, disturbance, robustness))
     return calls
 
 
@@ -192,25 +201,32 @@ def _grouped(categories: tuple[Category, ...], records: list[EpisodeRecord]) -> 
     return episodes
 
 
+def named(scored: Scored) -> str:
+    """What the record calls the controller: its source's name, or its class's."""
+    return scored.name if isinstance(scored, Source) else type(scored).__name__
+
+
 @dataclass(frozen=True)
 class OlympicsRun:
-    """One run of the protocol: ``entry`` (a name in
-    :data:`~acrobot_mj.olympics.entries.ENTRIES`) on ``model``,
-    the ``parts`` of :data:`PARTS`, every draw from ``seed``, episodes on ``jobs`` processes,
-    a bar on stderr with ``progress``; ``protocol`` (None: the original on ``ai_olympics``,
-    else scaled to ``model``, :func:`~acrobot_mj.olympics.scaling.protocol_for`). ``entry``
-    may be a trained run's folder (:mod:`~acrobot_mj.olympics.trained`)."""
+    """One run of the protocol: the controller ``scored`` (a
+    :class:`~acrobot_mj.control.controller.Controller`, or a
+    :class:`~acrobot_mj.olympics.sources.Source` of one) on ``model``, the ``parts`` of
+    :data:`PARTS`, every draw from ``seed``, episodes on ``jobs`` processes (a controller
+    object must then be picklable), a bar on stderr with ``progress``; ``protocol`` (None: the
+    original on ``ai_olympics``, else scaled to ``model``,
+    :func:`~acrobot_mj.olympics.scaling.protocol_for`)."""
 
-    entry: str
+    scored: Scored
     model: str = "ai_olympics"
     parts: tuple[str, ...] = PARTS
     seed: int = 0
     jobs: int = 1
     progress: bool = False
-    protocol: Protocol | None = None
+    protocol: Rules | None = None
 
     def __post_init__(self) -> None:
-        trained.check(self.entry, self.model)
+        if isinstance(self.scored, Source):
+            sources.check(self.scored, self.model)
         if self.protocol is None:
             object.__setattr__(self, "protocol", protocol_for(self.model))
         unknown = sorted(set(self.parts) - set(PARTS))
@@ -227,7 +243,7 @@ class OlympicsRun:
         work = [
             c
             for category in categories
-            for c in _calls(self.entry, self.model, category, self.seed, robustness)
+            for c in _calls(self.scored, self.model, category, self.seed, robustness)
         ]
         total = len(work) + ("performance" in self.parts) + ("global" in self.parts)
         pool = WorkerPool(self.jobs) if self.jobs > 1 and work else None
@@ -239,7 +255,7 @@ class OlympicsRun:
             if "performance" in self.parts:
                 run = used.performance
                 performance = episode(
-                    self.entry, self.model, run.t_final, Conditions(), self.seed, run.dt
+                    self.scored, self.model, run.t_final, Conditions(), self.seed, run.dt
                 )
                 bar.done("performance")
             records = []
@@ -254,12 +270,12 @@ class OlympicsRun:
             global_run, draws = None, dict[str, Any]()
             if "global" in self.parts:
                 global_run, draws = global_episode(
-                    self.entry, self.model, self.seed, used.global_policy
+                    self.scored, self.model, self.seed, used.global_policy
                 )
                 bar.done("global")
         p = model.params
         return Olympics(
-            model={"name": self.model, "entry": self.entry},
+            model={"name": self.model, "entry": named(self.scored)},
             lengths=(p.l1, p.l2),
             seeds={"seed": self.seed},
             performance=performance,
@@ -269,3 +285,28 @@ class OlympicsRun:
             global_draws=draws,
             protocol=used,
         )
+
+
+def score(
+    controller: Scored | str,
+    *,
+    model: str = "ai_olympics",
+    scores: tuple[str, ...] = PARTS,
+    seed: int = 0,
+    jobs: int = 1,
+) -> dict[str, Any]:
+    """The protocol's ``scores`` (some of :data:`PARTS`) of ``controller`` on ``model``: a
+    :class:`~acrobot_mj.control.controller.Controller`, an object in ``double_pendulum``'s
+    convention, a :class:`~acrobot_mj.olympics.sources.Source` or its name. The record
+    :func:`~acrobot_mj.olympics.report.olympics_record` makes (every score, every episode),
+    nothing written."""
+    from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention
+    from acrobot_mj.olympics.report import olympics_record
+
+    if isinstance(controller, str):
+        controller = Source(controller)
+    elif isinstance(controller, DoublePendulumController) and not isinstance(
+        controller, Controller
+    ):
+        controller = TheirConvention(controller)
+    return olympics_record(OlympicsRun(controller, model, tuple(scores), seed, jobs).run())

@@ -76,7 +76,7 @@ class Scales:
 
 
 @dataclass(frozen=True)
-class Protocol:
+class Rules:
     """The three parts of the protocol one run uses, its ``name`` (``"ai_olympics"``: the
     original, ``"scaled"``) and the ``scales`` that made it."""
 
@@ -97,7 +97,7 @@ class Protocol:
 
 
 #: The protocol as its leaderboards define it.
-ORIGINAL = Protocol()
+ORIGINAL = Rules()
 
 
 @dataclass(frozen=True)
@@ -188,11 +188,9 @@ class Scaling:
             pid_dt=g.pid_dt * s.step,
         )
 
-    def protocol(self, name: str = "scaled") -> Protocol:
-        """The three parts, scaled, as one :class:`Protocol` called ``name``."""
-        return Protocol(
-            name, self.scales, self.performance(), self.robustness(), self.global_policy()
-        )
+    def protocol(self, name: str = "scaled") -> Rules:
+        """The three parts, scaled, as one :class:`Rules` called ``name``."""
+        return Rules(name, self.scales, self.performance(), self.robustness(), self.global_policy())
 
 
 def scales_between(
@@ -220,11 +218,11 @@ def gravity_torque(p: AcrobotParams) -> float:
     return d + e
 
 
-def protocol_for(model: str) -> Protocol:
+def protocol_for(model: str) -> Rules:
     """The protocol a run on ``model`` (a name with a shipped swing-up) uses: the original on
     ``ai_olympics``, else the original scaled (:func:`scales_between` with the shipped plans'
     lengths), stepping at the model's own physics step."""
-    from acrobot_mj.olympics.controllers import shipped_swing_up
+    from acrobot_mj.olympics.swing_ups import shipped_swing_up
     from acrobot_mj.physics.models import resolve
 
     target = resolve(model)

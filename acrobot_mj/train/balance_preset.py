@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.control.identification import realise
-from acrobot_mj.control.lqr import SwingUpController
+from acrobot_mj.control.tracker import clocked
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.control_loop import (
     BalanceActor,
@@ -125,7 +125,7 @@ class PlanLearner(Learner):
         return balance_env(self._planned(), self.config.discrete, self.config.hold, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
-        return BalanceActor(env, SwingUpController(self._planned()), self.config.discrete)
+        return BalanceActor(env, clocked(self._planned()), self.config.discrete)
 
     @classmethod
     def load(cls, run_dir: Path) -> PlanLearner:

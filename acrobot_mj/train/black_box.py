@@ -3,7 +3,7 @@ env with random actions, fits a generic model of one decision
 (:class:`~acrobot_mj.control.library.LibraryModel`) and of the reward, takes as its goal the
 learnt model's state at rest of highest learnt reward, plans a swing-up to it on the learnt model
 (CasADi/IPOPT from a near-zero warm start) and follows it with the state feedback
-:class:`~acrobot_mj.control.feedback.FunnelController`, every gain from the learnt model."""
+:class:`~acrobot_mj.control.tracker.PlanTracker`, every gain from the learnt model."""
 
 from __future__ import annotations
 
@@ -20,11 +20,12 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_memory
-from acrobot_mj.control.feedback import FunnelController
+from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.library import LibraryModel, best_angles, library_size
 from acrobot_mj.control.library_fit import THRESHOLD
 from acrobot_mj.control.library_terms import HARMONICS
 from acrobot_mj.control.lqr import LQR
+from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.control.trajopt import Arrays, Optimiser, Trajectory, miss, waiting
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
@@ -35,7 +36,8 @@ from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.models import resolve
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.settings import SettingError, Settings, setting
-from acrobot_mj.train.learners import HeldOut, Learner
+from acrobot_mj.train.controller_run import ControllerLearner
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.records import MODEL_FILE
 from acrobot_mj.train.run import Run
 
@@ -314,7 +316,7 @@ def finite_or_none(value: Any) -> Any:
     return None if isinstance(value, float) and math.isinf(value) else value
 
 
-class BlackBoxLearner(Learner):
+class BlackBoxLearner(ControllerLearner):
     """Learns a model from the env's observations, actions and rewards only, then plans and
     follows a funnel on it (``learn``); acts through that state feedback, with no clock."""
 
@@ -337,16 +339,21 @@ class BlackBoxLearner(Learner):
             self.model, self.trajectory = built
         else:
             check_fit(config)
-        self.controller = None if built is None else self._controller()
+        self.tracker = None if built is None else self._tracker()
 
-    def _controller(self) -> FunnelController:
+    def _tracker(self) -> PlanTracker:
         """The funnel on the learnt model; elsewhere the LQR of the learnt model's state at rest
         nearest the plan's start (hanging), which brings it back to where the funnel begins."""
         assert self.model is not None and self.trajectory is not None
         t, linear = self.trajectory, self.model.jacobians
         rest = self.model.equilibrium(t.states[0, :2])
         elsewhere = LQR(p=t.params, target=rest, linear=linear)
-        return FunnelController(t, linear=linear, elsewhere=elsewhere, step=self.model.step)
+        return PlanTracker([t], fallback=elsewhere, linear=linear, step=self.model.step)
+
+    def controller(self) -> Controller:
+        """The controller, on the observation (angles wrapped)."""
+        assert self.tracker is not None
+        return self.tracker
 
     def learn(self, run: Run) -> dict[str, Any]:
         config, clock = self.config, time.perf_counter()
@@ -362,7 +369,7 @@ class BlackBoxLearner(Learner):
         fitted = time.perf_counter()
         self.trajectory = swing_up(self.model, start, goal, config, limits_of(env))
         planned = time.perf_counter()
-        self.controller = self._controller()
+        self.tracker = self._tracker()
         rest = self.greedy(env)
         simulated = len(data["actions"]) * decision_seconds(env)
         measured = {
@@ -395,8 +402,7 @@ class BlackBoxLearner(Learner):
         """The task's assessment of one episode from rest (the env's own start) in ``env``."""
         dt = decision_seconds(env)
         limited = gym.wrappers.TimeLimit(env, steps_in(self.config.seconds, dt))
-        assert self.controller is not None
-        actor = BalanceActor(limited, self.controller, discrete=False, observed=True)
+        actor = BalanceActor(limited, self.controller(), discrete=False, observed=True)
         return assess_from_rest(limited, actor, self.seed)
 
     def model_record(self) -> dict[str, Any]:
@@ -417,8 +423,7 @@ class BlackBoxLearner(Learner):
         return black_box_env(self.config, **{"max_episode_steps": steps, **kwargs})
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
-        assert self.controller is not None
-        return BalanceActor(env, self.controller, discrete=False, observed=True)
+        return BalanceActor(env, self.controller(), discrete=False, observed=True)
 
     @classmethod
     def load(cls, run_dir: Path) -> BlackBoxLearner:

@@ -1,8 +1,8 @@
-"""``acrobot-mj balance --feedback``: the state-feedback controller of
-:mod:`acrobot_mj.control.feedback` as a run that ``evaluate`` and ``render`` take like any other.
-It is built on the report's model (it is told the equations), along the shipped swing-up of its
-``reserve``, in well under a second; its own evaluation starts both angles uniform on the circle.
-"""
+"""``acrobot-mj balance --feedback``: the state-feedback controller
+(:class:`~acrobot_mj.control.tracker.PlanTracker` along one swing-up) as a run that
+``evaluate`` and ``render`` take like any other. It is built on the report's model (it is
+told the equations), along the shipped swing-up of its ``reserve``, in well under a second;
+its own evaluation starts both angles uniform on the circle."""
 
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ from typing import Any
 
 import gymnasium as gym
 
-from acrobot_mj.control.feedback import AdaptiveFunnel, Feedback, FunnelController, FunnelSettings
+from acrobot_mj.control.adaptive import Adaptive
+from acrobot_mj.control.controller import Controller
+from acrobot_mj.control.tracker import FunnelSettings, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.control_loop import (
     BalanceActor,
@@ -25,7 +27,8 @@ from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.settings import Settings, setting
-from acrobot_mj.train.learners import HeldOut, Learner
+from acrobot_mj.train.controller_run import ControllerLearner
+from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
 
@@ -38,9 +41,9 @@ FUNNEL = FunnelSettings()
 @dataclass(frozen=True)
 class FeedbackConfig(Settings):
     """The state-feedback run's settings: its torques, the shipped swing-up whose funnel it
-    follows, the funnel's levels (:class:`~acrobot_mj.control.feedback.FunnelSettings`), the
+    follows, the funnel's levels (:class:`~acrobot_mj.control.tracker.FunnelSettings`), the
     seconds of each episode, and whether it identifies the model and replans in each episode
-    (:class:`~acrobot_mj.control.feedback.AdaptiveFunnel`)."""
+    (:class:`~acrobot_mj.control.adaptive.Adaptive`)."""
 
     discrete: bool = discrete_setting()
     reserve: float = setting(
@@ -57,7 +60,7 @@ class FeedbackConfig(Settings):
     what = "state-feedback"
 
 
-class FeedbackLearner(Learner):
+class FeedbackLearner(ControllerLearner):
     """Builds the controller (``learn``); acts through it from any start, with no clock."""
 
     kind, kind_name = "state_feedback", "state-feedback"
@@ -69,14 +72,13 @@ class FeedbackLearner(Learner):
         self.trajectory = trajectory or shipped(SWING_UPS[config.reserve])
         start = time.perf_counter()
         # The entry check rolls out continuous torques: with {-1, 0, +1} it made catches later.
-        self.controller = FunnelController(
-            self.trajectory, config.funnel, check=not config.discrete
-        )
+        settings = TrackerSettings(rollout=not config.discrete)
+        self.tracker = PlanTracker([self.trajectory], config.funnel, settings)
         self.build_seconds = time.perf_counter() - start
 
     def learn(self, run: Run) -> dict[str, Any]:
         with self.env() as env:
-            actor = BalanceActor(env, self.feedback(), self.config.discrete)
+            actor = BalanceActor(env, self.controller(), self.config.discrete)
             rest = assess_from_rest(env, actor, self.seed)
         return self.keep(
             run,
@@ -97,11 +99,11 @@ class FeedbackLearner(Learner):
         return balance_env(self.trajectory, self.config.discrete, 0.0, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
-        return BalanceActor(env, self.feedback(), self.config.discrete)
+        return BalanceActor(env, self.controller(), self.config.discrete)
 
-    def feedback(self) -> Feedback:
-        """The controller an episode starts with."""
-        return AdaptiveFunnel(self.controller) if self.config.adaptive else self.controller
+    def controller(self) -> Controller:
+        """The controller, on the state."""
+        return Adaptive(self.tracker) if self.config.adaptive else self.tracker
 
     @classmethod
     def load(cls, run_dir: Path) -> FeedbackLearner:
