@@ -16,12 +16,12 @@ import numpy as np
 
 from acrobot_mj.control.backward import BackwardSettings, backward_library
 from acrobot_mj.control.controller import Controller
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics.entries import backward, estimated
 from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.olympics.scores import uptime
-from acrobot_mj.olympics.swing_ups import shipped_swing_up
 
 
 class Entries(Controller):
@@ -45,7 +45,7 @@ def main() -> None:
     parser.add_argument("plans", type=int)
     parser.add_argument("seeds", help="global episodes' seeds, comma-separated")
     arguments = parser.parse_args()
-    swing_up = shipped_swing_up("report")
+    swing_up = planned_swing_up("report")
     p = swing_up.params
     plans = backward_library(p, swing_up.method, BackwardSettings(count=arguments.plans))
     lengths = np.percentile([q.steps for q in plans], [0, 50, 100]) * p.dt

@@ -22,12 +22,12 @@ from dataclasses import replace
 import numpy as np
 
 from acrobot_mj.control.controller import Controller
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.replan import upright_targets
 from acrobot_mj.control.trajopt import Optimiser
 from acrobot_mj.olympics.protocol import from_protocol
 from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
-from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT
 
@@ -60,7 +60,7 @@ def after_reset(model: str, target: np.ndarray) -> np.ndarray:
 
 def shortest(model: str, x0: np.ndarray, longest: float) -> float | None:
     """The length [s] of the shortest swing-up the search finds from ``x0``, or None."""
-    plan = shipped_swing_up(model)
+    plan = planned_swing_up(model)
     p = plan.params
     optimiser = Optimiser(u_max=p.max_torque, method=plan.method, p=p, start=tuple(x0))
     for seconds in np.arange(5.0, longest + 1e-9, 2.5):

@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -142,3 +143,29 @@ def test_the_rl_zoo_trains_with_the_shipped_hyperparameters_and_records_a_video(
     ]
     done = subprocess.run(enjoy, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_an_sb3_policy_is_scored_end_to_end(tmp_path, capsys) -> None:
+    """A SAC policy trained on the continuous RL id with ``model="ai_olympics"`` (a tiny budget)
+    is scored by ``acrobot-mj olympics policy.zip``: the record names it and holds a whole
+    performance episode (10 s of 0.002 s steps)."""
+    record = load("sb3_olympics").main(
+        ["--steps", "150", "--out", str(tmp_path), "--scores", "performance"]
+    )
+    assert record["model"] == {"name": "ai_olympics", "entry": str(tmp_path / "policy.zip")}
+    assert record["performance"]["episode"]["steps"] == 5000
+    assert "trained in" in capsys.readouterr().out
+
+
+def test_a_policy_of_another_acrobot_is_refused(tmp_path, capsys) -> None:
+    from stable_baselines3 import SAC
+
+    from acrobot_mj.cli import main
+
+    with gym.make("acrobot_mj/AcrobotBalanceRLContinuous-v0") as env:  # the report's acrobot
+        SAC("MlpPolicy", env, seed=0).save(tmp_path / "report.zip")
+    argv = ["olympics", str(tmp_path / "report.zip"), "--out", str(tmp_path / "o")]
+    with pytest.raises(SystemExit):
+        main([*argv, "--env", "acrobot_mj/AcrobotBalanceRLContinuous-v0"])
+    err = capsys.readouterr().err.strip()
+    assert "is another acrobot than the one scored" in err and "\n" not in err

@@ -12,6 +12,7 @@ import pytest
 from acrobot_mj.cli import main
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.estimator import Estimated, Observer
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.globaltest import GlobalTester
@@ -19,7 +20,7 @@ from acrobot_mj.olympics.protocol import from_protocol
 from acrobot_mj.olympics.run import Conditions, episode
 from acrobot_mj.olympics.scores import final_success, performance
 from acrobot_mj.olympics.sources import Source
-from acrobot_mj.olympics.swing_ups import performance_swing_up, shipped_swing_up
+from acrobot_mj.olympics.swing_ups import performance_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import MODELS
@@ -102,21 +103,21 @@ def test_gravity_compensation_is_the_plants_gravity_torque() -> None:
     assert np.allclose(tester.gravity(x), expected, rtol=0, atol=1e-12)
 
 
-def test_shipped_swing_up_loads_and_is_exact() -> None:
-    trajectory = shipped_swing_up("ai_olympics")
+def test_planned_swing_up_loads_and_is_exact() -> None:
+    trajectory = planned_swing_up("ai_olympics")
     assert trajectory.steps == 1000 and trajectory.dt == 0.002 and trajectory.u_max == 6.0
     assert trajectory.residual() < 1e-9
     with pytest.raises(ValueError, match="no planned swing-up"):
-        shipped_swing_up("dm_control")
-    assert shipped_swing_up("report").steps == 476  # the control package's reserve plan
+        planned_swing_up("dm_control")
+    assert planned_swing_up("report").steps == 476  # the control package's reserve plan
 
 
 @pytest.mark.slow
-def test_planning_reproduces_the_shipped_swing_up() -> None:
+def test_planning_reproduces_the_planned_swing_up() -> None:
     """The NLP from the model's parameters alone gives the shipped torques (IPOPT is
     deterministic; 1e-6 N m is far above its tolerance, far below any other optimum)."""
     planned = performance_swing_up(OLYMPICS, decisions=200, hold=5)
-    assert np.abs(planned.torques - shipped_swing_up("ai_olympics").torques).max() < 1e-6
+    assert np.abs(planned.torques - planned_swing_up("ai_olympics").torques).max() < 1e-6
 
 
 def test_performance_episode_of_the_funnel() -> None:

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from acrobot_mj.control.estimator import Estimated
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.replan import END_TOLERANCE, Planner, replanner, upright_targets
 from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
-from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
 from acrobot_mj.physics.models import MODELS
@@ -51,10 +51,10 @@ def test_upright_targets_are_upright_and_near() -> None:
         upright_targets(x, 4)
 
 
-def test_a_short_plan_along_the_shipped_swing_up_reaches_upright() -> None:
+def test_a_short_plan_along_the_planned_swing_up_reaches_upright() -> None:
     """0.5 s (50 torques held 5 steps) from the shipped swing-up's state 0.5 s before its end,
     IPOPT warm-started from its torques: fast, and the same NLP as the entry's."""
-    shipped = shipped_swing_up("ai_olympics")
+    shipped = planned_swing_up("ai_olympics")
     start = shipped.steps - 250
     planner = Planner(P, "rk4", decisions=50, hold=5)
     x0 = shipped.states[start]
@@ -92,7 +92,7 @@ def test_bad_input_is_refused_in_one_line() -> None:
         TrackerSettings(window=-1.0)
     with pytest.raises(ValueError, match="start"):
         planner.plan(np.array([0.0, np.nan, 0.0, 0.0]))
-    controller = PlanTracker([shipped_swing_up("ai_olympics")], planner=replanner(planner))
+    controller = PlanTracker([planned_swing_up("ai_olympics")], planner=replanner(planner))
     with pytest.raises(ValueError, match="4 finite numbers"):
         controller.act(np.array([0.0, 0.0, 0.0]), 0.0)
     with pytest.raises(ValueError, match="4 finite numbers"):
@@ -108,7 +108,7 @@ def test_from_hanging_it_is_the_funnel_entry() -> None:
     funnel.reset()
     replan.reset()
     x = HANGING.copy()
-    for k in range(integrators.steps_in(shipped_swing_up("ai_olympics").seconds + 0.5, P.dt)):
+    for k in range(integrators.steps_in(planned_swing_up("ai_olympics").seconds + 0.5, P.dt)):
         u = funnel.act(x, k * P.dt)
         assert replan.act(x, k * P.dt) == u
         x = integrators.step_states(x, u, P, method="rk4")

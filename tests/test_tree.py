@@ -9,18 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.plans import PlanSet, warm_torques
 from acrobot_mj.control.replan import END_TOLERANCE
 from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
-from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import state_error
 from acrobot_mj.physics.models import MODELS
 
 OLYMPICS = MODELS["ai_olympics"]
 P = OLYMPICS.params
-SHIPPED = shipped_swing_up("ai_olympics")
+SHIPPED = planned_swing_up("ai_olympics")
 
 
 def _library() -> PlanSet:
@@ -131,4 +131,4 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="4 finite numbers"):
         tree.act(np.array([0.0, np.nan, 0.0, 0.0]), 0.0)
     with pytest.raises(ValueError, match="model parameters"):
-        PlanTracker([SHIPPED, shipped_swing_up("report")])
+        PlanTracker([SHIPPED, planned_swing_up("report")])

@@ -13,6 +13,7 @@ import gymnasium as gym
 
 from acrobot_mj.cli.tools import (
     Commands,
+    acrobot_model,
     add_command,
     add_progress,
     path_text,
@@ -55,6 +56,13 @@ def add_balance(commands: Commands) -> None:
         "(CasADi)",
     )
     add_arguments(p, PlanConfig, ("discrete", "reserve"))
+    p.add_argument(
+        "--model",
+        type=acrobot_model,
+        metavar="NAME|FILE",
+        help="with --feedback: the acrobot, a shipped model's name or a .json/.toml file with a "
+        "planned swing-up (default: the report's)",
+    )
     add_arguments(p, PlanConfig, ("hold",), given=True)  # --feedback takes none
     p.add_argument(
         "--out",
@@ -108,7 +116,9 @@ def feedback_command(
     from acrobot_mj.train.feedback_run import FeedbackConfig
     from acrobot_mj.train.trainer import train
 
-    config = FeedbackConfig(discrete=args.discrete, reserve=args.reserve, adaptive=args.adaptive)
+    config = FeedbackConfig(
+        discrete=args.discrete, reserve=args.reserve, adaptive=args.adaptive, model=args.model
+    )
     with RunLock(out, "balance"):  # the run and its video, with no other writer between
         if not args.force:
             try:
@@ -150,6 +160,8 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
         )
     if args.adaptive and not args.feedback:
         raise ValueError("--adaptive is an option of --feedback")
+    if args.model is not None and not args.feedback:
+        raise ValueError("--model is an option of --feedback: balance follows the report's plans")
     if args.force and not args.feedback:
         raise ValueError("--force is for --feedback: balance replaces its own balance.json")
     out = balance_folder(args)

@@ -19,18 +19,13 @@ from typing import Any
 
 from acrobot_mj.control.controller import Controller, EnergyRemoval, Fallbacks
 from acrobot_mj.control.estimator import Estimated, Observer
+from acrobot_mj.control.planned import LEVELS, planned_swing_up, shipped_name
 from acrobot_mj.control.plans import PlanSet
 from acrobot_mj.control.policies import EnergyPumping
 from acrobot_mj.control.tracker import FunnelSettings, Planner, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.olympics.swing_ups import shipped_swing_up
-from acrobot_mj.physics.models import resolve
 from acrobot_mj.settings import Settings, setting
 
-#: The funnel's cost levels at 500 decisions a second (the LQR's costs grow with the rate):
-#: chosen on the global policy's episodes of seeds 0 to 2 (uptime 0.42 against 0.28 with
-#: FunnelSettings' levels times 25); the robustness and performance seeds were not used.
-LEVELS = FunnelSettings(upright=30_000.0, track=20_000.0, entry=2_000.0, horizon=0)
 #: The constrained LQR's horizon [steps] on ``ai_olympics``: 0.5 s, 2.3 time constants of the
 #: slower unstable mode at upright (eigenvalue 4.65 /s). The QP's condition number stops it
 #: near 361 steps, whose condensing took 248 s against 0.4 s for 250 (2 shared cores).
@@ -84,30 +79,35 @@ class Entry:
     only: str | None = None
     why: str = ""
 
-    def check(self, model: str) -> None:
-        """Refuse, in one line, a model the entry cannot work on."""
-        resolve(model)
-        shipped_swing_up(model)
-        if self.only is not None and model != self.only:
+    def check(self, model: str) -> str:
+        """The name of the shipped acrobot ``model`` is; refused, in one line, where the entry
+        cannot work on it."""
+        planned_swing_up(model)
+        name = shipped_name(model)
+        assert name is not None  # only shipped acrobots have a planned swing-up
+        if self.only is not None and name != self.only:
             raise ValueError(f"the {self.name} entry is for {self.only}, not {model!r}: {self.why}")
+        return name
 
     def build(self, model: str, options: Mapping[str, Any] | None = None) -> Controller:
-        """The entry's controller for ``model`` with ``options`` (by name)."""
-        self.check(model)
-        return self.factory(model, self.options.from_dict(dict(options or {})))
+        """The entry's controller for ``model`` (a name, or a file of a shipped acrobot's
+        parameters) with ``options`` (by name)."""
+        name = self.check(model)
+        return self.factory(name, self.options.from_dict(dict(options or {})))
 
 
 def levels(model: str) -> FunnelSettings:
-    """The funnel's levels on ``model``: :data:`LEVELS` on ``ai_olympics``; another acrobot
-    steps at its own rate, and FunnelSettings' levels were chosen on the report's."""
-    return LEVELS if model == "ai_olympics" else FunnelSettings(horizon=0)
+    """The funnel's levels on ``model``: those chosen for it
+    (:data:`~acrobot_mj.control.planned.LEVELS`), else FunnelSettings', chosen on the report's
+    acrobot, with the saturated LQR (the option ``mpc`` takes the constrained one)."""
+    return LEVELS.get(shipped_name(model) or "", FunnelSettings(horizon=0))
 
 
 def fallback(model: str) -> Controller | None:
     """Where no plan is followed: energy pumping on :data:`PUMPING_ON`, else removal."""
     if model not in PUMPING_ON:
         return None
-    return EnergyPumping(shipped_swing_up(model).params, PUMPING_GAIN)
+    return EnergyPumping(planned_swing_up(model).params, PUMPING_GAIN)
 
 
 def estimated(tracker: PlanTracker) -> Controller:
@@ -120,13 +120,13 @@ def _funnel(model: str, options: FunnelOptions) -> Controller:
     if options.mpc:  # elsewhere the default horizon: 40 steps, as `balance --feedback`
         horizon = MPC_HORIZON if model == "ai_olympics" else FunnelSettings().horizon
         chosen = chosen.replace(horizon=horizon)
-    return estimated(PlanTracker([shipped_swing_up(model)], chosen, fallback=fallback(model)))
+    return estimated(PlanTracker([planned_swing_up(model)], chosen, fallback=fallback(model)))
 
 
 def _replan(model: str, options: NoOptions) -> Controller:
     from acrobot_mj.control.replan import Planner, replanner  # CasADi: the control extra
 
-    swing_up = shipped_swing_up(model)
+    swing_up = planned_swing_up(model)
     planner = replanner(Planner(swing_up.params, swing_up.method))
     settings = TrackerSettings(jump=JUMPS[model])
     tracker = PlanTracker(
@@ -138,7 +138,7 @@ def _replan(model: str, options: NoOptions) -> Controller:
 def tree(model: str, plans: PlanSet, planner: Planner | None = None) -> PlanTracker:
     """The ``tree`` entry's tracker on ``model`` over the shipped swing-up and ``plans``,
     unestimated; ``planner`` (offline) adds plans to it."""
-    swing_up = shipped_swing_up(model)
+    swing_up = planned_swing_up(model)
     every = [swing_up, *plans.plans(swing_up.params, swing_up.method)]
     settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[model])
     return PlanTracker(
@@ -154,7 +154,7 @@ def backward(model: str, plans: list[Trajectory] | None = None) -> PlanTracker:
     from acrobot_mj.control.backward import BackwardSettings, backward_library
     from acrobot_mj.control.shooting import EnergyShooting
 
-    swing_up = shipped_swing_up(model)
+    swing_up = planned_swing_up(model)
     p, method = swing_up.params, swing_up.method
     plans = backward_library(p, method, BackwardSettings()) if plans is None else plans
     chosen = levels(model)

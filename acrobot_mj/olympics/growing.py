@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.plans import PlanSet, warm_torques
 from acrobot_mj.control.tracker import tracker_stats
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.olympics.entries import PLANS, estimated, tree
-from acrobot_mj.olympics.swing_ups import shipped_swing_up
 from acrobot_mj.physics.xp import wrap_angle
 
 
@@ -60,7 +60,7 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = PLANS) -> P
     from acrobot_mj.physics.models import resolve
 
     library = PlanSet.load(path) if path.is_file() else empty()
-    swing_up = shipped_swing_up("ai_olympics")
+    swing_up = planned_swing_up("ai_olympics")
     planner = Planner(swing_up.params, swing_up.method, hold=library.hold)
     tracker = tree("ai_olympics", library, planner_for(swing_up, planner))
     controller = estimated(tracker)

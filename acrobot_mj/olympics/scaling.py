@@ -23,6 +23,7 @@ import math
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from acrobot_mj.control.planned import planned_swing_up, shipped_name
 from acrobot_mj.olympics.protocol import (
     GLOBAL,
     PERFORMANCE,
@@ -31,7 +32,7 @@ from acrobot_mj.olympics.protocol import (
     Performance,
     Robustness,
 )
-from acrobot_mj.physics.models import MODELS, AcrobotModel
+from acrobot_mj.physics.models import MODELS, AcrobotModel, resolve
 from acrobot_mj.physics.params import AcrobotParams
 
 #: The model the protocol's constants are set for.
@@ -222,12 +223,9 @@ def protocol_for(model: str) -> Rules:
     """The protocol a run on ``model`` (a name with a shipped swing-up) uses: the original on
     ``ai_olympics``, else the original scaled (:func:`scales_between` with the shipped plans'
     lengths), stepping at the model's own physics step."""
-    from acrobot_mj.olympics.swing_ups import shipped_swing_up
-    from acrobot_mj.physics.models import resolve
-
     target = resolve(model)
-    if model == SOURCE:
+    if shipped_name(model) == SOURCE:
         return ORIGINAL
-    plan = shipped_swing_up(model)
-    scales = scales_between(MODELS[SOURCE], target, shipped_swing_up(SOURCE).seconds, plan.seconds)
+    plan = planned_swing_up(model)
+    scales = scales_between(MODELS[SOURCE], target, planned_swing_up(SOURCE).seconds, plan.seconds)
     return Scaling(scales, target.params.dt).protocol()

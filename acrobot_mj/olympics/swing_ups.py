@@ -1,25 +1,21 @@
-"""The swing-up the AI Olympics entries follow, planned from an acrobot's parameters alone
-(:func:`performance_swing_up`), and the plans shipped with the package (:func:`shipped_swing_up`);
-the entries built on them are :mod:`acrobot_mj.olympics.entries`."""
+"""The swing-up the AI Olympics entries follow on ``ai_olympics``, planned from an acrobot's
+parameters alone for the protocol's performance criteria (:func:`performance_swing_up`; shipped
+as :data:`~acrobot_mj.control.planned.PLANNED`'s); the entries built on it are
+:mod:`acrobot_mj.olympics.entries`."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.trajopt import IPOPT, Trajectory, shipped, solve_or_none
+from acrobot_mj.control.trajopt import IPOPT, Trajectory, solve_or_none
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.models import AcrobotModel
 from acrobot_mj.physics.xp import symbolic
 
-#: Where the planned swing-ups are shipped, by model name.
-SHIPPED = Path(__file__).resolve().parent / "trajectories"
-#: The models whose swing-up is a plan of :mod:`acrobot_mj.control`'s shipped trajectories.
-ELSEWHERE = {"report": "reserve"}
 #: The performance criteria's normalisers (the protocol's v2: J, N^2 m^2 s, N m, rad^2/s).
 NORMS = {"energy": 60.0, "torque_cost": 20.0, "smoothness": 0.1, "velocity_cost": 400.0}
 
@@ -73,15 +69,3 @@ def performance_swing_up(
     torques = np.repeat(np.atleast_1d(solution.value(us)), hold)
     states = integrators.simulate(HANGING.copy(), torques, method, p)
     return Trajectory(states, torques, p.dt, method, p.max_torque, p)
-
-
-def shipped_swing_up(name: str) -> Trajectory:
-    """The swing-up planned for the model ``name``, shipped with the package: ``ai_olympics``'s
-    here, the report's (``report``) the control package's ``reserve`` plan (476 steps of 0.05
-    s within 0.8 N m, which ``balance --feedback`` follows too)."""
-    if name in ELSEWHERE:
-        return shipped(ELSEWHERE[name])
-    known = sorted([*(p.stem for p in SHIPPED.glob("*.json")), *ELSEWHERE])
-    if not (SHIPPED / f"{name}.json").is_file():
-        raise ValueError(f"no planned swing-up for the model {name!r}; there are: {known}")
-    return shipped(name, SHIPPED, "planned swing-up for the model")

@@ -15,6 +15,7 @@ import gymnasium as gym
 
 from acrobot_mj.control.adaptive import Adaptive
 from acrobot_mj.control.controller import Controller
+from acrobot_mj.control.planned import LEVELS, PLANNED, planned_swing_up, shipped_name
 from acrobot_mj.control.tracker import FunnelSettings, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.control_loop import (
@@ -25,39 +26,70 @@ from acrobot_mj.envs.control_loop import (
 )
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
-from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.settings import Settings, setting
+from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
+from acrobot_mj.physics.models import AcrobotModel
+from acrobot_mj.settings import SettingError, Settings, setting
 from acrobot_mj.train.controller_run import ControllerLearner
 from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.records import TRAJECTORY_FILE
 from acrobot_mj.train.run import Run
 
-#: The shipped swing-ups by torque bound [N m].
+#: The report's shipped swing-ups by torque bound [N m].
 SWING_UPS = {0.8: "reserve", 1.0: "min_time"}
-#: The funnel's levels by default.
-FUNNEL = FunnelSettings()
 
 
 @dataclass(frozen=True)
 class FeedbackConfig(Settings):
     """The state-feedback run's settings: its torques, the shipped swing-up whose funnel it
-    follows, the funnel's levels (:class:`~acrobot_mj.control.tracker.FunnelSettings`), the
-    seconds of each episode, and whether it identifies the model and replans in each episode
-    (:class:`~acrobot_mj.control.adaptive.Adaptive`)."""
+    follows, the funnel's levels (:class:`~acrobot_mj.control.tracker.FunnelSettings`; None:
+    those chosen for the acrobot), the seconds of each episode, whether it identifies the model
+    and replans in each episode (:class:`~acrobot_mj.control.adaptive.Adaptive`), and the
+    acrobot (None: the report's; another one with a planned swing-up,
+    :data:`~acrobot_mj.control.planned.PLANNED`)."""
 
     discrete: bool = discrete_setting()
     reserve: float = setting(
-        0.8, "torque bound of the shipped swing-up it follows", "N m", choices=tuple(SWING_UPS)
+        0.8,
+        "torque bound of the report's shipped swing-up it follows",
+        "N m",
+        choices=tuple(SWING_UPS),
     )
-    funnel: FunnelSettings = setting(FUNNEL, "the funnel's levels", cli=False)
+    funnel: FunnelSettings | None = setting(
+        None, "the funnel's levels (default: those chosen for the acrobot)", cli=False
+    )
     seconds: float = setting(
         120.0, "simulated seconds of each episode", "s", low=0.0, low_open=True, high=86_400.0
     )
     adaptive: bool = setting(
         False, "identify the model from each episode's first 3 s and replan the swing-up on it"
     )
+    model: str | None = setting(
+        None,
+        "the acrobot: a shipped model's name or a .json/.toml file, with a planned swing-up "
+        "(default: the report's)",
+        metavar="NAME|FILE",
+    )
 
     what = "state-feedback"
+
+
+def swing_up(config: FeedbackConfig) -> Trajectory:
+    """The swing-up a new run follows: the report's shipped plan of ``config.reserve``, or
+    another acrobot's planned swing-up; refused in one line where there is none, or where an
+    option is the report's alone."""
+    if config.model is None or shipped_name(config.model) == "report":
+        return shipped(SWING_UPS[config.reserve])
+    plan = planned_swing_up(config.model)
+    flags = {"discrete": config.discrete, "adaptive": config.adaptive}
+    given = [f"--{name}" for name, value in flags.items() if value]
+    if config.reserve != FeedbackConfig.reserve:
+        given.append("--reserve")
+    if given:
+        raise SettingError(
+            f"{', '.join(given)}: for the report's acrobot only (its 1 N m levels, its plans); "
+            f"{config.model} follows its one planned swing-up"
+        )
+    return plan
 
 
 class FeedbackLearner(ControllerLearner):
@@ -69,11 +101,16 @@ class FeedbackLearner(ControllerLearner):
 
     def __init__(self, config: FeedbackConfig, seed: int, trajectory: Trajectory | None = None):
         super().__init__(config, seed)
-        self.trajectory = trajectory or shipped(SWING_UPS[config.reserve])
+        self.trajectory = trajectory or swing_up(config)
         start = time.perf_counter()
         # The entry check rolls out continuous torques: with {-1, 0, +1} it made catches later.
         settings = TrackerSettings(rollout=not config.discrete)
-        self.tracker = PlanTracker([self.trajectory], config.funnel, settings)
+        integrator = {m: e for e, m in ENV_INTEGRATORS.items()}[self.trajectory.method]
+        #: The acrobot, as the run's plan carries it.
+        self.acrobot = AcrobotModel(self.trajectory.params, integrator=integrator)
+        self.name = shipped_name(self.acrobot)
+        levels = config.funnel or LEVELS.get(self.name or "", FunnelSettings())
+        self.tracker = PlanTracker([self.trajectory], levels, settings)
         self.build_seconds = time.perf_counter() - start
 
     def learn(self, run: Run) -> dict[str, Any]:
@@ -84,7 +121,9 @@ class FeedbackLearner(ControllerLearner):
             run,
             {
                 "task": Balance.name,
-                "swing_up": SWING_UPS[self.config.reserve],
+                "swing_up": SWING_UPS[self.config.reserve]
+                if self.name == "report"
+                else PLANNED[self.name or ""],
                 "greedy_from_rest": rest,
                 "build_seconds": self.build_seconds,
             },
@@ -96,6 +135,8 @@ class FeedbackLearner(ControllerLearner):
     def env(self, **kwargs: Any) -> gym.Env:
         steps = steps_in(self.config.seconds, self.trajectory.dt)
         kwargs.setdefault("max_episode_steps", steps)
+        if self.name != "report":
+            kwargs.setdefault("model", self.acrobot)
         return balance_env(self.trajectory, self.config.discrete, 0.0, **kwargs)
 
     def actor(self, env: gym.Env, episode: int) -> Actor:
@@ -110,7 +151,7 @@ class FeedbackLearner(ControllerLearner):
         record = cls.read_run(run_dir)
         config = FeedbackConfig.from_dict(record["config"])
         trajectory = Trajectory.load(Path(run_dir) / TRAJECTORY_FILE)
-        if trajectory.u_max != config.reserve:
+        if config.model is None and trajectory.u_max != config.reserve:
             raise ValueError(
                 f"{Path(run_dir) / TRAJECTORY_FILE} is not the swing-up of "
                 f"reserve {config.reserve} N m"
