@@ -161,3 +161,35 @@ def test_options_and_envs_go_only_where_they_belong(tmp_path, capsys) -> None:
         main(argv)
     err = capsys.readouterr().err.strip()
     assert "the funnel entry has no option 'speed'; it has ['mpc']" in err and "\n" not in err
+
+
+def test_evaluate_and_render_take_a_controller(tmp_path, capsys) -> None:
+    """``evaluate funnel --model ai_olympics --out DIR``: its held-out episodes on that acrobot
+    (uniform starts), recorded with the controller's name and the acrobot's parameters;
+    ``render`` the same controller."""
+    out = tmp_path / "ev"
+    argv = ["evaluate", "funnel", "--model", "ai_olympics", "--out", str(out), "--episodes", "2"]
+    assert main([*argv, "--seconds", "6"]) == 0
+    assert "2 held-out starts (uniform): 2 caught their balance" in capsys.readouterr().out
+    record = json.loads((out / "eval.json").read_text())
+    assert record["controller"] == "funnel" and record["model"]["max_torque"] == 6.0
+    assert record["model"]["max_vel1"] is None  # no velocity limit: JSON holds no infinity
+    assert record["balanced_at_end"] == [True, True]
+    video = tmp_path / "funnel.mp4"
+    argv = ["render", "funnel", "--model", "ai_olympics", "--steps", "50", "--out", str(video)]
+    assert main([*argv, "--no-progress"]) == 0
+    assert video.stat().st_size > 0
+    assert json.loads(video.with_suffix(".json").read_text())["controller"] == "funnel"
+
+
+def test_a_controller_needs_an_acrobot_and_a_folder_and_a_run_takes_neither(
+    tmp_path, capsys
+) -> None:
+    for argv, words in (
+        (["evaluate", "funnel", "--model", "ai_olympics"], "is a controller: give --out"),
+        (["render", "funnel", "--out", str(tmp_path / "v.mp4")], "give --model"),
+    ):
+        with pytest.raises(SystemExit):
+            main(argv)
+        err = capsys.readouterr().err.strip()
+        assert words in err and "\n" not in err

@@ -11,7 +11,7 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from acrobot_mj.cli import balance, evaluation, learning, olympics, tools
+from acrobot_mj.cli import balance, evaluation, learning, olympics, render, tools
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.stops import clear_stop, raise_stop
 from acrobot_mj.train.checkpoint import CheckpointError
@@ -22,7 +22,7 @@ from acrobot_mj.version import __version__
 COMMANDS = (
     learning.add_train,
     evaluation.add_evaluate,
-    tools.add_render,
+    render.add_render,
     tools.add_validate,
     balance.add_balance,
     olympics.add_olympics,

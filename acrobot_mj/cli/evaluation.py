@@ -8,12 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.cli import tools
+from acrobot_mj.cli.controllers import CONTROLLERS, add_source, controlled
 from acrobot_mj.cli.tools import add_command, seed
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.olympics.sources import kind_of
 from acrobot_mj.report.plots import compare_curves, figure_format
 from acrobot_mj.settings import add_arguments, declared, help_text
 from acrobot_mj.train.config import TrainConfig
-from acrobot_mj.train.evaluate import evaluate
+from acrobot_mj.train.evaluate import evaluate, evaluate_controlled
 from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.records import EVAL_FILE, RUN_FILE, SUMMARY_FILE, output_into, read_record
 
@@ -29,7 +31,14 @@ def add_evaluate(commands: tools.Commands) -> None:
         "eval.json holds every episode's start state and actions, to replay "
         "anywhere.",
     )
-    p.add_argument("run_dir", help="a directory written by acrobot-mj train")
+    p.add_argument(
+        "run_dir",
+        metavar="RUN|CONTROLLER",
+        help=f"a directory written by acrobot-mj train (or balance --feedback); or {CONTROLLERS}, "
+        "evaluated on --model into --out",
+    )
+    add_source(p, None, "a controller's acrobot (a run evaluates on its own)")
+    p.add_argument("--out", type=tools.path_text, help="a controller's folder for eval.json")
     add_arguments(p, HeldOut, ("episodes", "start_noise"), given=True)
     p.add_argument("--seed", type=seed, help=help_text(HeldOut, "seed"))
     names = ("starts_from", "seconds", "push_every", "push_size", "perturb")
@@ -52,6 +61,19 @@ def evaluate_command(args: argparse.Namespace) -> dict[str, Any]:
         starts = "noise"
     given = {name: getattr(args, name) for name in declared(HeldOut)} | {"starts_from": starts}
     protocol = {k: v for k, v in given.items() if v is not None}
+    if kind_of(args.run_dir) != "run":
+        if args.out is None or args.minima:
+            raise ValueError(
+                f"{args.run_dir} is a controller: give --out for its eval.json (and no --minima)"
+            )
+        record = evaluate_controlled(controlled(args, args.run_dir), args.out, protocol)
+        print(f"{evaluation_words(record)}; wrote {Path(args.out) / EVAL_FILE}")
+        return record
+    if args.model is not None or args.out is not None or args.option or args.env:
+        raise ValueError(
+            f"{args.run_dir} is a run: it evaluates on its own acrobot into its own folder "
+            "(give no --model, --out, --option or --env)"
+        )
     record = evaluate(args.run_dir, protocol, minima="compute" if args.minima else "stored")
     path = Path(args.run_dir) / EVAL_FILE
     wrote = f"wrote {path}" if os.access(args.run_dir, os.W_OK) else f"{args.run_dir} is read-only"

@@ -42,15 +42,8 @@ class Source:
 
     @property
     def kind(self) -> str:
-        """``"entry"``, ``"policy"``, ``"import"`` or ``"run"``."""
-        if self.name in entries.ENTRIES:
-            return "entry"
-        if self.name.endswith(".zip"):
-            return "policy"
-        module, colon, attribute = self.name.partition(":")
-        if colon and module and attribute and not Path(self.name).exists():
-            return "import"
-        return "run"
+        """:func:`kind_of` its name."""
+        return kind_of(self.name)
 
     def __post_init__(self) -> None:
         if not self.name.strip():
@@ -60,6 +53,19 @@ class Source:
             raise ValueError(f"options are for an entry {list(entries.ENTRIES)}, not {self.name}")
         if (self.env is not None or self.env_kwargs) and self.kind != "policy":
             raise ValueError(f"--env and --env-kwargs are for a .zip policy, not {self.name}")
+
+
+def kind_of(name: str) -> str:
+    """What ``name`` names: ``"entry"``, ``"policy"`` (a ``.zip`` file), ``"import"``
+    (``module:attribute``) or ``"run"`` (anything else: a run folder, or nothing)."""
+    if name in entries.ENTRIES:
+        return "entry"
+    if name.endswith(".zip"):
+        return "policy"
+    module, colon, attribute = name.partition(":")
+    if colon and module and attribute and not Path(name).exists():
+        return "import"
+    return "run"
 
 
 def trained_model(record: dict[str, Any]) -> str:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import math
 import sys
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, TypeAlias
 
@@ -62,6 +62,13 @@ class AcrobotModel:
                 or min(pair) < 0
             ):
                 raise ValueError(f"{name} must be two finite numbers >= 0, got {pair!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The model as flat keys, as :func:`from_dict` reads them (an infinite velocity limit,
+        which JSON cannot hold, as None)."""
+        flat = {**asdict(self.params), **asdict(self)}
+        del flat["params"]
+        return {k: None if v == math.inf else v for k, v in flat.items()}
 
     @property
     def analytic(self) -> AcrobotParams:

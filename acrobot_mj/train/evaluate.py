@@ -23,6 +23,7 @@ from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
 from acrobot_mj.physics.params import REPORT
 from acrobot_mj.report.video import RenderSettings, record_episode, watch, write_video_record
 from acrobot_mj.train.config import TrainConfig
+from acrobot_mj.train.controller_run import ControlledLearner
 from acrobot_mj.train.learners import MOTOR, PERTURB, PUSHES, SENSOR, HeldOut, Learner
 from acrobot_mj.train.lock import RunLock, check_not_held
 from acrobot_mj.train.records import CHECKPOINT_FILE, EVAL_FILE, RUN_FILE, History, spread
@@ -98,6 +99,26 @@ def evaluate_run(
     record = sealed(record)  # a sweep tells an edited copy
     if write:
         write_json(Path(run_dir) / EVAL_FILE, record)
+    return record
+
+
+def evaluate_controlled(
+    learner: ControlledLearner, out: str | Path, protocol: HeldOut | dict | None = None
+) -> dict[str, Any]:
+    """:func:`evaluate_learner` of a controller that is not a run, written to ``out``'s
+    ``eval.json`` (the folder made where it is missing), naming the controller and the
+    acrobot."""
+    if protocol is None or isinstance(protocol, dict):
+        protocol = dataclasses.replace(learner.protocol, **(protocol or {}))
+    record = {
+        "controller": learner.name,
+        "model": learner.model.to_dict(),
+        "versions": versions(),
+        **evaluate_learner(learner, protocol, "none"),
+    }
+    record = sealed(record)
+    Path(out).mkdir(parents=True, exist_ok=True)
+    write_json(Path(out) / EVAL_FILE, record)
     return record
 
 
@@ -252,6 +273,26 @@ def render_run(
     """A video of a run's greedy episode from rest, on the run's own env."""
     with run_lock(run_dir, "render"):
         learner = load_learner(run_dir)
+    record = render_learner(learner, out, settings)
+    record.update(run=str(run_dir), run_seed=learner.seed, policy=learner.describes)
+    write_video_record(record)
+    return record
+
+
+def render_controlled(
+    learner: ControlledLearner, out: str | Path, settings: RenderSettings = _RENDER
+) -> dict[str, Any]:
+    """A video of a controller's episode from rest (not a run's), and its record."""
+    record = render_learner(learner, out, settings)
+    record.update(controller=learner.name, policy=learner.describes)
+    write_video_record(record)
+    return record
+
+
+def render_learner(
+    learner: Learner, out: str | Path, settings: RenderSettings = _RENDER
+) -> dict[str, Any]:
+    """A video of ``learner``'s greedy episode from rest on its own env, and what happened."""
     env = learner.env(render_mode="rgb_array", **settings.env_kwargs())
     try:
         states: list[np.ndarray] = []
@@ -272,8 +313,6 @@ def render_run(
         )
     finally:
         env.close()
-    record.update(run=str(run_dir), run_seed=learner.seed, policy=learner.describes)
-    write_video_record(record)
     return record
 
 
@@ -281,6 +320,11 @@ def watch_run(run_dir: str | Path, settings: RenderSettings = _RENDER) -> dict[s
     """A run's greedy episode from rest, live in MuJoCo's viewer window at real time."""
     with run_lock(run_dir, "render"):
         learner = load_learner(run_dir)
+    return watch_learner(learner, settings)
+
+
+def watch_learner(learner: Learner, settings: RenderSettings = _RENDER) -> dict[str, Any]:
+    """``learner``'s greedy episode from rest, live in MuJoCo's viewer window at real time."""
     env = learner.env(render_mode="human", camera=settings.camera)
     return watch(env, learner.actor(env, 0), settings, dict(FROM_REST))
 
