@@ -18,7 +18,8 @@ from acrobot_mj.control.backward import BackwardSettings, backward_library
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.tracker import PlanTracker
-from acrobot_mj.olympics.entries import backward, estimated
+from acrobot_mj.olympics.entries import backward
+from acrobot_mj.olympics.plants import equations
 from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.olympics.scores import uptime
@@ -53,8 +54,9 @@ def main() -> None:
     policy = protocol_for("report").global_policy
     for seed in (int(s) for s in arguments.seeds.split(",")):
         targets, times = policy.draw(np.random.default_rng(seed))
-        counted = Entries(backward("report", plans))
-        run = global_run(estimated(counted), "report", targets, times, policy)
+        plant = equations("report")
+        counted = Entries(backward(plant, plans))
+        run = global_run(plant.estimated(counted), "report", targets, times, policy)
         score = uptime(run, p.l1, p.l2, policy.t_final, policy.height)["score"]
         print(f"seed {seed}: uptime {score:.3f}, plans entered {counted.entered}", flush=True)
 

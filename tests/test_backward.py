@@ -10,6 +10,7 @@ import pytest
 
 from acrobot_mj.control.backward import BackwardSettings, back, backward_library
 from acrobot_mj.olympics import entries
+from acrobot_mj.olympics.plants import equations
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT
 from acrobot_mj.physics.params import REPORT
@@ -50,7 +51,7 @@ def test_refusals() -> None:
     with pytest.raises(ValueError, match="pump"):
         BackwardSettings(pump=1.5)
     with pytest.raises(ValueError, match="backward entry is for report, not 'ai_olympics'"):
-        entries.ENTRIES["backward"].build("ai_olympics")
+        entries.ENTRIES["backward"].build(equations("ai_olympics"))
 
 
 @pytest.mark.slow  # about 20 s: three 714 s episodes at 0.05 s a step

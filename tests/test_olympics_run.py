@@ -16,6 +16,7 @@ from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.globaltest import GlobalTester
+from acrobot_mj.olympics.plants import equations
 from acrobot_mj.olympics.protocol import from_protocol
 from acrobot_mj.olympics.run import Conditions, episode
 from acrobot_mj.olympics.scores import final_success, performance
@@ -180,11 +181,11 @@ def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
 
 def test_entries_refuse_a_model_they_are_not_set_for_or_a_bad_option() -> None:
     with pytest.raises(ValueError, match="replan entry is for ai_olympics"):
-        entries.ENTRIES["replan"].build("report")  # its 0.1 rad jump is per 0.002 s step
+        entries.ENTRIES["replan"].build(equations("report"))  # its 0.1 rad jump is per 0.002 s step
     with pytest.raises(ValueError, match=r"unknown funnel entry settings \['horizon'\]"):
-        entries.ENTRIES["funnel"].build("report", {"horizon": 3})
+        entries.ENTRIES["funnel"].build(equations("report"), {"horizon": 3})
     with pytest.raises(ValueError, match="config mpc must be True or False"):
-        entries.ENTRIES["funnel"].build("report", {"mpc": "yes"})
+        entries.ENTRIES["funnel"].build(equations("report"), {"mpc": "yes"})
 
 
 def tracker_of(controller: Controller) -> PlanTracker:
@@ -201,9 +202,9 @@ def test_the_mpc_option_balances_with_the_constrained_lqr() -> None:
 
     funnel = entries.ENTRIES["funnel"]
     for model, horizon in (("ai_olympics", entries.MPC_HORIZON), ("report", 40)):
-        balancer = tracker_of(funnel.build(model, {"mpc": True})).balancer
+        balancer = tracker_of(funnel.build(equations(model), {"mpc": True})).balancer
         assert isinstance(balancer, MPC) and balancer.horizon == horizon
-    assert not isinstance(tracker_of(funnel.build("ai_olympics")).balancer, MPC)
+    assert not isinstance(tracker_of(funnel.build(equations("ai_olympics"))).balancer, MPC)
     mpc, plain = Source("funnel", {"mpc": True}), Source("funnel")
     ours, theirs = (episode(e, "ai_olympics", 10.0, Conditions(), 0) for e in (mpc, plain))
     assert np.array_equal(ours.U, theirs.U)
@@ -216,6 +217,6 @@ def test_the_funnel_entry_pumps_energy_only_on_ai_olympics() -> None:
     whirling (:data:`~acrobot_mj.olympics.entries.PUMPING_ON`)."""
     x = np.array([0.0, 0.0, 0.0, 2.0])
     for model, sign in (("ai_olympics", 1.0), ("report", -1.0)):
-        funnel = tracker_of(entries.ENTRIES["funnel"].build(model))
+        funnel = tracker_of(entries.ENTRIES["funnel"].build(equations(model)))
         assert sign * funnel.act(x, 0.0) * x[3] > 0.0, model
         assert funnel.mode == "fallback"

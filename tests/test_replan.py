@@ -14,6 +14,7 @@ from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.replan import END_TOLERANCE, Planner, replanner, upright_targets
 from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
+from acrobot_mj.olympics.plants import equations
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, state_error
 from acrobot_mj.physics.models import MODELS
@@ -102,8 +103,8 @@ def test_bad_input_is_refused_in_one_line() -> None:
 def test_from_hanging_it_is_the_funnel_entry() -> None:
     """From hanging at rest both entries follow the shipped swing-up: the same torques, to the
     last bit, over the swing-up and 0.5 s of balance, and no plan."""
-    funnel = entries.ENTRIES["funnel"].build("ai_olympics")
-    replan = entries.ENTRIES["replan"].build("ai_olympics")
+    funnel = entries.ENTRIES["funnel"].build(equations("ai_olympics"))
+    replan = entries.ENTRIES["replan"].build(equations("ai_olympics"))
     assert isinstance(replan, Estimated) and isinstance(replan.controller, PlanTracker)
     funnel.reset()
     replan.reset()
@@ -124,7 +125,7 @@ def test_a_global_stretch_swings_up_after_a_reset() -> None:
     from acrobot_mj.olympics.run import global_run
     from acrobot_mj.olympics.scores import uptime
 
-    controller = entries.ENTRIES["replan"].build("ai_olympics")
+    controller = entries.ENTRIES["replan"].build(equations("ai_olympics"))
     assert isinstance(controller, Estimated) and isinstance(controller.controller, PlanTracker)
     targets = np.array([[1.0, 2.0, 0.0, 0.0]])  # protocol angles: theta1, theta2
     recording = global_run(

@@ -14,6 +14,7 @@ from acrobot_mj.control.plans import PlanSet, warm_torques
 from acrobot_mj.control.replan import END_TOLERANCE
 from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
+from acrobot_mj.olympics.plants import equations
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import state_error
 from acrobot_mj.physics.models import MODELS
@@ -31,7 +32,8 @@ def _tree(count: int) -> PlanTracker:
     """The entry's tracker (no estimator) on the shipped set's first ``count`` plans."""
     library = _library()
     return entries.tree(
-        "ai_olympics", PlanSet(library.starts[:count], library.held[:count], library.hold)
+        equations("ai_olympics"),
+        PlanSet(library.starts[:count], library.held[:count], library.hold),
     )
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 from acrobot_mj.cli import tools
@@ -67,16 +68,24 @@ def add_source(p: argparse.ArgumentParser, model: str | None, about: str) -> Non
     )
     p.add_argument(
         "--model",
-        type=tools.acrobot_model,
+        type=model_or_run,
         default=model,
-        metavar="NAME|FILE",
-        help=about,
+        metavar="NAME|FILE|RUN",
+        help=f"{about}; or a black-box run's folder: an entry built on its learnt model, on "
+        "the acrobot it learnt",
     )
 
 
-def source_of(args: argparse.Namespace, name: str) -> Source:
+def model_or_run(text: str) -> str:
+    """An argparse type: an acrobot's name or file (:func:`~acrobot_mj.cli.tools.acrobot_model`)
+    or a folder (a black-box run's, checked when the controller is)."""
+    return text if Path(text).is_dir() else tools.acrobot_model(text)
+
+
+def source_of(args: argparse.Namespace, name: str) -> tuple[Source, str]:
     """The controller ``name`` with its entry options (each parsed as the entry's declared
-    type) and a policy's env."""
+    type), a policy's env and a learnt plant, and the acrobot it runs on (``--model``, or the
+    acrobot a black-box run given as ``--model`` learnt)."""
     options: dict[str, Any] = {}
     if args.option:
         entry = ENTRIES.get(name)
@@ -89,12 +98,15 @@ def source_of(args: argparse.Namespace, name: str) -> Source:
                     f"the {entry.name} entry has no option {key!r}; it has {sorted(known)}"
                 )
             options[key] = parse(entry.options, key, text)
-    return Source(name, options, args.env, args.env_kwargs or {})
+    model, plant = args.model, None
+    if model is not None and Path(model).is_dir():
+        plant, model = model, sources.trained_model(sources.run_record(model))
+    return Source(name, options, args.env, args.env_kwargs or {}, plant), model
 
 
 def controlled(args: argparse.Namespace, name: str) -> ControlledLearner:
     """The controller ``name`` on ``--model``, as ``evaluate`` and ``render`` run it."""
     if args.model is None:
         raise ValueError(f"give --model: the acrobot {name} runs on")
-    source = source_of(args, name)
-    return ControlledLearner(sources.build(source, args.model), resolve(args.model), name)
+    source, model = source_of(args, name)
+    return ControlledLearner(sources.build(source, model), resolve(model), name)

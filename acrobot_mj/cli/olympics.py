@@ -66,9 +66,10 @@ def check_out(folder: Path, force: bool) -> None:
 
 def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
     check_out(Path(args.out), args.force)
+    source, model = source_of(args, args.controller)
     run = OlympicsRun(
-        source_of(args, args.controller),
-        args.model,
+        source,
+        model,
         args.scores,
         args.seed,
         args.jobs,

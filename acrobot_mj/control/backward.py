@@ -13,48 +13,49 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT, accelerations, total_energy
 from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.settings import SettingError, Settings, setting
 
 #: The one step rule the backward step inverts.
 METHOD = "semi_implicit_euler"
 
 
 @dataclass(frozen=True)
-class BackwardSettings:
-    """``count`` plans drawn from ``seed``; torques within ``reserve`` [N m] (the shipped plan's:
-    TVLQR keeps the rest of the motor), ``pump`` of it along the elbow's velocity, ``jitter``
-    of a random torque; at most ``longest`` steps; a plan that passes ``speed`` of a velocity
-    limit, is shorter than ``shortest`` steps or whose forward rollout ends more than
-    ``tolerance`` [rad, rad/s] off upright is dropped."""
+class BackwardSettings(Settings):
+    """How the plans are drawn (:func:`backward_plan`); a plan that passes ``speed`` of a
+    velocity limit, is shorter than ``shortest`` steps or whose forward rollout ends more than
+    ``tolerance`` off upright is dropped."""
 
-    count: int = 300
-    seed: int = 12345
-    reserve: float = 0.8
-    pump: float = 0.7
-    jitter: float = 0.3
-    longest_hold: int = 10
-    longest: int = 800
-    shortest: int = 20
-    speed: float = 0.9
-    start_noise: float = 1e-3
-    tolerance: float = 0.05
+    count: int = setting(300, "plans drawn", low=1)
+    seed: int = setting(12345, "seed of the draws", low=0)
+    reserve: float = setting(
+        0.8, "torque bound of the plans (TVLQR keeps the rest of the motor)", "N m", low=0.0,
+        low_open=True,
+    )  # fmt: skip
+    pump: float = setting(0.7, "share of the reserve along the elbow's velocity", low=0.0, high=1.0)
+    jitter: float = setting(0.3, "share of a random torque within the reserve", low=0.0, high=1.0)
+    longest_hold: int = setting(10, "longest hold of a random torque", "steps", low=1)
+    longest: int = setting(800, "longest plan", "steps", low=1)
+    shortest: int = setting(20, "shortest plan kept", "steps", low=1)
+    speed: float = setting(
+        0.9, "share of a velocity limit a plan may reach", low=0.0, low_open=True, high=1.0
+    )
+    start_noise: float = setting(1e-3, "offset of each plan's end from upright", "rad", low=0.0)
+    tolerance: float = setting(
+        0.05, "largest end error of a plan's forward rollout", "rad, rad/s", low=0.0, low_open=True
+    )
+
+    what = "backward"
 
     def __post_init__(self) -> None:
-        check_int("count", self.count, 1)
-        check_int("seed", self.seed, 0)
-        check_float("reserve", self.reserve, 1e-9)
-        check_float("pump", self.pump, 0.0, 1.0)
-        check_float("jitter", self.jitter, 0.0, 1.0)
-        check_int("longest_hold", self.longest_hold, 1)
-        check_int("shortest", self.shortest, 1)
-        check_int("longest", self.longest, self.shortest)
-        check_float("speed", self.speed, 1e-9, 1.0)
-        check_float("start_noise", self.start_noise, 0.0)
-        check_float("tolerance", self.tolerance, 1e-12)
+        super().__post_init__()
+        if self.longest < self.shortest:
+            raise SettingError(
+                f"config longest must be >= shortest ({self.shortest}), got {self.longest}"
+            )
 
 
 def back(x: np.ndarray, u: float, p: AcrobotParams) -> np.ndarray:

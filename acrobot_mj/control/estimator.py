@@ -6,6 +6,7 @@ robot, the velocities come from the angles and the model, not from the noisy mea
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,10 +22,11 @@ from acrobot_mj.physics.xp import wrap
 @dataclass
 class Observer:
     """Estimates ``(q1, q2, dq1, dq2)`` [rad, rad/s] from measurements ``y`` of the same form:
-    ``x- = step(x, u)`` on ``params`` by ``method``, then ``q = q- + r`` with the angle innovation
-    ``r = wrap(y_q - q-)`` and ``dq = dq- + angle_gain r / dt + velocity_gain (y_dq - dq-)``
-    (``angle_gain`` per step, ``velocity_gain`` dimensionless, both in [0, 1]); an innovation
-    past ``jump`` [rad] (the arm moved by something else) restarts it from ``y``."""
+    ``x- = step(x, u)`` on ``params`` by ``method`` (or by a learnt model's ``step``, a step of
+    ``params.dt``), then ``q = q- + r`` with the angle innovation ``r = wrap(y_q - q-)`` and
+    ``dq = dq- + angle_gain r / dt + velocity_gain (y_dq - dq-)`` (``angle_gain`` per step,
+    ``velocity_gain`` dimensionless, both in [0, 1]); an innovation past ``jump`` [rad] (the
+    arm moved by something else) restarts it from ``y``."""
 
     params: AcrobotParams
     method: str = "rk4"
@@ -32,13 +34,15 @@ class Observer:
     velocity_gain: float = 0.05
     #: An angle innovation [rad] past which the estimate restarts from the measurement.
     jump: float = 0.1
+    step: Callable[[np.ndarray, float], np.ndarray] | None = None
     estimate: np.ndarray | None = field(default=None, init=False)
     torque: float = field(default=0.0, init=False)
 
     def __post_init__(self) -> None:
         check_float("angle_gain", self.angle_gain, 0.0, 1.0)
         check_float("velocity_gain", self.velocity_gain, 0.0, 1.0)
-        integrators.method_code(self.method)  # a known method
+        if self.step is None:
+            integrators.method_code(self.method)  # a known method
 
     def reset(self) -> None:
         """Forget the estimate: the next measurement is taken as it is."""
@@ -51,9 +55,13 @@ class Observer:
             x = y.copy()
         else:  # on floats: a call every 0.002 s, where numpy's small arrays cost most
             p = self.params
-            q1, q2, v1, v2 = integrators.step_states(
-                self.estimate, self.torque, p, method=self.method
-            ).tolist()
+            if self.step is None:
+                predicted = integrators.step_states(
+                    self.estimate, self.torque, p, method=self.method
+                )
+            else:
+                predicted = np.asarray(self.step(self.estimate, self.torque), dtype=float)
+            q1, q2, v1, v2 = predicted.tolist()
             r1, r2 = wrap(float(y[0]) - q1), wrap(float(y[1]) - q2)
             if abs(r1) > self.jump or abs(r2) > self.jump:  # not this model's motion: restart
                 self.estimate = None

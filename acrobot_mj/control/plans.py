@@ -2,7 +2,7 @@
 torques, its states rolled out on the model at load), for a
 :class:`~acrobot_mj.control.tracker.PlanTracker` to enter: a trajectory library (Atkeson and
 Stolle). The set is grown by planning (:class:`~acrobot_mj.control.replan.Planner`) from the
-states the tracker could not enter, offline (:mod:`acrobot_mj.olympics.growing`)."""
+states the tracker could not enter, offline (``scripts/grow_plans.py``)."""
 
 from __future__ import annotations
 

@@ -10,34 +10,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acrobot_mj.checks import check_float, check_int, check_state
+from acrobot_mj.checks import check_state
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, total_energy
 from acrobot_mj.physics.params import AcrobotParams
+from acrobot_mj.settings import SettingError, Settings, setting
 
 
 @dataclass(frozen=True)
-class ShootingSettings:
-    """``candidates`` torque sequences a decision over ``horizon`` [s], each held for
-    ``segment`` [s] at a time at ``-limit``, 0 or ``+limit``, drawn from ``seed`` (re-drawn
-    from it at each :meth:`EnergyShooting.reset`); the planner acts where the energy is more
-    than ``above`` [J] over upright's and leaves the rest to the caller (``None``). First
-    guesses, untuned, tried first on seeds 11-16 (the ``backward`` entry's scaled global
-    uptime 0.33 without the planner, 0.50 with it), then on 52 held-out seeds (0.541)."""
+class ShootingSettings(Settings):
+    """The sequences the planner draws; where it acts. First guesses, untuned, tried first on
+    seeds 11-16 (the ``backward`` entry's scaled global uptime 0.33 without the planner, 0.50
+    with it), then on 52 held-out seeds (0.541)."""
 
-    candidates: int = 128
-    horizon: float = 2.0
-    segment: float = 0.25
-    above: float = 5.0
-    seed: int = 0
+    candidates: int = setting(128, "torque sequences drawn a decision", low=1)
+    horizon: float = setting(2.0, "length of each sequence", "s", low=0.0, low_open=True)
+    segment: float = setting(
+        0.25, "time each torque of a sequence is held", "s", low=0.0, low_open=True
+    )
+    above: float = setting(5.0, "it acts above upright's energy by more than this", "J", low=0.0)
+    seed: int = setting(0, "seed of the draws (re-drawn at each reset)", low=0)
+
+    what = "shooting"
 
     def __post_init__(self) -> None:
-        check_int("candidates", self.candidates, 1)
-        check_float("horizon", self.horizon, 1e-9)
-        check_float("segment", self.segment, 1e-9, self.horizon)
-        check_float("above", self.above, 0.0)
-        check_int("seed", self.seed, 0)
+        super().__post_init__()
+        if self.segment > self.horizon:
+            raise SettingError(
+                f"config segment must be at most horizon ({self.horizon:g} s), got {self.segment:g}"
+            )
 
 
 class EnergyShooting(Controller):

@@ -6,7 +6,7 @@ Every entry is a :class:`~acrobot_mj.control.tracker.PlanTracker` along the mode
 swing-up (:mod:`acrobot_mj.olympics.swing_ups`) on a state estimate
 (:class:`~acrobot_mj.control.estimator.Observer`): ``funnel`` alone, ``replan`` with swing-ups
 planned online from wherever it is, ``tree`` with a set of swing-ups planned offline (grown by
-:mod:`acrobot_mj.olympics.growing`), ``backward`` with swing-ups integrated backwards from
+``scripts/grow_plans.py``), ``backward`` with swing-ups integrated backwards from
 upright (:mod:`acrobot_mj.control.backward`) and energy removal planned on the model's steps
 (:mod:`acrobot_mj.control.shooting`)."""
 
@@ -18,12 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.control.controller import Controller, EnergyRemoval, Fallbacks
-from acrobot_mj.control.estimator import Estimated, Observer
-from acrobot_mj.control.planned import LEVELS, planned_swing_up, shipped_name
+from acrobot_mj.control.planned import PLANNED, planned_swing_up, shipped_name
 from acrobot_mj.control.plans import PlanSet
 from acrobot_mj.control.policies import EnergyPumping
 from acrobot_mj.control.tracker import FunnelSettings, Planner, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.olympics.plants import Plant
 from acrobot_mj.settings import Settings, setting
 
 #: The constrained LQR's horizon [steps] on ``ai_olympics``: 0.5 s, 2.3 time constants of the
@@ -41,7 +41,7 @@ PUMPING_ON = ("ai_olympics",)
 #: A reset is an angle jump past this [rad] between two 0.002 s calls on ``ai_olympics``; at
 #: the report's 0.05 s a step the arm at its velocity limit, 9 pi rad/s, turns 1.4 rad.
 JUMPS = {"ai_olympics": 0.1, "report": 2.0}
-#: The ``tree`` entry's plan set on ``ai_olympics`` (:mod:`acrobot_mj.olympics.growing`).
+#: The ``tree`` entry's plan set on ``ai_olympics`` (``scripts/grow_plans.py``).
 PLANS = Path(__file__).resolve().parent / "trajectories" / "ai_olympics_tree.npz"
 
 
@@ -67,99 +67,93 @@ class NoOptions(Settings):
 
 @dataclass(frozen=True)
 class Entry:
-    """An entry: its ``name``, what it ``describes``, its ``factory`` (a model's name and the
-    options to a controller), its ``options`` (a :class:`~acrobot_mj.settings.Settings`), and
-    ``only``, the model it is set for (None: every model with a planned swing-up), with
-    ``why``."""
+    """An entry: its ``name``, what it ``describes``, its ``factory`` (a
+    :class:`~acrobot_mj.olympics.plants.Plant` and the options to a controller), its
+    ``options`` (a :class:`~acrobot_mj.settings.Settings`), ``only``, the acrobot it is set for
+    (None: every one with a planned swing-up), with ``why``, and whether it can be built on a
+    ``learnt`` model."""
 
     name: str
     describes: str
-    factory: Callable[[str, Any], Controller]
+    factory: Callable[[Plant, Any], Controller]
     options: type[Settings] = NoOptions
     only: str | None = None
     why: str = ""
+    learnt: bool = False
 
-    def check(self, model: str) -> str:
-        """The name of the shipped acrobot ``model`` is; refused, in one line, where the entry
-        cannot work on it."""
-        planned_swing_up(model)
+    def check(self, model: str, learnt: bool = False) -> None:
+        """Refuse, in one line, an acrobot ``model`` the entry cannot work on, from its
+        equations or (``learnt``) from a learnt model of it."""
+        if learnt and not self.learnt:
+            raise ValueError(f"the {self.name} entry is built on the equations, not a learnt model")
+        if not learnt:
+            planned_swing_up(model)
         name = shipped_name(model)
-        assert name is not None  # only shipped acrobots have a planned swing-up
         if self.only is not None and name != self.only:
             raise ValueError(f"the {self.name} entry is for {self.only}, not {model!r}: {self.why}")
-        return name
 
-    def build(self, model: str, options: Mapping[str, Any] | None = None) -> Controller:
-        """The entry's controller for ``model`` (a name, or a file of a shipped acrobot's
-        parameters) with ``options`` (by name)."""
-        name = self.check(model)
-        return self.factory(name, self.options.from_dict(dict(options or {})))
+    def build(self, plant: Plant, options: Mapping[str, Any] | None = None) -> Controller:
+        """The entry's controller on ``plant`` with ``options`` (by name)."""
+        self.check(plant.name, plant.learnt)
+        return self.factory(plant, self.options.from_dict(dict(options or {})))
 
 
-def levels(model: str) -> FunnelSettings:
-    """The funnel's levels on ``model``: those chosen for it
-    (:data:`~acrobot_mj.control.planned.LEVELS`), else FunnelSettings', chosen on the report's
-    acrobot, with the saturated LQR (the option ``mpc`` takes the constrained one)."""
-    return LEVELS.get(shipped_name(model) or "", FunnelSettings(horizon=0))
-
-
-def fallback(model: str) -> Controller | None:
-    """Where no plan is followed: energy pumping on :data:`PUMPING_ON`, else removal."""
-    if model not in PUMPING_ON:
+def fallback(plant: Plant) -> Controller | None:
+    """Where no plan is followed: energy pumping on :data:`PUMPING_ON` (the equations'
+    energy), else removal."""
+    if plant.name not in PUMPING_ON or plant.learnt:
         return None
-    return EnergyPumping(planned_swing_up(model).params, PUMPING_GAIN)
+    return EnergyPumping(plant.swing_up.params, PUMPING_GAIN)
 
 
-def estimated(tracker: PlanTracker) -> Controller:
-    """``tracker`` on the estimate of an observer of its own model."""
-    return Estimated(tracker, Observer(tracker.params, tracker.method))
-
-
-def _funnel(model: str, options: FunnelOptions) -> Controller:
-    chosen = levels(model)
+def _funnel(plant: Plant, options: FunnelOptions) -> Controller:
+    chosen = plant.levels
     if options.mpc:  # elsewhere the default horizon: 40 steps, as `balance --feedback`
-        horizon = MPC_HORIZON if model == "ai_olympics" else FunnelSettings().horizon
+        horizon = MPC_HORIZON if plant.name == "ai_olympics" else FunnelSettings().horizon
         chosen = chosen.replace(horizon=horizon)
-    return estimated(PlanTracker([planned_swing_up(model)], chosen, fallback=fallback(model)))
+    tracker = PlanTracker(
+        [plant.swing_up], chosen, fallback=fallback(plant), linear=plant.linear, step=plant.step
+    )
+    return plant.estimated(tracker)
 
 
-def _replan(model: str, options: NoOptions) -> Controller:
+def _replan(plant: Plant, options: NoOptions) -> Controller:
     from acrobot_mj.control.replan import Planner, replanner  # CasADi: the control extra
 
-    swing_up = planned_swing_up(model)
+    swing_up = plant.swing_up
     planner = replanner(Planner(swing_up.params, swing_up.method))
-    settings = TrackerSettings(jump=JUMPS[model])
+    settings = TrackerSettings(jump=JUMPS[plant.name])
     tracker = PlanTracker(
-        [swing_up], levels(model), settings, fallback=fallback(model), planner=planner
+        [swing_up], plant.levels, settings, fallback=fallback(plant), planner=planner
     )
-    return estimated(tracker)
+    return plant.estimated(tracker)
 
 
-def tree(model: str, plans: PlanSet, planner: Planner | None = None) -> PlanTracker:
-    """The ``tree`` entry's tracker on ``model`` over the shipped swing-up and ``plans``,
-    unestimated; ``planner`` (offline) adds plans to it."""
-    swing_up = planned_swing_up(model)
+def tree(plant: Plant, plans: PlanSet, planner: Planner | None = None) -> PlanTracker:
+    """The ``tree`` entry's tracker on ``plant`` over its swing-up and ``plans``, unestimated;
+    ``planner`` (offline) adds plans to it."""
+    swing_up = plant.swing_up
     every = [swing_up, *plans.plans(swing_up.params, swing_up.method)]
-    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[model])
+    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[plant.name])
     return PlanTracker(
-        every, levels(model), settings, fallback=fallback(model), planner=planner, keep=True
+        every, plant.levels, settings, fallback=fallback(plant), planner=planner, keep=True
     )
 
 
-def backward(model: str, plans: list[Trajectory] | None = None) -> PlanTracker:
-    """The ``backward`` entry's tracker on ``model``, unestimated: the shipped swing-up and
-    ``plans`` (None: :func:`~acrobot_mj.control.backward.backward_library`'s), entered as
-    ``tree`` enters its set; above upright's energy, energy removal planned on the model's
-    steps (:class:`~acrobot_mj.control.shooting.EnergyShooting`), below it the funnel's."""
+def backward(plant: Plant, plans: list[Trajectory] | None = None) -> PlanTracker:
+    """The ``backward`` entry's tracker on ``plant``, unestimated: its swing-up and ``plans``
+    (None: :func:`~acrobot_mj.control.backward.backward_library`'s), entered as ``tree``
+    enters its set; above upright's energy, energy removal planned on the model's steps
+    (:class:`~acrobot_mj.control.shooting.EnergyShooting`), below it the funnel's."""
     from acrobot_mj.control.backward import BackwardSettings, backward_library
     from acrobot_mj.control.shooting import EnergyShooting
 
-    swing_up = planned_swing_up(model)
+    swing_up = plant.swing_up
     p, method = swing_up.params, swing_up.method
     plans = backward_library(p, method, BackwardSettings()) if plans is None else plans
-    chosen = levels(model)
+    chosen = plant.levels
     removal = Fallbacks([EnergyShooting(p, method), EnergyRemoval(chosen.damping, p.max_torque)])
-    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[model])
+    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[plant.name])
     return PlanTracker([swing_up, *plans], chosen, settings, fallback=removal)
 
 
@@ -173,6 +167,7 @@ ENTRIES = {
             "estimate; energy pumping elsewhere on ai_olympics, removal on other acrobots",
             _funnel,
             FunnelOptions,
+            learnt=True,
         ),
         Entry(
             "replan",
@@ -184,7 +179,7 @@ ENTRIES = {
         Entry(
             "tree",
             "funnel with a set of swing-ups planned offline, entered by state (real-time)",
-            lambda model, options: estimated(tree(model, PlanSet.load(PLANS))),
+            lambda plant, options: plant.estimated(tree(plant, PlanSet.load(PLANS))),
             only="ai_olympics",
             why="its plan set and settings are that robot's",
         ),
@@ -192,7 +187,7 @@ ENTRIES = {
             "backward",
             "funnel with swing-ups integrated backwards from upright and energy removal "
             "planned on the model's steps",
-            lambda model, options: estimated(backward(model)),
+            lambda plant, options: plant.estimated(backward(plant)),
             only="report",
             why="its plans' torques and its reset test are for that acrobot's steps",
         ),
@@ -201,16 +196,21 @@ ENTRIES = {
 
 
 def support_table() -> str:
-    """A Markdown table: each entry on each shipped model, built or refused, and why."""
+    """A Markdown table of each entry on each shipped acrobot: ``runs``, or why not in short
+    (the refusal itself is one line naming the model); then why each set for one acrobot is."""
     from acrobot_mj.physics.models import MODELS
 
-    rows = ["| entry | model | on it |", "|---|---|---|"]
+    rows = ["| entry | " + " | ".join(f"`{m}`" for m in MODELS) + " |"]
+    rows.append("|---" * (len(MODELS) + 1) + "|")
     for name, entry in ENTRIES.items():
+        cells = []
         for model in MODELS:
-            try:
-                entry.check(model)
-                verdict = "runs"
-            except ValueError as error:
-                verdict = "refused: " + str(error).replace("|", "\\|")
-            rows.append(f"| `{name}` | `{model}` | {verdict} |")
-    return "\n".join(rows) + "\n"
+            if model not in PLANNED:
+                cells.append("no planned swing-up")
+            elif entry.only is not None and model != entry.only:
+                cells.append(f"for `{entry.only}` only")
+            else:
+                cells.append("runs")
+        rows.append(f"| `{name}` | " + " | ".join(cells) + " |")
+    why = [f"- `{e.name}`: {e.why}." for e in ENTRIES.values() if e.only is not None]
+    return "\n".join(rows) + "\n\n" + "\n".join(why) + "\n"

@@ -1,6 +1,5 @@
 """The AI Olympics record, ``olympics.json`` (written atomically, sealed with its digest), its
-reader, and its figures (PNG beside it): success fraction per level for each robustness category,
-tip height and torque over time for the performance and global episodes.
+reader, and its figures beside it (:mod:`acrobot_mj.report.olympics_figures`).
 
 Per-step torques are stored compactly: each episode's elbow torques [N m] as base64 of
 little-endian float32 (:data:`TORQUES`)."""
@@ -11,7 +10,7 @@ import base64
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -20,10 +19,8 @@ from acrobot_mj.olympics import scores
 from acrobot_mj.olympics.protocol import CATEGORY_KEYS, PERFORMANCE, Category, to_protocol
 from acrobot_mj.olympics.scaling import ORIGINAL, Rules
 from acrobot_mj.olympics.scores import Recording
-from acrobot_mj.report.plots import Labels, Series, line_figure, save_figure
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+from acrobot_mj.report.olympics_figures import category_figure, height_figure
+from acrobot_mj.report.plots import save_figure
 
 #: The record's file name.
 RECORD_FILE = "olympics.json"
@@ -202,64 +199,6 @@ def read_olympics(path: str | Path) -> dict[str, Any]:
     return record
 
 
-def _figure(rows: int, columns: int, size: tuple[float, float]) -> Figure:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=size, dpi=100, layout="constrained")
-    FigureCanvasAgg(figure)  # its own canvas: pyplot is not involved
-    figure.subplots(rows, columns, squeeze=False)
-    return figure
-
-
-def category_figure(category: dict[str, Any]) -> Figure:
-    """A category's success fraction per level, one panel per sweep, with the pass line at 0.5
-    for a majority category (``category``: as the record holds it)."""
-    sweeps = category["sweeps"]
-    title = f"{category['title']}: score {category['score']:.3f}"
-    if len(sweeps) == 1:
-        sweep = sweeps[0]
-        if len(sweep["levels"]) == 1:  # one level of many episodes: each episode's success
-            episodes = sweep["episodes"][0]
-            series = [
-                Series(
-                    "success", range(1, len(episodes) + 1), [float(e["success"]) for e in episodes]
-                )
-            ]
-            return line_figure(series, Labels(title, "episode", "success"))
-        unit = f" [{sweep['unit']}]" if sweep["unit"] else ""
-        hlines = [(0.5, "pass: more than 0.5")] if category["majority"] else []
-        series = [Series("success fraction", sweep["levels"], sweep["fractions"])]
-        return line_figure(
-            series, Labels(title, sweep["parameter"] + unit, "success fraction"), hlines=hlines
-        )
-    columns = 5
-    figure = _figure(-(-len(sweeps) // columns), columns, (16, 6))
-    for ax, sweep in zip(figure.axes, sweeps, strict=False):
-        ax.plot(sweep["levels"], sweep["fractions"], marker="o", markersize=3)
-        ax.set(title=sweep["parameter"], xlabel=sweep["unit"], ylim=(-0.05, 1.05))
-        ax.grid(True, color="0.9")
-    figure.suptitle(title)
-    return figure
-
-
-def series_figure(trajectory: Recording, lengths: tuple[float, float], title: str) -> Figure:
-    """Tip height (with the up line at 0.9 (l1 + l2)) and elbow torque over time."""
-    l1, l2 = lengths
-    figure = _figure(2, 1, (10, 6))
-    top, bottom = figure.axes
-    top.plot(trajectory.T, scores.tip_heights(to_protocol(trajectory.X), l1, l2), linewidth=1)
-    line = PERFORMANCE.height * (l1 + l2)
-    top.axhline(line, color="0.35", linestyle="--", linewidth=1, label=f"up: {line:.3g} m")
-    top.set(title=title, ylabel="tip height [m]")
-    top.legend(loc="best", fontsize=9)
-    bottom.plot(trajectory.T[:-1], trajectory.U, linewidth=1)
-    bottom.set(xlabel="time [s]", ylabel="elbow torque [N m]")
-    for ax in figure.axes:
-        ax.grid(True, color="0.9")
-    return figure
-
-
 def write_olympics(folder: str | Path, results: Olympics) -> Path:
     """Write :func:`olympics_record` of ``results`` to ``folder``/:data:`RECORD_FILE` and its
     figures beside it: ``robustness_<key>.png`` per category, ``performance.png``,
@@ -269,15 +208,20 @@ def write_olympics(folder: str | Path, results: Olympics) -> Path:
     path = write_json(folder / RECORD_FILE, record)
     for category in record.get("robustness", {}).get("categories", []):
         save_figure(category_figure(category), folder / f"robustness_{category['key']}.png")
-    if results.performance is not None:
-        run = record["performance"]
-        title = f"Performance: score {run['score']:.3f}, swing-up time {run['swingup_time']} s"
-        figure = series_figure(results.performance, results.lengths, title)
-        save_figure(figure, folder / "performance.png")
-    if results.global_episode is not None:
-        run = record["global"]
-        title = f"Global policy: uptime {run['uptime']:.2f} s, score {run['score']:.3f}"
-        save_figure(
-            series_figure(results.global_episode, results.lengths, title), folder / "global.png"
-        )
+    l1, l2 = results.lengths
+    for part, recording in (
+        ("performance", results.performance),
+        ("global", results.global_episode),
+    ):
+        if recording is not None:
+            run = record[part]
+            title = (
+                f"Performance: score {run['score']:.3f}, swing-up time {run['swingup_time']} s"
+                if part == "performance"
+                else f"Global policy: uptime {run['uptime']:.2f} s, score {run['score']:.3f}"
+            )
+            heights = scores.tip_heights(to_protocol(recording.X), l1, l2)
+            line = PERFORMANCE.height * (l1 + l2)
+            figure = height_figure(recording.T, heights, line, recording.U, title)
+            save_figure(figure, folder / f"{part}.png")
     return path

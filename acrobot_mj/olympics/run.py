@@ -238,6 +238,8 @@ class OlympicsRun:
         :class:`~acrobot_mj.olympics.report.Olympics` to score."""
         model, used = resolve(self.model), self.protocol
         assert used is not None
+        if isinstance(self.scored, Source):  # built here once (a learnt plan is planned, kept)
+            sources.build(self.scored, self.model)
         robustness = used.robustness
         categories = robustness.categories(model) if "robustness" in self.parts else ()
         work = [

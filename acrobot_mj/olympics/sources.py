@@ -18,6 +18,7 @@ from typing import Any
 from acrobot_mj.control.controller import Controller, Held
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention, sb3_policy
+from acrobot_mj.olympics.plants import equations, learnt
 from acrobot_mj.physics.models import resolve
 from acrobot_mj.train.records import RUN_FILE, read_record
 
@@ -32,13 +33,16 @@ _BUILT: dict[str, Controller] = {}
 @dataclass(frozen=True)
 class Source:
     """A controller's ``name`` as given (an entry, a run folder, ``module:attribute`` or a
-    ``.zip`` policy file), an entry's ``options``, and for a policy file the ``env`` id and
-    ``env_kwargs`` it was trained with (None: :data:`POLICY_ENV` on the model scored)."""
+    ``.zip`` policy file), an entry's ``options`` and the black-box run whose learnt model it
+    is built on (``plant``; None: the acrobot's equations), and for a policy file the ``env``
+    id and ``env_kwargs`` it was trained with (None: :data:`POLICY_ENV` on the model
+    scored)."""
 
     name: str
     options: dict[str, Any] = field(default_factory=dict)
     env: str | None = None
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    plant: str | None = None
 
     @property
     def kind(self) -> str:
@@ -53,6 +57,8 @@ class Source:
             raise ValueError(f"options are for an entry {list(entries.ENTRIES)}, not {self.name}")
         if (self.env is not None or self.env_kwargs) and self.kind != "policy":
             raise ValueError(f"--env and --env-kwargs are for a .zip policy, not {self.name}")
+        if self.plant is not None and self.kind != "entry":
+            raise ValueError(f"a learnt model is a plant for an entry, not for {self.name}")
 
 
 def kind_of(name: str) -> str:
@@ -76,7 +82,8 @@ def trained_model(record: dict[str, Any]) -> str:
     return "report" if name is None else str(name)
 
 
-def _run_record(run_dir: str) -> dict[str, Any]:
+def run_record(run_dir: str) -> dict[str, Any]:
+    """The ``run.json`` of the controller run ``run_dir``; refused in one line where it is none."""
     path = Path(run_dir)
     if not path.is_dir():
         raise ValueError(
@@ -99,13 +106,21 @@ def check(source: Source, model: str) -> None:
     there."""
     resolve(model)
     if source.kind == "entry":
-        entries.ENTRIES[source.name].check(model)
+        entries.ENTRIES[source.name].check(model, learnt=source.plant is not None)
         entries.ENTRIES[source.name].options.from_dict(dict(source.options))
+        if source.plant is not None:
+            record = run_record(source.plant)
+            trained = trained_model(record)
+            if record.get("kind") != "black_box" or resolve(trained) != resolve(model):
+                raise ValueError(
+                    f"{source.plant} is not a black-box run trained on {model!r} (its kind "
+                    f"{record.get('kind')!r}, its acrobot {trained!r})"
+                )
     elif source.kind == "policy":
         if not Path(source.name).is_file():
             raise ValueError(f"no policy file at {source.name}")
     elif source.kind == "run":
-        trained = trained_model(_run_record(source.name))
+        trained = trained_model(run_record(source.name))
         if resolve(trained) != resolve(model):
             raise ValueError(f"{source.name} was trained on the model {trained!r}, not {model!r}")
 
@@ -158,7 +173,8 @@ def _run(run_dir: str, model: str) -> Controller:
 
 def _build(source: Source, model: str) -> Controller:
     if source.kind == "entry":
-        return entries.ENTRIES[source.name].build(model, source.options)
+        plant = equations(model) if source.plant is None else learnt(source.plant)
+        return entries.ENTRIES[source.name].build(plant, source.options)
     if source.kind == "import":
         return _imported(source.name, model)
     if source.kind == "policy":

@@ -2,9 +2,11 @@
 on the global policy's episodes of seeds the evaluation does not use (1000 and up): the
 entry's tracker runs each episode, and wherever it can enter no plan within the energy window,
 a swing-up is planned there (:class:`~acrobot_mj.control.replan.Planner`, CasADi: the
-``control`` extra), warm-started from the nearest plan, and joins the set. Run ``python -m
-acrobot_mj.olympics.growing SEED COUNT [MINUTES [PATH]]`` to grow the shipped file (or the set
-at ``PATH``, a new one where there is none)."""
+``control`` extra), warm-started from the nearest plan, and joins the set. Run
+
+    python scripts/grow_plans.py SEED COUNT [MINUTES [PATH]]
+
+to grow the shipped file (or the set at ``PATH``, a new one where there is none)."""
 
 from __future__ import annotations
 
@@ -15,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.plans import PlanSet, warm_torques
 from acrobot_mj.control.tracker import tracker_stats
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.olympics.entries import PLANS, estimated, tree
+from acrobot_mj.olympics.entries import PLANS, tree
+from acrobot_mj.olympics.plants import equations
 from acrobot_mj.physics.xp import wrap_angle
 
 
@@ -60,10 +62,11 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = PLANS) -> P
     from acrobot_mj.physics.models import resolve
 
     library = PlanSet.load(path) if path.is_file() else empty()
-    swing_up = planned_swing_up("ai_olympics")
+    plant = equations("ai_olympics")
+    swing_up = plant.swing_up
     planner = Planner(swing_up.params, swing_up.method, hold=library.hold)
-    tracker = tree("ai_olympics", library, planner_for(swing_up, planner))
-    controller = estimated(tracker)
+    tracker = tree(plant, library, planner_for(swing_up, planner))
+    controller = plant.estimated(tracker)
     started = time.process_time()
     for seed in range(first, first + count):
         targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
@@ -86,7 +89,7 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = PLANS) -> P
     return library
 
 
-if __name__ == "__main__":  # pragma: no cover
+if __name__ == "__main__":
     arguments = sys.argv[1:]
     minutes = float(arguments[2]) if arguments[2:] else 60.0
     path = Path(arguments[3]) if arguments[3:] else PLANS
