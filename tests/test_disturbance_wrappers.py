@@ -12,7 +12,7 @@ import pytest
 
 import acrobot_mj  # noqa: F401 (registers the ids)
 from acrobot_mj.cli import main
-from acrobot_mj.envs.model_error import PARAMETERS, ModelError, measured, nominal
+from acrobot_mj.envs.model_error import PROTOCOL_PARAMETERS, ModelError, measured, nominal
 from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.sensor import Sensor
 from acrobot_mj.olympics.protocol import Perturbations
@@ -242,7 +242,7 @@ def test_m2_error_follows_the_analytic_model() -> None:
 def test_nominal_values_in_the_protocols_terms() -> None:
     # design C.1 model 1.0 (model_parameters.yml): I about the joints, m r products.
     values = nominal("ai_olympics")
-    assert list(values) == list(PARAMETERS)
+    assert list(values) == list(PROTOCOL_PARAMETERS)
     assert values["I1"] == pytest.approx(0.031887199591513114, rel=1e-14)
     assert values["I2"] == pytest.approx(0.05086984812807257, rel=1e-14)
     assert values["m1r1"] == pytest.approx(0.5234602302310271 * 0.2, rel=1e-14)

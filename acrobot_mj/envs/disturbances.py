@@ -28,7 +28,7 @@ from acrobot_mj.physics.integrators import limit_velocities, steps_in
 
 #: The links whose mass and inertia ``perturb`` scales, and the record's names for them.
 LINKS = ("link1", "link2")
-PARAMETERS = ("m1", "m2", "I1", "I2")
+LINK_PARAMETERS = ("m1", "m2", "I1", "I2")
 #: Within the tolerance this long [s] on end (or to the end of the episode) counts as balanced:
 #: a swing through upright leaves 0.05 rad within a second (the unstable modes grow e-fold in
 #: 0.35 s and 0.53 s).
@@ -106,11 +106,11 @@ class Disturbances:
         return steps
 
     def perturbed(self, nominal: dict[str, float], rng: np.random.Generator) -> dict[str, float]:
-        """``nominal`` masses [kg] and inertias [kg m^2] (``PARAMETERS``), each scaled."""
+        """``nominal`` masses [kg] and inertias [kg m^2] (``LINK_PARAMETERS``), each scaled."""
         if self.perturb == 0.0:
             return dict(nominal)
-        scale = rng.uniform(1.0 - self.perturb, 1.0 + self.perturb, size=len(PARAMETERS))
-        return {name: nominal[name] * s for name, s in zip(PARAMETERS, scale, strict=True)}
+        scale = rng.uniform(1.0 - self.perturb, 1.0 + self.perturb, size=len(LINK_PARAMETERS))
+        return {name: nominal[name] * s for name, s in zip(LINK_PARAMETERS, scale, strict=True)}
 
 
 @dataclass(frozen=True)
@@ -146,7 +146,7 @@ def model_parameters(env: gym.Env) -> dict[str, float]:
 
 
 def set_model_parameters(env: gym.Env, values: dict[str, float]) -> None:
-    """Give ``env``'s links the masses and inertias ``values`` (``PARAMETERS``); the three
+    """Give ``env``'s links the masses and inertias ``values`` (``LINK_PARAMETERS``); the three
     principal inertias scale together with the one about the hinge axis."""
     model, now = env.unwrapped.model, model_parameters(env)  # type: ignore[attr-defined]
     for k, link in enumerate(LINKS, start=1):

@@ -20,15 +20,15 @@ from acrobot_mj.physics.models import ModelSpec, joint_inertias, resolve
 
 #: The protocol's parameters in its order: motor inertia [kg m^2], m1 r1 [kg m], I1 about the
 #: shoulder [kg m^2], b1 [N m s/rad], cf1 [N m], then link 2's and m2 [kg].
-PARAMETERS = ("Ir", "m1r1", "I1", "b1", "cf1", "m2r2", "m2", "I2", "b2", "cf2")
+PROTOCOL_PARAMETERS = ("Ir", "m1r1", "I1", "b1", "cf1", "m2r2", "m2", "I2", "b2", "cf2")
 #: The protocol's gear ratio (model_parameters.yml of design C.1).
 GEAR_RATIO = 6.0
 LINKS, JOINTS = ("link1", "link2"), ("shoulder", "elbow")
 
 
 def nominal(model: ModelSpec = "ai_olympics", gear_ratio: float = GEAR_RATIO) -> dict[str, float]:
-    """A parameter set's values of :data:`PARAMETERS` in the protocol's terms: inertias about
-    the joints ``I + m r^2``, ``Ir`` the elbow's motor inertia over ``gear_ratio^2``, ``b``
+    """A parameter set's values of :data:`PROTOCOL_PARAMETERS` in the protocol's terms: inertias
+    about the joints ``I + m r^2``, ``Ir`` the elbow's motor inertia over ``gear_ratio^2``, ``b``
     the damping and ``cf`` the Coulomb friction of each joint."""
     m = resolve(model)
     p = m.params
@@ -39,16 +39,16 @@ def nominal(model: ModelSpec = "ai_olympics", gear_ratio: float = GEAR_RATIO) ->
         values |= {f"m{j}r{j}": mass * lc, f"I{j}": about_joints[k]}
         values |= {f"b{j}": m.damping[k], f"cf{j}": m.friction[k]}
     values["m2"] = p.m2
-    return {name: float(values[name]) for name in PARAMETERS}
+    return {name: float(values[name]) for name in PROTOCOL_PARAMETERS}
 
 
 def check_parameters(values: Mapping[str, float]) -> dict[str, float]:
     """``values`` as floats, refusing an unknown name or a value out of range in one line."""
     if not isinstance(values, Mapping):
         raise TypeError(f"model errors must be a mapping of names to values, got {values!r}")
-    unknown = sorted(set(values) - set(PARAMETERS))
+    unknown = sorted(set(values) - set(PROTOCOL_PARAMETERS))
     if unknown:
-        raise ValueError(f"unknown model parameters {unknown}; known: {list(PARAMETERS)}")
+        raise ValueError(f"unknown model parameters {unknown}; known: {list(PROTOCOL_PARAMETERS)}")
     checked = {}
     for name, value in values.items():
         low = -1e3 if name[:1] in "bc" else 0.0  # friction may be negative (the protocol's)
@@ -59,8 +59,8 @@ def check_parameters(values: Mapping[str, float]) -> dict[str, float]:
 
 
 class ModelError(gym.Wrapper):
-    """The env's MuJoCo model with :data:`PARAMETERS` ``values`` (any of them; the rest keep
-    theirs), set at construction and put back by ``close``:
+    """The env's MuJoCo model with :data:`PROTOCOL_PARAMETERS` ``values`` (any of them; the rest
+    keep theirs), set at construction and put back by ``close``:
 
     - ``Ir``: MuJoCo's armature, ``gr^2 Ir + Ir`` on the shoulder and ``gr^2 Ir`` on the
       elbow (the plant's diagonal); the plant's coupling ``M12 = M21 -= gr Ir`` as the force
@@ -123,8 +123,8 @@ class ModelError(gym.Wrapper):
 
 
 def apply(model: mujoco.MjModel, values: Mapping[str, float], gear_ratio: float) -> None:
-    """Write ``values`` (:data:`PARAMETERS`, checked) into ``model`` but the ``cf`` ones (no
-    MuJoCo field holds them)."""
+    """Write ``values`` (:data:`PROTOCOL_PARAMETERS`, checked) into ``model`` but the ``cf`` ones
+    (no MuJoCo field holds them)."""
     if "Ir" in values:
         ir = values["Ir"]
         model.dof_armature[model.joint("shoulder").dofadr[0]] = gear_ratio**2 * ir + ir
@@ -146,8 +146,8 @@ def apply(model: mujoco.MjModel, values: Mapping[str, float], gear_ratio: float)
 
 
 def measured(env: gym.Env, gear_ratio: float = GEAR_RATIO) -> dict[str, float]:
-    """The values of :data:`PARAMETERS` but ``cf`` (no MuJoCo field holds them) that ``env``'s
-    MuJoCo model has, in the protocol's terms."""
+    """The values of :data:`PROTOCOL_PARAMETERS` but ``cf`` (no MuJoCo field holds them) that
+    ``env``'s MuJoCo model has, in the protocol's terms."""
     model = env.unwrapped.model  # type: ignore[attr-defined]
     values = {"Ir": float(model.dof_armature[model.joint("elbow").dofadr[0]]) / gear_ratio**2}
     for k, link in enumerate(LINKS, start=1):
@@ -158,4 +158,4 @@ def measured(env: gym.Env, gear_ratio: float = GEAR_RATIO) -> dict[str, float]:
         values[f"b{k}"] = float(model.dof_damping[model.joint(JOINTS[k - 1]).dofadr[0]])
         if k == 2:
             values["m2"] = mass
-    return {name: values[name] for name in PARAMETERS if name in values}
+    return {name: values[name] for name in PROTOCOL_PARAMETERS if name in values}

@@ -2,7 +2,7 @@
 reader, and its figures beside it (:mod:`acrobot_mj.report.olympics_figures`).
 
 Per-step torques are stored compactly: each episode's elbow torques [N m] as base64 of
-little-endian float32 (:data:`TORQUES`)."""
+little-endian float32 (:data:`TORQUE_ENCODING`)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from acrobot_mj.report.plots import save_figure
 RECORD_FILE = "olympics.json"
 KIND, FORMAT = "acrobot-mj olympics", 1
 #: How an episode's torques are stored.
-TORQUES = "base64 of little-endian float32 elbow torques [N m], one per step"
+TORQUE_ENCODING = "base64 of little-endian float32 elbow torques [N m], one per step"
 _DTYPE = np.dtype("<f4")
 
 
@@ -61,7 +61,7 @@ class EpisodeRecord:
 
 
 def encode_torques(torques: np.ndarray) -> str:
-    """Torques (N,) [N m] as :data:`TORQUES` says."""
+    """Torques (N,) [N m] as :data:`TORQUE_ENCODING` says."""
     return base64.b64encode(np.asarray(torques, dtype=_DTYPE).tobytes()).decode("ascii")
 
 
@@ -136,7 +136,7 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
         "model": dict(results.model),
         "lengths": [float(l1), float(l2)],
         "seeds": dict(results.seeds),
-        "torques": TORQUES,
+        "torques": TORQUE_ENCODING,
         "protocol": used.name,
         "scaling": used.to_dict(),
     }
