@@ -3,15 +3,15 @@
     python scripts/check_architecture.py [ROOT]
 
 - no import cycles between the package's modules (imports inside functions count);
-- each layer imports only its own and lower layers (``LAYERS``: physics, control, envs,
-  agents, report, train, cli; the root's helper modules below all);
+- each layer imports only its own and lower layers (``LAYERS``: physics, identify and control,
+  envs, agents, report, train and olympics, cli; the root's helper modules below all);
 - no import of another module's private names, and no private attribute read off anything but
   ``self`` or ``cls``;
 - no module over ``MAX_MODULE`` lines, and no function that takes more than ``MAX_PARAMETERS``
   parameters by position (``self``, ``cls`` and keyword-only ones aside: pass an object, or name
   the options); compiled kernels (``@jitable``, or a ``def`` marked ``# kernel``) take arrays by
   position and are exempt;
-- ``physics`` and ``control`` import no simulator (MuJoCo);
+- ``physics``, ``identify`` and ``control`` import no simulator (MuJoCo);
 - nothing in the repository cites files outside it or speaks of a tracker's tickets.
 
 Prints one line per violation and exits 1 if there is any.
@@ -29,6 +29,7 @@ MAX_MODULE, MAX_PARAMETERS, MAX_FUNCTION = 500, 6, 60
 #: Rank of each subpackage: a module may import modules of its own rank or lower.
 LAYERS = {
     "physics": 1,
+    "identify": 2,
     "control": 2,
     "envs": 3,
     "agents": 4,
@@ -39,7 +40,7 @@ LAYERS = {
 }
 #: Modules at the package's top: helpers below every layer, and the root above all.
 HELPERS, ROOT_RANK = 0, 8
-NO_SIMULATOR = ("physics", "control")
+NO_SIMULATOR = ("physics", "identify", "control")
 #: Documented public functions whose names start with an underscore.
 PUBLIC_UNDERSCORED = {"os._exit"}
 SIMULATORS = ("mujoco",)

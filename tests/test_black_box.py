@@ -13,13 +13,13 @@ import pytest
 
 from acrobot_mj.cli import main
 from acrobot_mj.control.controller import EnergyRemoval
-from acrobot_mj.control.library import LibraryModel, best_angles
-from acrobot_mj.control.library_terms import DENOMINATOR_TERMS, features
 from acrobot_mj.control.lqr import LQR, step_jacobians
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.control.trajopt import shipped
 from acrobot_mj.envs.disturbances import model_parameters, set_model_parameters
 from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.identify.library import LibraryModel, best_angles
+from acrobot_mj.identify.terms import DENOMINATOR_TERMS, features
 from acrobot_mj.physics.dynamics import UPRIGHT
 from acrobot_mj.train.black_box import (
     BlackBoxConfig,
@@ -132,7 +132,7 @@ def test_the_ode_fit_recovers_a_rational_field() -> None:
     # The velocities' denominators are 1 + 0.4 cos 2 q2; the angles' stay 1 (the ridge).
     q2 = np.linspace(-np.pi, np.pi, 7)
     grid = np.column_stack([np.zeros(7), q2, np.zeros((7, 2))])
-    from acrobot_mj.control.library_terms import denominator_design
+    from acrobot_mj.identify.terms import denominator_design
 
     bottom = 1.0 + denominator_design(grid) @ ode.bottoms
     assert np.abs(bottom[:, 2:] - (1.0 + 0.4 * np.cos(2 * q2))[:, None]).max() < 1e-5

@@ -276,7 +276,7 @@ def test_black_box_sizes_are_refused_before_any_work(
 
 
 def test_the_fewest_decisions_fit_the_library() -> None:
-    from acrobot_mj.control.library import LibraryModel
+    from acrobot_mj.identify.library import LibraryModel
     from acrobot_mj.train.black_box import fewest_decisions, fitted_share
 
     for harmonics in (1, 4, 8):

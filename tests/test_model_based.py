@@ -9,8 +9,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from acrobot_mj.control.identification import identify
 from acrobot_mj.envs.identified import IdentifiedEnv
+from acrobot_mj.identify.lumped import identify
 from acrobot_mj.physics.integrators import Stepping, step_states
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.train import model_based

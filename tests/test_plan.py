@@ -13,9 +13,9 @@ import pytest
 
 import acrobot_mj  # noqa: F401  registers the tasks
 from acrobot_mj.cli import main
-from acrobot_mj.control.identification import realise
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.identify.lumped import realise
 from acrobot_mj.physics import dynamics
 from acrobot_mj.physics.integrators import Stepping
 from acrobot_mj.physics.params import AcrobotParams

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from acrobot_mj.control.controller import Held
-from acrobot_mj.control.library import LibraryModel, library_size
 from acrobot_mj.control.lqr import step_jacobians
 from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.trajopt import Trajectory
+from acrobot_mj.identify.library import LibraryModel, library_size
 from acrobot_mj.olympics import entries, plants
 from acrobot_mj.olympics.run import Conditions, episode
 from acrobot_mj.olympics.scores import performance

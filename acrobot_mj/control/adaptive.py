@@ -17,7 +17,7 @@ REPLAN_STEPS = (0, 8, -8, 16)
 class Adaptive(Controller):
     """``nominal`` (a :class:`~acrobot_mj.control.tracker.PlanTracker` along one swing-up) that
     identifies the lumped parameters from its own first ``samples`` transitions
-    (:mod:`~acrobot_mj.control.identification`: it is told the structure and the step, as the
+    (:mod:`~acrobot_mj.identify.lumped`: it is told the structure and the step, as the
     balance preset is) and, where they differ from its model, replans the swing-up on the
     identified model, warm-started from its own (CasADi: the ``control`` extra), then tracks
     that plan. It adapts once an episode; a replan that fails leaves the plan it had. It learns
@@ -53,7 +53,7 @@ class Adaptive(Controller):
         return self.tracker.act(x, t)
 
     def _adapt(self) -> str:
-        from acrobot_mj.control.identification import identify, realise
+        from acrobot_mj.identify.lumped import identify, realise
 
         nominal = self.nominal.plans[0]
         told = Stepping(dt=nominal.dt, max_vel=nominal.params.max_vel, method=nominal.method)

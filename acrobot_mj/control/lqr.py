@@ -88,7 +88,7 @@ def dlqr(
 
 
 #: The Jacobians ``A`` (4, 4) and ``B`` (4, 1) of a model's step at a state and torque: a learnt
-#: model's (:class:`~acrobot_mj.control.library.LibraryModel`) instead of the equations'.
+#: model's (:class:`~acrobot_mj.identify.library.LibraryModel`) instead of the equations'.
 Jacobians = Callable[[np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 
 

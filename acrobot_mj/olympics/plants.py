@@ -15,12 +15,12 @@ import numpy as np
 
 from acrobot_mj.control.controller import Controller, Held
 from acrobot_mj.control.estimator import Estimated, Observer
-from acrobot_mj.control.library import LibraryModel
 from acrobot_mj.control.lqr import Jacobians
 from acrobot_mj.control.planned import LEVELS, planned_swing_up, shipped_name
 from acrobot_mj.control.tracker import FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.files import read_json, write_json
+from acrobot_mj.identify.library import LibraryModel
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import resolve
 from acrobot_mj.physics.params import AcrobotParams

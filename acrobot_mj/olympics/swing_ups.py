@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.library import LibraryModel
 from acrobot_mj.control.trajopt import IPOPT, Trajectory, solve_or_none
+from acrobot_mj.identify.library import LibraryModel
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.models import AcrobotModel

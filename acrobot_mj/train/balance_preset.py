@@ -14,7 +14,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.control.identification import realise
 from acrobot_mj.control.tracker import clocked
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.envs.control_loop import (
@@ -27,6 +26,7 @@ from acrobot_mj.envs.control_loop import (
 )
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
+from acrobot_mj.identify.lumped import realise
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.settings import Settings, setting
 from acrobot_mj.train.learners import HeldOut, Learner

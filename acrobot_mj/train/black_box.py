@@ -1,6 +1,6 @@
 """The ``black_box`` preset: a learner told nothing of the acrobot's equations. It explores the
 env with random actions, fits a generic model of one decision
-(:class:`~acrobot_mj.control.library.LibraryModel`) and of the reward, takes as its goal the
+(:class:`~acrobot_mj.identify.library.LibraryModel`) and of the reward, takes as its goal the
 learnt model's state at rest of highest learnt reward, plans a swing-up to it on the learnt model
 (CasADi/IPOPT from a near-zero warm start) and follows it with the state feedback
 :class:`~acrobot_mj.control.tracker.PlanTracker`, every gain from the learnt model."""
@@ -21,9 +21,6 @@ import numpy as np
 
 from acrobot_mj.checks import check_memory
 from acrobot_mj.control.controller import Controller
-from acrobot_mj.control.library import LibraryModel, best_angles, library_size
-from acrobot_mj.control.library_fit import THRESHOLD
-from acrobot_mj.control.library_terms import HARMONICS
 from acrobot_mj.control.lqr import LQR
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.control.trajopt import Arrays, Optimiser, Trajectory, miss, waiting
@@ -32,6 +29,9 @@ from acrobot_mj.envs.control_loop import BalanceActor, assess_from_rest
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.files import read_json, write_json
+from acrobot_mj.identify.fit import THRESHOLD
+from acrobot_mj.identify.library import LibraryModel, best_angles, library_size
+from acrobot_mj.identify.terms import HARMONICS
 from acrobot_mj.physics.integrators import steps_in
 from acrobot_mj.physics.models import resolve
 from acrobot_mj.physics.params import REPORT, AcrobotParams
@@ -286,7 +286,7 @@ def swing_up(
 ) -> Trajectory:
     """The first swing-up to ``goal`` (or it with ``q2 +- 2 pi``) that IPOPT finds on ``model``
     (an ODE by one RK4 step per decision:
-    :meth:`~acrobot_mj.control.library.LibraryModel.coarse`) from ``start``, over the config's
+    :meth:`~acrobot_mj.identify.library.LibraryModel.coarse`) from ``start``, over the config's
     horizons. Each is warm-started from the model's rollout of tiny random actions
     (:meth:`~acrobot_mj.control.trajopt.Optimiser.tiny_torques`), then, if that fails, from the
     nearest path found so far led by a wait at the start

@@ -11,11 +11,11 @@ import numpy as np
 
 from acrobot_mj.agents import Agent
 from acrobot_mj.agents.base import Greedy, RandomStream
-from acrobot_mj.control.identification import Transition, identify
 from acrobot_mj.envs.identified import IdentifiedEnv
 from acrobot_mj.envs.rollout import acrobot_of, run_episode
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.envs.tasks import get_task
+from acrobot_mj.identify.lumped import Transition, identify
 from acrobot_mj.physics.integrators import Stepping
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.learners import AgentLearner, greedy_from_rest, make_env, train_learners

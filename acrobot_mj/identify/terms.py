@@ -1,4 +1,4 @@
-"""The terms of the black box's library model (:mod:`~acrobot_mj.control.library`): ``phi(x,
+"""The terms of the black box's library model (:mod:`~acrobot_mj.identify.library`): ``phi(x,
 u)``, every product of a Fourier harmonic of each angle with a monomial of degree at most 2 in
 the two velocities and the action, and ``psi(q)``, the angle products of a denominator. The same
 terms serve numpy rows and CasADi symbols (:mod:`~acrobot_mj.physics.xp`)."""

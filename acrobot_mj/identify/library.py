@@ -3,9 +3,9 @@
 w' psi(q))`` integrated by ``substeps`` RK4 steps of ``h`` seconds (an ODE). ``phi`` holds every
 product of a Fourier harmonic of each angle (up to ``harmonics``) with a monomial of degree at
 most 2 in the two velocities and the action, ``psi`` the angle products of harmonics up to 2
-(:mod:`~acrobot_mj.control.library_terms`); the weights come from sequentially thresholded least
+(:mod:`~acrobot_mj.identify.terms`); the weights come from sequentially thresholded least
 squares (SINDy: Brunton, Proctor and Kutz 2016), on the rational map's implicit form, or through
-the RK4 steps by Gauss-Newton (:mod:`~acrobot_mj.control.library_fit`). It is told only that the
+the RK4 steps by Gauss-Newton (:mod:`~acrobot_mj.identify.fit`). It is told only that the
 first two observations are angles, and for the ODE how many physics steps of what seconds make
 a decision; nothing of masses, lengths, the equations or the integrator. The same ``phi``
 serves numpy rows and CasADi symbols (:mod:`~acrobot_mj.physics.xp`), so the planner and the
@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.library_fit import (
+from acrobot_mj.identify.fit import (
     THRESHOLD,
     Substeps,
     ode_fit,
@@ -29,7 +29,7 @@ from acrobot_mj.control.library_fit import (
     rk4_step,
     thresholded_least_squares,
 )
-from acrobot_mj.control.library_terms import (
+from acrobot_mj.identify.terms import (
     DENOMINATOR_HARMONICS,
     DENOMINATOR_TERMS,
     HARMONICS,
@@ -44,8 +44,8 @@ from acrobot_mj.control.library_terms import (
 
 def library_size(harmonics: int, form: str = "map") -> int:
     """How many weights per state variable a ``form`` of ``harmonics`` fits: the ``(1 + 2H)^2 *
-    10`` terms of :func:`~acrobot_mj.control.library_terms.features`, and a rational map's
-    :data:`~acrobot_mj.control.library_terms.DENOMINATOR_TERMS` denominators."""
+    10`` terms of :func:`~acrobot_mj.identify.terms.features`, and a rational map's
+    :data:`~acrobot_mj.identify.terms.DENOMINATOR_TERMS` denominators."""
     terms = len(features(np.zeros(4), 0.0, harmonics))
     return terms + (DENOMINATOR_TERMS if form == "rational" else 0)
 
@@ -54,7 +54,7 @@ def transitions(
     states: np.ndarray, actions: np.ndarray, next_states: np.ndarray, terms: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """States and actions as floats and the increments
-    (:func:`~acrobot_mj.control.library_terms.increments`), refused where fewer than the
+    (:func:`~acrobot_mj.identify.terms.increments`), refused where fewer than the
     ``terms`` a fit solves for."""
     states, actions = np.asarray(states, dtype=np.float64), np.asarray(actions, dtype=np.float64)
     if len(states) < terms:
@@ -67,9 +67,9 @@ class LibraryModel:
     """``x' = x + (weights' phi(x, u)) / (1 + denominators' psi(q))`` (``substeps`` 0: a map,
     rational where it has denominators), or ``dx/dt = (weights' phi(x, u)) / (1 +
     denominators' psi(q))`` integrated by ``substeps`` RK4 steps of ``h`` [s] (an ODE):
-    ``weights`` ``(features, 4)`` over :func:`~acrobot_mj.control.library_terms.features` of
+    ``weights`` ``(features, 4)`` over :func:`~acrobot_mj.identify.terms.features` of
     ``harmonics``, ``denominators`` ``(24, 4)`` over
-    :func:`~acrobot_mj.control.library_terms.denominator_design` (None: all 1)."""
+    :func:`~acrobot_mj.identify.terms.denominator_design` (None: all 1)."""
 
     harmonics: int
     weights: np.ndarray
@@ -132,7 +132,7 @@ class LibraryModel:
     ) -> LibraryModel:
         """The model of the transitions ``(states[i], actions[i], next_states[i])``: a map, or
         with ``ode = (substeps, h)`` an ODE of that many RK4 steps of ``h`` [s]
-        (:func:`~acrobot_mj.control.library_fit.ode_fit`)."""
+        (:func:`~acrobot_mj.identify.fit.ode_fit`)."""
         states, actions, delta = transitions(states, actions, next_states, library_size(harmonics))
         if ode is not None:
             substeps, h = ode
@@ -152,7 +152,7 @@ class LibraryModel:
         threshold: float = THRESHOLD,
     ) -> LibraryModel:
         """The map with denominators of the transitions
-        (:func:`~acrobot_mj.control.library_fit.rational_fit`)."""
+        (:func:`~acrobot_mj.identify.fit.rational_fit`)."""
         terms = library_size(harmonics, "rational")
         states, actions, delta = transitions(states, actions, next_states, terms)
         phi, psi = design(states, actions, harmonics), denominator_design(states)

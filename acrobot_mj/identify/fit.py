@@ -1,4 +1,4 @@
-"""The fits of the black box's library model (:mod:`~acrobot_mj.control.library`) to
+"""The fits of the black box's library model (:mod:`~acrobot_mj.identify.library`) to
 transitions: sequentially thresholded least squares (SINDy: Brunton, Proctor and Kutz 2016) for
 a map, the same on the implicit form of a rational map, and Gauss-Newton through RK4 steps for a
 rational ODE."""
@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from acrobot_mj.control.library_terms import DENOMINATOR_TERMS, denominator_design, design
+from acrobot_mj.identify.terms import DENOMINATOR_TERMS, denominator_design, design
 
 #: Coefficients below this, times their feature's RMS over the data, are dropped [rad, rad/s].
 THRESHOLD = 1e-5
