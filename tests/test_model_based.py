@@ -122,7 +122,7 @@ def test_the_wrong_structure_or_no_data_fails_clearly(data) -> None:
         damped.append((x, tau, y.tolist()))
     assert identify(damped, BOOK_STEP)[1] > 1e-4
     with pytest.raises(ValueError, match="the identified model does not fit"):
-        model_based.check_fit(identify(damped, BOOK_STEP)[1])
+        model_based.check_identified(identify(damped, BOOK_STEP)[1])
 
 
 def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) -> None:

@@ -138,15 +138,15 @@ def test_refusals(tmp_path: Path) -> None:
     with no run, an unknown model, a model without a planned swing-up."""
     feedback = _run(tmp_path / "fb", "state_feedback", {})
     with pytest.raises(ValueError, match="was trained on the model 'report', not 'ai_olympics'"):
-        sources.check(Source(str(feedback)), "ai_olympics")
+        sources.check_source(Source(str(feedback)), "ai_olympics")
     agent = _run(tmp_path / "agent", "sarsa", {})
     with pytest.raises(ValueError, match="of kind 'sarsa', not a controller run"):
-        sources.check(Source(str(agent)), "report")
+        sources.check_source(Source(str(agent)), "report")
     with pytest.raises(ValueError, match="neither an entry"):
-        sources.check(Source(str(tmp_path / "nothing")), "report")
+        sources.check_source(Source(str(tmp_path / "nothing")), "report")
     with pytest.raises(ValueError, match="not a readable trained run"):
         (tmp_path / "empty").mkdir()
-        sources.check(Source(str(tmp_path / "empty")), "report")
+        sources.check_source(Source(str(tmp_path / "empty")), "report")
     with pytest.raises(ValueError, match="model must be one of"):
         OlympicsRun(Source("funnel"), "no_such_model")
     with pytest.raises(ValueError, match="no planned swing-up for the model 'dm_control'"):

@@ -100,7 +100,7 @@ def source_of(args: argparse.Namespace, name: str) -> tuple[Source, str]:
             options[key] = parse(entry.options, key, text)
     model, plant = args.model, None
     if model is not None and Path(model).is_dir():
-        plant, model = model, sources.trained_model(sources.run_record(model))
+        plant, model = model, sources.trained_model(sources.controller_record(model))
     return Source(name, options, args.env, args.env_kwargs or {}, plant), model
 
 

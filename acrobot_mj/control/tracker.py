@@ -29,7 +29,7 @@ from acrobot_mj.settings import Settings, setting
 Q, R = (10.0, 10.0, 1.0, 1.0), 1.0
 #: A planner: a state (4,) and the plan whose entry point is nearest it to a new plan from that
 #: state, or None.
-Planner = Callable[[np.ndarray, Trajectory], "Trajectory | None"]
+PlanningHook = Callable[[np.ndarray, Trajectory], "Trajectory | None"]
 
 
 @dataclass(frozen=True)
@@ -116,7 +116,7 @@ class PlanTracker(Controller):
         settings: TrackerSettings = TrackerSettings(),
         *,
         fallback: Controller | None = None,
-        planner: Planner | None = None,
+        planner: PlanningHook | None = None,
         keep: bool = False,
         linear: Jacobians | None = None,
         step: Callable[[np.ndarray, float], np.ndarray] | None = None,

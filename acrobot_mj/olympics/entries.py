@@ -21,7 +21,7 @@ from acrobot_mj.control.controller import Controller, EnergyRemoval, Fallbacks
 from acrobot_mj.control.planned import PLANNED, planned_swing_up, shipped_name
 from acrobot_mj.control.plans import PlanSet
 from acrobot_mj.control.policies import EnergyPumping
-from acrobot_mj.control.tracker import FunnelSettings, Planner, PlanTracker, TrackerSettings
+from acrobot_mj.control.tracker import FunnelSettings, PlanningHook, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.olympics.plants import Plant
 from acrobot_mj.settings import Settings, setting
@@ -129,7 +129,7 @@ def _replan(plant: Plant, options: NoOptions) -> Controller:
     return plant.estimated(tracker)
 
 
-def tree(plant: Plant, plans: PlanSet, planner: Planner | None = None) -> PlanTracker:
+def tree(plant: Plant, plans: PlanSet, planner: PlanningHook | None = None) -> PlanTracker:
     """The ``tree`` entry's tracker on ``plant`` over its swing-up and ``plans``, unestimated;
     ``planner`` (offline) adds plans to it."""
     swing_up = plant.swing_up

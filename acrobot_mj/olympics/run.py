@@ -49,7 +49,7 @@ class Conditions:
     model_error: dict[str, float] = field(default_factory=dict)
 
 
-def make_env(model: str, conditions: Conditions, seed: int) -> tuple[Any, Motor]:
+def protocol_env(model: str, conditions: Conditions, seed: int) -> tuple[Any, Motor]:
     """The env of one episode: ``model``'s acrobot, continuous torques, no episode end, under
     ``conditions`` (noise streams from ``seed``); and its motor, which records the torques."""
     env: Any = AcrobotEnv(model=model, continuous=True, task="balance")
@@ -70,7 +70,7 @@ def episode(
     applied. The controller's torque is clipped to the motor's limit, as the protocol's plant
     clips it, and the controller told the clipped torque."""
     controller = sources.build(scored, model)
-    env, motor = make_env(model, conditions, seed)
+    env, motor = protocol_env(model, conditions, seed)
     times = protocol.episode_times(seconds, dt)
     limit = resolve(model).params.max_torque
     obs, _ = env.reset(options={"state": HANGING})
@@ -226,7 +226,7 @@ class OlympicsRun:
 
     def __post_init__(self) -> None:
         if isinstance(self.scored, Source):
-            sources.check(self.scored, self.model)
+            sources.check_source(self.scored, self.model)
         if self.protocol is None:
             object.__setattr__(self, "protocol", protocol_for(self.model))
         unknown = sorted(set(self.parts) - set(PARTS))

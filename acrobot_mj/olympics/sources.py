@@ -82,7 +82,7 @@ def trained_model(record: dict[str, Any]) -> str:
     return "report" if name is None else str(name)
 
 
-def run_record(run_dir: str) -> dict[str, Any]:
+def controller_record(run_dir: str) -> dict[str, Any]:
     """The ``run.json`` of the controller run ``run_dir``; refused in one line where it is none."""
     path = Path(run_dir)
     if not path.is_dir():
@@ -100,7 +100,7 @@ def run_record(run_dir: str) -> dict[str, Any]:
     return record
 
 
-def check(source: Source, model: str) -> None:
+def check_source(source: Source, model: str) -> None:
     """Refuse, in one line and before any episode, a source that cannot be built for
     ``model``: an entry not set for it, a run trained on another acrobot, a file that is not
     there."""
@@ -109,7 +109,7 @@ def check(source: Source, model: str) -> None:
         entries.ENTRIES[source.name].check(model, learnt=source.plant is not None)
         entries.ENTRIES[source.name].options.from_dict(dict(source.options))
         if source.plant is not None:
-            record = run_record(source.plant)
+            record = controller_record(source.plant)
             trained = trained_model(record)
             if record.get("kind") != "black_box" or resolve(trained) != resolve(model):
                 raise ValueError(
@@ -120,7 +120,7 @@ def check(source: Source, model: str) -> None:
         if not Path(source.name).is_file():
             raise ValueError(f"no policy file at {source.name}")
     elif source.kind == "run":
-        trained = trained_model(run_record(source.name))
+        trained = trained_model(controller_record(source.name))
         if resolve(trained) != resolve(model):
             raise ValueError(f"{source.name} was trained on the model {trained!r}, not {model!r}")
 
@@ -191,6 +191,6 @@ def build(source: Source | Controller, model: str) -> Controller:
         return copy.deepcopy(source)
     key = json.dumps([asdict(source), model], sort_keys=True, default=str)
     if key not in _BUILT:
-        check(source, model)
+        check_source(source, model)
         _BUILT[key] = _build(source, model)
     return copy.deepcopy(_BUILT[key])

@@ -64,8 +64,8 @@ class AcrobotModel:
                 raise ValueError(f"{name} must be two finite numbers >= 0, got {pair!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        """The model as flat keys, as :func:`from_dict` reads them (an infinite velocity limit,
-        which JSON cannot hold, as None)."""
+        """The model as flat keys, as :func:`model_from_dict` reads them (an infinite velocity
+        limit, which JSON cannot hold, as None)."""
         flat = {**asdict(self.params), **asdict(self)}
         del flat["params"]
         return {k: None if v == math.inf else v for k, v in flat.items()}
@@ -171,7 +171,7 @@ MODELS: dict[str, AcrobotModel] = {
 }
 
 
-def from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
+def model_from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
     """A model from flat keys: the fields of
     :class:`~acrobot_mj.physics.params.AcrobotParams` and of :class:`AcrobotModel`
     (``damping``, ``friction``, ``motor_inertia`` as two numbers); a missing key is the
@@ -190,9 +190,9 @@ def from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
 
 
 def resolve(model: ModelSpec) -> AcrobotModel:
-    """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file (:func:`from_dict`),
-    an :class:`~acrobot_mj.physics.params.AcrobotParams` (elbow-driven, Euler) or a model;
-    ``None`` is the report's."""
+    """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file
+    (:func:`model_from_dict`), an :class:`~acrobot_mj.physics.params.AcrobotParams` (elbow-driven,
+    Euler) or a model; ``None`` is the report's."""
     if model is None:
         return MODELS["report"]
     if isinstance(model, AcrobotModel):
@@ -215,4 +215,4 @@ def resolve(model: ModelSpec) -> AcrobotModel:
         raise ValueError(f"cannot read the model file {path}: {error}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: a model file holds one table of parameters")
-    return from_dict(data, str(path))
+    return model_from_dict(data, str(path))

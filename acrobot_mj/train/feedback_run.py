@@ -73,7 +73,7 @@ class FeedbackConfig(Settings):
     what = "state-feedback"
 
 
-def swing_up(config: FeedbackConfig) -> Trajectory:
+def feedback_swing_up(config: FeedbackConfig) -> Trajectory:
     """The swing-up a new run follows: the report's shipped plan of ``config.reserve``, or
     another acrobot's planned swing-up; refused in one line where there is none, or where an
     option is the report's alone."""
@@ -101,7 +101,7 @@ class FeedbackLearner(ControllerLearner):
 
     def __init__(self, config: FeedbackConfig, seed: int, trajectory: Trajectory | None = None):
         super().__init__(config, seed)
-        self.trajectory = trajectory or swing_up(config)
+        self.trajectory = trajectory or feedback_swing_up(config)
         start = time.perf_counter()
         # The entry check rolls out continuous torques: with {-1, 0, +1} it made catches later.
         settings = TrackerSettings(rollout=not config.discrete)

@@ -84,7 +84,7 @@ def collect(env: gym.Env, decisions: int, seed: int, noise: float) -> list[Trans
 FIT_TOLERANCE = 1e-6
 
 
-def check_fit(rms: float) -> None:
+def check_identified(rms: float) -> None:
     """Refuse a model whose predictions miss the data: the structure does not fit the env."""
     if not rms <= FIT_TOLERANCE:
         raise ValueError(
@@ -108,7 +108,7 @@ def identified_model(
     data = collect(env, decisions, seed, noise)
     told = stepping(env)
     theta, rms = identify(data, told)
-    check_fit(rms)
+    check_identified(rms)
     return len(data), theta, rms, told
 
 
