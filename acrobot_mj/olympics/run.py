@@ -34,8 +34,8 @@ from acrobot_mj.pool import WorkerPool
 
 #: The parts of the protocol, in the order they run.
 PARTS = ("performance", "robustness", "global")
-#: What the protocol scores: a controller, or where to build one.
-Scored = Controller | Source
+#: What the protocol scores: a controller, or where to build one (a name: its Source).
+Scored = Controller | Source | str
 
 
 @dataclass(frozen=True)
@@ -203,6 +203,8 @@ def _grouped(categories: tuple[Category, ...], records: list[EpisodeRecord]) -> 
 
 def named(scored: Scored) -> str:
     """What the record calls the controller: its source's name, or its class's."""
+    if isinstance(scored, str):
+        return scored
     return scored.name if isinstance(scored, Source) else type(scored).__name__
 
 
@@ -225,6 +227,8 @@ class OlympicsRun:
     protocol: Rules | None = None
 
     def __post_init__(self) -> None:
+        if isinstance(self.scored, str):
+            object.__setattr__(self, "scored", Source(self.scored))
         if isinstance(self.scored, Source):
             sources.check_source(self.scored, self.model)
         if self.protocol is None:
@@ -290,7 +294,7 @@ class OlympicsRun:
 
 
 def score(
-    controller: Scored | str,
+    controller: Scored,
     *,
     model: str = "ai_olympics",
     scores: tuple[str, ...] = PARTS,
@@ -305,10 +309,6 @@ def score(
     from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention
     from acrobot_mj.olympics.report import olympics_record
 
-    if isinstance(controller, str):
-        controller = Source(controller)
-    elif isinstance(controller, DoublePendulumController) and not isinstance(
-        controller, Controller
-    ):
+    if isinstance(controller, DoublePendulumController) and not isinstance(controller, Controller):
         controller = TheirConvention(controller)
     return olympics_record(OlympicsRun(controller, model, tuple(scores), seed, jobs).run())

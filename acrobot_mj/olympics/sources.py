@@ -184,11 +184,13 @@ def _build(source: Source, model: str) -> Controller:
     return _run(source.name, model)
 
 
-def build(source: Source | Controller, model: str) -> Controller:
+def build(source: Source | Controller | str, model: str) -> Controller:
     """A fresh controller from ``source`` for ``model`` (built once per process and model, a
-    copy each call; a controller itself: a copy of it)."""
+    copy each call; a controller itself: a copy of it; a name: its :class:`Source`)."""
     if isinstance(source, Controller):
         return copy.deepcopy(source)
+    if isinstance(source, str):
+        source = Source(source)
     key = json.dumps([asdict(source), model], sort_keys=True, default=str)
     if key not in _BUILT:
         check_source(source, model)
