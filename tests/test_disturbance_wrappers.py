@@ -5,6 +5,7 @@ ai_olympics set; and their bad input refused in one line."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -402,3 +403,47 @@ def test_zero_motor_inertia_is_a_level() -> None:
     assert check_parameters({"Ir": 0.0}) == {"Ir": 0.0}
     with pytest.raises(ValueError, match="m2 must be > 0"):
         check_parameters({"m2": 0.0})
+
+
+def _pushed(env: gym.Env) -> gym.Env:
+    from acrobot_mj.envs.disturbances import Pushed
+
+    pushed = Pushed(env)
+    pushed.begin([2, 6], 0.5, np.random.default_rng(3))
+    return pushed
+
+
+def _every_wrapper() -> dict[str, Any]:
+    from acrobot_mj.envs.wrappers import CosSinObservation, EnergyShaping, ReportObservation
+
+    return {
+        "Motor": lambda env: Motor(env, response=0.3, sigma=0.2, pulses=np.ones((2, 3)), rng=1),
+        "Sensor": lambda env: Sensor(env, delay=0.1, sigma=0.1, rng=2),
+        "ModelError": lambda env: ModelError(env, {"Ir": 1e-4, "m2": 0.7, "cf1": 0.05, "b2": 0.1}),
+        "Pushed": _pushed,
+        "EnergyShaping": lambda env: EnergyShaping(env, scale=10.0, gamma=0.99),
+        "CosSinObservation": CosSinObservation,
+        "ReportObservation": lambda env: ReportObservation(CosSinObservation(env)),
+    }
+
+
+@pytest.mark.parametrize("name", sorted(_every_wrapper()))
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_a_copied_or_unpickled_wrapper_still_disturbs(name: str, how: str) -> None:
+    """A copy steps exactly as the original (a Motor once held a view of the original env's
+    ``qfrc_applied``, so its copy ran undisturbed): observations and states to the bit."""
+    import copy
+    import pickle
+
+    wrap_with = _every_wrapper()[name]
+    make = lambda: wrap_with(gym.make(ID, continuous=True, max_episode_steps=50))  # noqa: E731
+    actions = [np.array([u], dtype=np.float32) for u in (1.0, -1.0, 0.5, 1.0, 0.0, -0.5, 1.0, 1.0)]
+    original = run(make(), actions)
+    fresh = make()
+    copied = copy.deepcopy(fresh) if how == "deepcopy" else pickle.loads(pickle.dumps(fresh))
+    again = run(copied, actions)
+    undisturbed = run(gym.make(ID, continuous=True, max_episode_steps=50), actions)
+    for got, want in zip(again, original, strict=True):
+        assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+    if name in ("Motor", "ModelError", "Pushed"):  # a dynamics wrapper changes the states
+        assert not np.array_equal(again[1][-1], undisturbed[1][-1])

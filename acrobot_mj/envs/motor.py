@@ -79,7 +79,6 @@ class Motor(gym.Wrapper):
         self._sigmas = np.zeros(2)
         self._sigmas[self.dof] = self.sigma
         self._dt = float(acrobot.dt)  # type: ignore[attr-defined]
-        self._qfrc = acrobot.data.qfrc_applied  # type: ignore[attr-defined]
         self._mine = np.zeros(2)
         self._last, self._t = np.zeros(2), 0.0
         self._applied: list[np.ndarray] = []
@@ -132,7 +131,9 @@ class Motor(gym.Wrapper):
         return self.env.step(action)
 
     def _set(self, extra: np.ndarray) -> None:
-        """Make this motor's part of ``qfrc_applied`` [N m] ``extra``."""
-        self._qfrc -= self._mine  # exactly 0 where no other writer adds
-        self._qfrc += extra
+        """Make this motor's part of ``qfrc_applied`` [N m] ``extra`` (read through the env,
+        not held: a copy or an unpickled motor writes into its own env's data)."""
+        qfrc = self.env.unwrapped.data.qfrc_applied  # type: ignore[attr-defined]
+        qfrc -= self._mine  # exactly 0 where no other writer adds
+        qfrc += extra
         self._mine = extra
