@@ -30,13 +30,24 @@ def check_state(name: str, value: Any) -> np.ndarray:
     return x
 
 
+def shown_number(value: object) -> str:
+    """``value`` for a message: a huge integer (30 digits or more) by its count of digits, not
+    hundreds of them."""
+    if isinstance(value, (int, np.integer)) and abs(int(value)) >= 10**30:
+        return f"an integer of {int(abs(int(value)).bit_length() * math.log10(2)) + 1} digits"
+    return repr(value)
+
+
 def check_float(
     name: str, value: Any, minimum: float = -math.inf, maximum: float = math.inf
 ) -> float:
     """``value`` as a float, refused unless it is a finite real number in ``[minimum, maximum]``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer past float's range
+        raise ValueError(f"{name} must be finite, got {shown_number(value)}") from None
     if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}")
     if not minimum <= value <= maximum:

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from acrobot_mj.checks import shown_number
+
 if TYPE_CHECKING:
     from typing_extensions import Self
 
@@ -134,8 +136,13 @@ def _scalar(name: str, meta: Mapping[str, Any], kind: Any, value: Any) -> Any:
     if not ok:
         got = f"{value!r} ({type(value).__name__})"
         raise SettingError(f"{label} must be {_kind_words(meta, kind)}, got {got}")
-    if kind is float and not math.isfinite(value):
-        raise SettingError(f"{label} must be finite, got {value}")
+    if kind is float:
+        try:
+            finite = math.isfinite(value)
+        except OverflowError:  # an integer past float's range
+            raise SettingError(f"{label} must be finite, got {shown_number(value)}") from None
+        if not finite:
+            raise SettingError(f"{label} must be finite, got {value}")
     choices = meta.get("choices")
     if choices is not None:
         return _choice(label, choices, value)
@@ -152,7 +159,7 @@ def _choice(label: str, choices: Iterable[Any], value: Any) -> Any:
 
 def _in_range(name: str, meta: Mapping[str, Any], kind: Any, value: Any) -> None:
     low, high = meta.get("low"), meta.get("high")
-    got = value if isinstance(value, int) else f"{value:g}"
+    got = shown_number(value) if isinstance(value, int) else f"{value:g}"
     label = _label(name, meta)
     if (low is not None and value < low) or (high is not None and value > high):
         raise SettingError(f"{label} must be {_requirement(meta, kind)}, got {got}")

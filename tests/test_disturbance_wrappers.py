@@ -447,3 +447,26 @@ def test_a_copied_or_unpickled_wrapper_still_disturbs(name: str, how: str) -> No
         assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
     if name in ("Motor", "ModelError", "Pushed"):  # a dynamics wrapper changes the states
         assert not np.array_equal(again[1][-1], undisturbed[1][-1])
+
+
+@pytest.mark.parametrize(
+    ("make", "says"),
+    [
+        (lambda env: Sensor(env, sigma=None), "sigma must be one number or 4 of them, got None"),
+        (lambda env: Sensor(env, delay=10**400), "delay must be finite, got an integer of 401"),
+        (lambda env: Motor(env, sigma=10**400), "sigma must be finite, got an integer of 401"),
+    ],
+)
+def test_a_none_or_a_huge_integer_is_one_line(make, says: str) -> None:
+    """None once read as NaN ("got nan"); a 400-digit integer raised OverflowError."""
+    with pytest.raises(ValueError) as error:
+        make(gym.make(ID, continuous=True))
+    assert says in str(error.value)
+
+
+def test_a_huge_integer_setting_is_one_line() -> None:
+    from acrobot_mj.settings import SettingError
+    from acrobot_mj.train.feedback_run import FeedbackConfig
+
+    with pytest.raises(SettingError, match="reserve must be finite, got an integer of 401 digits"):
+        FeedbackConfig(reserve=10**400)

@@ -17,7 +17,13 @@ import acrobot_mj
 from acrobot_mj.envs.assets import load_acrobot, load_model, model_path
 from acrobot_mj.envs.mjcf import acrobot_xml
 from acrobot_mj.physics import dynamics, integrators
-from acrobot_mj.physics.models import MODELS, AcrobotModel, capsule_inertia, resolve
+from acrobot_mj.physics.models import (
+    MODELS,
+    AcrobotModel,
+    capsule_inertia,
+    model_from_dict,
+    resolve,
+)
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.report.crosscheck import cross_check
 
@@ -184,6 +190,67 @@ def test_model_files_refused_in_one_line(tmp_path) -> None:
             resolve(tmp_path / name)
     with pytest.raises(ValueError, match="model_path"):
         acrobot_mj.AcrobotEnv(model="report", model_path=model_path())
+
+
+@pytest.mark.parametrize(
+    ("values", "says"),
+    [
+        # MuJoCo zeroes a control past its mjMAXVAL (1e10): the acrobot hung still, exit 0.
+        ({"max_torque": 2e10}, "max_torque must be in [1e-06, 1e+09] [N m], got 20000000000.0"),
+        # MuJoCo refused it at the first step in two lines, naming neither file nor key.
+        ({"m1": 1e-300}, "m1 must be in [1e-06, 1e+06] [kg], got 1e-300"),
+        ({"I2": 1e-12, "m2": 1e-12}, "m2 must be in [1e-06, 1e+06] [kg]"),  # BADQACC once
+        ({"l1": 1e300}, "l1 must be in [1e-06, 1e+06] [m], got 1e+300"),  # overflowed once
+        ({"m1": 10**400}, "m1 must be in [1e-06, 1e+06] [kg], got an integer of 401 digits"),
+        ({"damping": [10**400, 0]}, "damping must be two numbers in [0, 1e6], got (an integer"),
+    ],
+)
+def test_a_model_file_out_of_range_is_refused_where_it_is_read(tmp_path, values, says) -> None:
+    """Each value checked where the file is read, in one line naming the file and the key
+    (each of these once failed later, or not at all)."""
+    path = tmp_path / "mine.json"
+    path.write_text(json.dumps(values))
+    with pytest.raises(ValueError) as error:
+        resolve(path)
+    assert str(error.value).startswith(f"{path}: ") and says in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+def test_a_model_file_is_refused_for_what_is_wrong_with_it(tmp_path) -> None:
+    """A folder, a missing file, a symlink loop and an empty TOML each named as such (all once
+    said "must be one of [...] or a .json or .toml file"; the empty TOML was the report's
+    acrobot); an upper-case suffix and numpy's scalars are taken."""
+    (tmp_path / "folder.json").mkdir()
+    (tmp_path / "loop.json").symlink_to(tmp_path / "loop.json")
+    (tmp_path / "empty.toml").write_text("")
+    (tmp_path / "upper.JSON").write_text(json.dumps({"m1": 2.0}))
+    for name, says in [
+        ("folder.json", "is a folder"),
+        ("missing.toml", "is not found"),
+        ("loop.json", "symbolic links"),
+        ("empty.toml", "not empty"),
+    ]:
+        with pytest.raises(ValueError, match=says):
+            resolve(tmp_path / name)
+    assert resolve(tmp_path / "upper.JSON").params.m1 == 2.0
+    assert AcrobotParams(m1=np.float32(2.0)).m1 == 2.0
+    for model in MODELS.values():  # to_dict's None (an infinite velocity limit) read back
+        assert model_from_dict(model.to_dict()) == model
+
+
+def test_a_diverging_simulation_is_one_line_from_the_cli(tmp_path, capsys) -> None:
+    """A model in range that Euler steps of 1 s throw past any angle (gravity 1e6 m/s^2, no
+    velocity limit: None, as to_dict writes it): the env's one-line refusal, not a traceback
+    (a diverging model was a BADQACC traceback)."""
+    from acrobot_mj.cli import main
+
+    path = tmp_path / "wild.json"
+    wild = {"g": 1e6, "dt": 1.0, "max_vel1": None, "max_vel2": None, "I1": 1e-9, "I2": 1e-9}
+    path.write_text(json.dumps(wild))
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--model", str(path), "--steps", "50"])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and "non-finite state" in err and err.count("\n") == 1
 
 
 @pytest.mark.parametrize("name", ["gymnasium", "ai_olympics"])

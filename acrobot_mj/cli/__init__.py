@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from acrobot_mj.cli import balance, evaluation, learning, olympics, render, tools
+from acrobot_mj.envs.acrobot import Diverged
 from acrobot_mj.envs.gl import GLBackendError
 from acrobot_mj.stops import clear_stop, raise_stop
 from acrobot_mj.train.checkpoint import CheckpointError
@@ -33,8 +34,9 @@ COMMANDS = (
     tools.add_params,
 )
 #: What a command reports in one line: ImportError is an optional extra not installed (the
-#: message names it), ArithmeticError a learner that diverged.
+#: message names it), ArithmeticError a learner that diverged, Diverged a simulation.
 ERRORS = (
+    Diverged,
     ValueError,
     TypeError,
     OSError,

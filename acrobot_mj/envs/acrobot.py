@@ -46,6 +46,13 @@ INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtInteg
 HUGE = 1e10
 #: Larger angles [rad] are refused (set_state) or raise (step): a double resolves 1e-10 rad there.
 MAX_ANGLE = 1e6
+
+
+class Diverged(RuntimeError):
+    """The simulation reached a non-finite state or angles beyond :data:`MAX_ANGLE`: a model
+    too stiff for its time step, or an unstable one (a command reports it in one line)."""
+
+
 MAX_FRAME_SKIP = 1000  # physics steps per action: 50 s
 # Globals are cheaper than module attributes and negations on the hot path.
 _mj_step = mujoco.mj_step
@@ -368,7 +375,7 @@ class AcrobotEnv(gym.Env[np.ndarray, Any]):
             for w in (kinds.mjWARN_BADQPOS, kinds.mjWARN_BADQVEL, kinds.mjWARN_BADQACC)
             if self.data.warning[w].number
         ]
-        raise RuntimeError(
+        raise Diverged(
             f"the simulation reached a non-finite state or angles beyond +-{MAX_ANGLE:g} rad"
             + (f"; MuJoCo reported {', '.join(reported)}" if reported else "")
             + f"; state now {self.state.tolist()}. Call reset() before stepping again."

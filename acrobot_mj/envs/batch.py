@@ -14,7 +14,7 @@ from mujoco.batch import Batch
 
 from acrobot_mj.checks import check_int
 from acrobot_mj.compiled import available_threads, compiled, jitable, set_threads
-from acrobot_mj.envs.acrobot import HUGE, MAX_ANGLE, sound
+from acrobot_mj.envs.acrobot import HUGE, MAX_ANGLE, Diverged, sound
 from acrobot_mj.envs.assets import actuated_joint
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics import xp
@@ -56,7 +56,7 @@ def observe(qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
     if compiled(observe_rows)(qpos, qvel, obs, MAX_ANGLE, HUGE):
         return obs
     bad = [i for i, row in enumerate(np.concatenate((qpos, qvel), 1)) if not sound(*row)]
-    raise RuntimeError(
+    raise Diverged(
         f"sub-envs {bad} reached a non-finite state or angles "
         f"beyond +-{MAX_ANGLE:g} rad; reset them before stepping again"
     )

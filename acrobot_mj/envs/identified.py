@@ -11,7 +11,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.compiled import compiled
-from acrobot_mj.envs.acrobot import MAX_ANGLE, observation, start_state
+from acrobot_mj.envs.acrobot import MAX_ANGLE, Diverged, observation, start_state
 from acrobot_mj.envs.spaces import (
     action_space,
     action_torque,
@@ -76,7 +76,7 @@ class IdentifiedEnv(gym.Env[np.ndarray, Any]):
     def _observe(self) -> np.ndarray:
         obs = observation(*self._x)
         if obs is None:  # as the MuJoCo env: a bad state raises instead of reaching the learner
-            raise RuntimeError(
+            raise Diverged(
                 f"the model reached a non-finite state or angles beyond +-{MAX_ANGLE:g} rad: "
                 f"{list(self._x)}; call reset() before stepping again"
             )

@@ -26,7 +26,8 @@ def sigmas(sigma: Any, n: int, name: str) -> np.ndarray:
     """``sigma`` [unit of each component] as ``n`` standard deviations: one number for all or
     ``n`` of them; each finite and >= 0."""
     try:
-        array = None if isinstance(sigma, (str, bool)) else np.asarray(sigma, dtype=np.float64)
+        refused = sigma is None or isinstance(sigma, (str, bool))
+        array = None if refused else np.asarray(sigma, dtype=np.float64)
     except (TypeError, ValueError):
         array = None
     if array is None or array.ndim > 1 or (array.ndim == 1 and array.shape != (n,)):

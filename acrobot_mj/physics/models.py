@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import sys
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, TypeAlias
 
+from acrobot_mj.checks import shown_number
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 
@@ -52,16 +54,9 @@ class AcrobotModel:
             raise ValueError(f"integrator must be one of {names}, got {self.integrator!r}")
         for name in ("damping", "friction", "motor_inertia"):
             pair = getattr(self, name)
-            if (
-                not isinstance(pair, tuple)
-                or len(pair) != 2
-                or not all(
-                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                    for v in pair
-                )
-                or min(pair) < 0
-            ):
-                raise ValueError(f"{name} must be two finite numbers >= 0, got {pair!r}")
+            if not isinstance(pair, tuple) or len(pair) != 2 or not all(map(_loss, pair)):
+                shown = ", ".join(map(shown_number, pair)) if isinstance(pair, tuple) else pair
+                raise ValueError(f"{name} must be two numbers in [0, 1e6], got ({shown})")
 
     def to_dict(self) -> dict[str, Any]:
         """The model as flat keys, as :func:`model_from_dict` reads them (an infinite velocity
@@ -85,6 +80,17 @@ class AcrobotModel:
                 + ", ".join(extra)
             )
         return self.params
+
+
+def _loss(value: Any) -> bool:
+    """Whether ``value`` is a joint loss or motor inertia this project takes: a real number in
+    [0, 1e6] (past that no acrobot moves)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    try:
+        return 0.0 <= float(value) <= 1e6
+    except OverflowError:
+        return False
 
 
 def joint_inertias(model: AcrobotModel) -> tuple[float, float]:
@@ -183,7 +189,9 @@ def model_from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
         raise ValueError(f"{where}: unknown keys {unknown}; known: {sorted(params | own)}")
     mine: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
     try:
-        p = AcrobotParams(**{k: v for k, v in data.items() if k in params})
+        # None: no velocity limit (to_dict's inf, which JSON cannot hold)
+        limits = {k: math.inf for k in ("max_vel1", "max_vel2") if k in data and data[k] is None}
+        p = AcrobotParams(**{k: v for k, v in data.items() if k in params} | limits)
         return AcrobotModel(p, **{k: v for k, v in mine.items() if k in own})
     except (TypeError, ValueError) as error:
         raise ValueError(f"{where}: {error}") from None
@@ -204,15 +212,21 @@ def resolve(model: ModelSpec) -> AcrobotModel:
     if not isinstance(model, (str, Path)):
         raise TypeError(f"model must be a name, a file or AcrobotParams, got {model!r}")
     path = Path(model)
-    if path.suffix not in (".json", ".toml") or not path.is_file():
+    suffix = path.suffix.lower()
+    if suffix not in (".json", ".toml"):
         raise ValueError(
             f"model must be one of {sorted(MODELS)} or a .json or .toml file, got {str(model)!r}"
         )
     try:
         text = path.read_text()
-        data = json.loads(text) if path.suffix == ".json" else tomllib.loads(text)
+        data = json.loads(text) if suffix == ".json" else tomllib.loads(text)
+    except IsADirectoryError:
+        raise ValueError(f"the model file {path} is a folder") from None
+    except FileNotFoundError:
+        raise ValueError(f"the model file {path} is not found") from None
     except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise ValueError(f"cannot read the model file {path}: {error}") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: a model file holds one table of parameters")
+        reason = getattr(error, "strerror", None) or error  # "Too many levels of symbolic links"
+        raise ValueError(f"cannot read the model file {path}: {reason}") from None
+    if not isinstance(data, dict) or not data:
+        raise ValueError(f"{path}: a model file holds one table of parameters, not empty")
     return model_from_dict(data, str(path))

@@ -4,7 +4,10 @@ meaning in its metadata; the defaults (the report's table) match ``models/acrobo
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field, fields
+
+from acrobot_mj.checks import shown_number
 
 _REPORT = "report, parameter table"
 _SUTTON_BARTO = "Sutton and Barto (1998/2018), acrobot; Gymnasium Acrobot-v1"
@@ -16,8 +19,24 @@ Lumped = tuple[float, float, float, float, float]
 _UNBOUNDED = ("max_vel1", "max_vel2")
 
 
+#: The range [low, high] each kind of field takes, in its unit: wide enough for any acrobot on
+#: a table or in orbit, narrow enough that MuJoCo takes it (its mjMINVAL is 1e-15, and it
+#: zeroes a control past its mjMAXVAL, 1e10) and the equations stay finite.
+_RANGES = {
+    "m": (1e-6, 1e6),
+    "kg": (1e-6, 1e6),
+    "kg m^2": (1e-9, 1e6),
+    "m/s^2": (1e-6, 1e6),
+    "N m": (1e-6, 1e9),
+    "rad/s": (1e-6, 1e9),
+    "s": (1e-6, 10.0),
+}
+
+
 def _param(default: float, unit: str, source: str, doc: str) -> float:
-    return field(default=default, metadata={"unit": unit, "source": source, "doc": doc})
+    low, high = _RANGES[unit]
+    metadata = {"unit": unit, "source": source, "doc": doc, "low": low, "high": high}
+    return field(default=default, metadata=metadata)
 
 
 @dataclass(frozen=True)
@@ -41,14 +60,23 @@ class AcrobotParams:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if not isinstance(value, (int, float)) or isinstance(value, bool):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
                 raise TypeError(f"AcrobotParams.{f.name} must be a number, got {value!r}")
-            limit = f.name in _UNBOUNDED  # inf: no limit
-            if math.isnan(value) or value <= 0 or (math.isinf(value) and not limit):
-                what = "> 0 (inf: none)" if limit else "finite and > 0"
-                raise ValueError(
-                    f"AcrobotParams.{f.name} must be {what} [{f.metadata['unit']}], got {value!r}"
+            try:
+                number = float(value)  # numpy's scalars too
+            except OverflowError:
+                number = math.inf
+            low, high, unit = f.metadata["low"], f.metadata["high"], f.metadata["unit"]
+            unbounded = f.name in _UNBOUNDED and number == math.inf  # inf: no limit
+            if not (low <= number <= high or unbounded):
+                what = f"in [{low:g}, {high:g}]" + (
+                    " (or inf: none)" if f.name in _UNBOUNDED else ""
                 )
+                raise ValueError(
+                    f"AcrobotParams.{f.name} must be {what} [{unit}], got {shown_number(value)}"
+                )
+            if not isinstance(value, (int, float)):  # a numpy scalar: stored as Python's
+                object.__setattr__(self, f.name, number)
 
     @property
     def lumped(self) -> Lumped:
