@@ -160,14 +160,18 @@ def test_olympics_command_refuses_a_file_as_out(tmp_path, capsys) -> None:
     out.write_text("mine")
     with pytest.raises(SystemExit):
         main(["olympics", "funnel", "--out", str(out), "--no-progress"])
-    assert "is a file, not a folder" in capsys.readouterr().err
+    assert "exists and is not a folder" in capsys.readouterr().err
     assert out.read_text() == "mine"
+    with pytest.raises(SystemExit):  # below a file: once refused only at the write
+        main(["olympics", "funnel", "--out", str(out / "below"), "--no-progress"])
+    assert f"{out} exists and is not a folder" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
     ("argv", "match"),
     [
         (["olympics", "nobody", "--out", "x"], "neither an entry"),
+        (["olympics", "", "--out", "x"], "must name a path"),  # once the current folder
         (["olympics", "funnel", "--scores", "speed", "--out", "x"], "--scores"),
         (["olympics", "funnel", "--model", "dm_control", "--out", "x"], "no planned swing-up"),
     ],

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -296,6 +297,17 @@ def test_the_record_is_written_read_and_drawn(tmp_path) -> None:
     assert 0.0 <= record["robustness"]["overall"] <= 1.0
     assert record["global"]["uptime"] == pytest.approx(episode_times(1.0)[-2] - 0.398)
     assert record["global"]["episode"]["disturbance"] == {"reset_times": [0.5]}
+
+
+def test_a_replaced_record_leaves_no_figure_of_a_score_it_lacks(tmp_path) -> None:
+    """``--force`` with fewer scores once left performance.png beside a record without a
+    performance score; figures that are not the record's are left alone."""
+    write_olympics(tmp_path, small_results())
+    (tmp_path / "notes.png").write_bytes(b"mine")
+    only_global = replace(small_results(), performance=None, categories=(), episodes={})
+    write_olympics(tmp_path, only_global)
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == ["global.png", "notes.png"]
+    assert set(read_olympics(tmp_path)) >= {"global"}
 
 
 def test_a_foreign_or_corrupt_record_is_one_line(tmp_path) -> None:

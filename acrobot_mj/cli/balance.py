@@ -5,7 +5,6 @@ the output folder held (its lock) while it is written."""
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +18,7 @@ from acrobot_mj.cli.tools import (
     path_text,
     positive_int,
     show_progress,
+    writable_folder,
 )
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.report.video import RenderSettings, check_video
@@ -89,13 +89,7 @@ def add_balance(commands: Commands) -> None:
 
 def balance_folder(args: argparse.Namespace) -> Path:
     """``--out`` (or its default), refused before any work where it cannot be a folder."""
-    out = Path(args.out or ("runs/feedback" if args.feedback else "runs/balance"))
-    existing = next(p for p in (out, *out.parents) if p.exists())
-    if not existing.is_dir():
-        raise NotADirectoryError(f"--out {out}: {existing} exists and is not a folder")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise PermissionError(f"--out {out}: {existing} cannot be written")
-    return out
+    return writable_folder(Path(args.out or ("runs/feedback" if args.feedback else "runs/balance")))
 
 
 def balance_video(args: argparse.Namespace, out: Path) -> RenderSettings | None:

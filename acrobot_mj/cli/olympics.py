@@ -35,6 +35,7 @@ def add_olympics(commands: tools.Commands) -> None:
     )
     p.add_argument(
         "controller",
+        type=tools.path_text,
         metavar="CONTROLLER",
         help=f"{CONTROLLERS}; or a trained controller run's folder (balance --feedback, train "
         "--preset black_box) trained on --model",
@@ -56,10 +57,9 @@ def add_olympics(commands: tools.Commands) -> None:
 
 
 def check_out(folder: Path, force: bool) -> None:
-    """Refuse at once, not after the episodes, an ``--out`` that is not a folder or that already
-    holds a record (unless ``force``)."""
-    if folder.exists() and not folder.is_dir():
-        raise ValueError(f"--out {folder} is a file, not a folder")
+    """Refuse at once, not after the episodes, an ``--out`` that cannot be a folder (it or one
+    above it a file) or that already holds a record (unless ``force``)."""
+    tools.writable_folder(folder)
     if (folder / RECORD_FILE).exists() and not force:
         raise ValueError(f"{folder} already holds {RECORD_FILE}; --force replaces it")
 

@@ -113,6 +113,17 @@ def path_text(text: str) -> str:
     return text
 
 
+def writable_folder(out: Path, flag: str = "--out") -> Path:
+    """``out``, refused before any work where it cannot be a folder that is written: it or a
+    folder above it is a file, or the nearest existing one cannot be written."""
+    existing = next(p for p in (out, *out.absolute().parents) if p.exists())
+    if not existing.is_dir():
+        raise NotADirectoryError(f"{flag} {out}: {existing} exists and is not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise PermissionError(f"{flag} {out}: {existing} cannot be written")
+    return out
+
+
 def output_file(text: str) -> str:
     """An argparse type: a file to write, checked before any work is done (not empty, not a
     folder, a device or a pipe: renaming a record over ``/dev/null`` replaced the device)."""

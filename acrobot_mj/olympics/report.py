@@ -206,8 +206,10 @@ def write_olympics(folder: str | Path, results: Olympics) -> Path:
     folder = Path(folder)
     record = olympics_record(results)
     path = write_json(folder / RECORD_FILE, record)
+    stale = {*folder.glob("robustness_*.png"), folder / "performance.png", folder / "global.png"}
     for category in record.get("robustness", {}).get("categories", []):
-        save_figure(category_figure(category), folder / f"robustness_{category['key']}.png")
+        stale.discard(figure := folder / f"robustness_{category['key']}.png")
+        save_figure(category_figure(category), figure)
     l1, l2 = results.lengths
     for part, recording in (
         ("performance", results.performance),
@@ -223,5 +225,8 @@ def write_olympics(folder: str | Path, results: Olympics) -> Path:
             heights = scores.tip_heights(to_protocol(recording.X), l1, l2)
             line = PERFORMANCE.height * (l1 + l2)
             figure = height_figure(recording.T, heights, line, recording.U, title)
+            stale.discard(folder / f"{part}.png")
             save_figure(figure, folder / f"{part}.png")
+    for figure in stale:  # a replaced record's: not beside a record without its score
+        figure.unlink(missing_ok=True)
     return path
