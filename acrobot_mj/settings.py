@@ -31,9 +31,11 @@ def setting(default: Any, help: str, unit: str = "", **rules: Any) -> Any:
     """A config field: its ``default``, ``help`` and ``unit``, and ``rules``: ``low``, ``high``
     (bounds, closed unless ``low_open`` or ``high_open``), ``choices``, ``sep`` (a tuple's
     separator on the command line, ``":"`` for ``START:STOP:STEP`` horizons), ``flag`` (the
-    command-line name where it is not the field's), ``metavar``, and ``cli=False`` for one the
-    command line does not take."""
+    command-line name where it is not the field's), ``metavar``, ``cli=False`` for one the
+    command line does not take, and ``follows``: another setting, a change of which puts this
+    one back to its default unless it is changed too (a model's integrator)."""
     known = {"low", "high", "low_open", "high_open", "choices", "sep", "flag", "metavar", "cli"}
+    known.add("follows")
     if unknown := sorted(set(rules) - known):
         raise TypeError(f"unknown setting rules {unknown}; known: {sorted(known)}")
     return dataclasses.field(default=default, metadata={"help": help, "unit": unit, **rules})
@@ -251,7 +253,17 @@ def from_dict(cls: type, data: Any, what: str) -> Any:
 def replace(config: Any, changes: dict[str, Any], what: str) -> Any:
     """A copy of ``config`` with ``changes``, checked as :func:`from_dict` checks a record."""
     _refuse_unknown(type(config), changes, what)
-    return dataclasses.replace(config, **changes)
+    return dataclasses.replace(config, **followers(type(config), changes), **changes)
+
+
+def followers(cls: type, changes: Mapping[str, Any]) -> dict[str, Any]:
+    """The defaults of the settings of ``cls`` that follow one of ``changes`` and are not in
+    them (``setting(follows=...)``)."""
+    return {
+        name: f.default
+        for name, f in declared(cls).items()
+        if f.metadata.get("follows") in changes and name not in changes
+    }
 
 
 class Settings:

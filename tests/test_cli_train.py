@@ -220,3 +220,31 @@ def test_greedy_from_rest_agrees_across_train_evaluate_and_render(tmp_path) -> N
         main(["evaluate", str(out), "--episodes", "1"])
         evaluation = json.loads((out / "eval.json").read_text())
         assert evaluation["rest"]["length"] == record["greedy_from_rest"]["length"]
+
+
+def test_a_run_keeps_the_acrobot_of_its_model_file(tmp_path, monkeypatch, capsys) -> None:
+    """A run trained on a model file carries its parameters: edited (3 N m instead of 1), moved
+    away from, or deleted, evaluate runs on the acrobot it was trained on (it once read the
+    file again and gave +-3 N m torques); a controller run is compared the same way."""
+    from acrobot_mj.olympics.sources import same_acrobot
+    from acrobot_mj.train.config import TrainConfig
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.json").write_text(json.dumps({"max_torque": 1.0, "m2": 1.5}))
+    argv = ["train", "--preset", "report", "--model", "mine.json", "--episodes", "2"]
+    assert main([*argv, "--max-episode-steps", "20", "--out", "r", "--no-progress"]) == 0
+    record = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert record["config"]["model_table"]["m2"] == 1.5
+    (tmp_path / "mine.json").write_text(json.dumps({"max_torque": 3.0, "m2": 1.5}))
+    config = TrainConfig.from_dict(record["config"])
+    assert (
+        config.acrobot.params.max_torque == 1.0 and config.env_kwargs()["model"] == config.acrobot
+    )
+    with pytest.raises(ValueError, match=r"trained on the model 'mine.json', not 'mine.json'"):
+        same_acrobot(record, "mine.json", "r")
+    (tmp_path / "mine.json").unlink()
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    assert main(["evaluate", "../r", "--episodes", "2"]) == 0
+    assert "held-out starts" in capsys.readouterr().out
+    assert TrainConfig.from_dict(record["config"]).replace(model="report").model_table is None

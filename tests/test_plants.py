@@ -115,7 +115,7 @@ def test_only_a_black_box_run_is_a_plant(tmp_path: Path, capsys) -> None:
     with pytest.raises(SystemExit):
         main(["olympics", "funnel", "--model", str(run), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
-    assert "is not a black-box run trained on 'report'" in err and "\n" not in err
+    assert "is not a black-box run (its kind 'state_feedback')" in err and "\n" not in err
     with pytest.raises(SystemExit):
         main(["olympics", "tree", "--model", str(run), "--out", str(tmp_path / "o")])
     assert "the tree entry is built on the equations" in capsys.readouterr().err

@@ -19,7 +19,7 @@ from acrobot_mj.control.controller import Controller, Held
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention, sb3_policy
 from acrobot_mj.olympics.plants import equations, learnt
-from acrobot_mj.physics.models import resolve
+from acrobot_mj.physics.models import AcrobotModel, resolve
 from acrobot_mj.train.records import RUN_FILE, read_record
 
 #: The run kinds that are controllers (each acts on the observation, angles wrapped).
@@ -82,6 +82,24 @@ def trained_model(record: dict[str, Any]) -> str:
     return "report" if name is None else str(name)
 
 
+def trained_acrobot(record: dict[str, Any]) -> AcrobotModel:
+    """The acrobot a controller run was trained on, a model file's as the run read it (its
+    config's ``model_table``): not the file as it is now."""
+    config = record.get("config")
+    table = config.get("model_table") if isinstance(config, dict) else None
+    return resolve(trained_model(record) if table is None else table)
+
+
+def same_acrobot(record: dict[str, Any], model: str, what: str) -> None:
+    """Refuse, in one line, ``model`` where it is not the acrobot the run ``what`` was
+    trained on (a model file edited since, or another acrobot)."""
+    if trained_acrobot(record) != resolve(model):
+        raise ValueError(
+            f"{what} was trained on the model {trained_model(record)!r}, not {model!r} (a "
+            "model file is compared as the run read it)"
+        )
+
+
 def controller_record(run_dir: str) -> dict[str, Any]:
     """The ``run.json`` of the controller run ``run_dir``; refused in one line where it is none."""
     path = Path(run_dir)
@@ -110,19 +128,16 @@ def check_source(source: Source, model: str) -> None:
         entries.ENTRIES[source.name].options.from_dict(dict(source.options))
         if source.plant is not None:
             record = controller_record(source.plant)
-            trained = trained_model(record)
-            if record.get("kind") != "black_box" or resolve(trained) != resolve(model):
+            if record.get("kind") != "black_box":
                 raise ValueError(
-                    f"{source.plant} is not a black-box run trained on {model!r} (its kind "
-                    f"{record.get('kind')!r}, its acrobot {trained!r})"
+                    f"{source.plant} is not a black-box run (its kind {record.get('kind')!r})"
                 )
+            same_acrobot(record, model, source.plant)
     elif source.kind == "policy":
         if not Path(source.name).is_file():
             raise ValueError(f"no policy file at {source.name}")
     elif source.kind == "run":
-        trained = trained_model(controller_record(source.name))
-        if resolve(trained) != resolve(model):
-            raise ValueError(f"{source.name} was trained on the model {trained!r}, not {model!r}")
+        same_acrobot(controller_record(source.name), model, source.name)
 
 
 def _imported(name: str, model: str) -> Controller:

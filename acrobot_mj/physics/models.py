@@ -10,6 +10,7 @@ import json
 import math
 import numbers
 import sys
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, TypeAlias
@@ -17,6 +18,7 @@ from typing import Any, TypeAlias
 from acrobot_mj.checks import shown_number
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.params import REPORT, AcrobotParams
+from acrobot_mj.settings import setting
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -165,7 +167,7 @@ def _ai_olympics(actuated: str) -> AcrobotModel:
 
 #: What names an acrobot: a name in :data:`MODELS`, a JSON or TOML file, a model or its
 #: parameters; ``None`` is the report's (:func:`resolve`).
-ModelSpec: TypeAlias = str | Path | AcrobotModel | AcrobotParams | None
+ModelSpec: TypeAlias = str | Path | Mapping[str, Any] | AcrobotModel | AcrobotParams | None
 
 #: The shipped parameter sets by name; ``"report"`` is the default everywhere.
 MODELS: dict[str, AcrobotModel] = {
@@ -198,9 +200,9 @@ def model_from_dict(data: dict[str, Any], where: str = "model") -> AcrobotModel:
 
 
 def resolve(model: ModelSpec) -> AcrobotModel:
-    """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file
-    (:func:`model_from_dict`), an :class:`~acrobot_mj.physics.params.AcrobotParams` (elbow-driven,
-    Euler) or a model; ``None`` is the report's."""
+    """A model from a name in :data:`MODELS`, a ``.json`` or ``.toml`` file or the table such a
+    file holds (:func:`model_from_dict`), an :class:`~acrobot_mj.physics.params.AcrobotParams`
+    (elbow-driven, Euler) or a model; ``None`` is the report's."""
     if model is None:
         return MODELS["report"]
     if isinstance(model, AcrobotModel):
@@ -209,6 +211,8 @@ def resolve(model: ModelSpec) -> AcrobotModel:
         return AcrobotModel(model)
     if isinstance(model, str) and model in MODELS:
         return MODELS[model]
+    if isinstance(model, Mapping):
+        return model_from_dict(dict(model), "the model's parameters")
     if not isinstance(model, (str, Path)):
         raise TypeError(f"model must be a name, a file or AcrobotParams, got {model!r}")
     path = Path(model)
@@ -230,3 +234,35 @@ def resolve(model: ModelSpec) -> AcrobotModel:
     if not isinstance(data, dict) or not data:
         raise ValueError(f"{path}: a model file holds one table of parameters, not empty")
     return model_from_dict(data, str(path))
+
+
+def table_setting() -> Any:
+    """The ``model_table`` setting of a run's config: what :func:`carried` keeps of a model
+    file (no command-line option: the run reads it from ``model``)."""
+    return setting(
+        None,
+        "a model file's parameters as the run read them (the run keeps its acrobot)",
+        cli=False,
+        follows="model",
+    )
+
+
+def carried(
+    model: str | None, table: Mapping[str, Any] | None = None
+) -> tuple[str | None, dict[str, Any] | None]:
+    """What a run records of its acrobot ``model`` (a shipped name or a model file; None or
+    ``"report"``: the report's): the name (None for the report's) and, for a file, the
+    parameters it held when the run began (:meth:`AcrobotModel.to_dict`), or ``table`` where a
+    record already holds them, checked. So a run keeps the acrobot it was trained on wherever
+    it is moved and whatever becomes of the file."""
+    if model == "report":
+        model = None
+    if model is None or model in MODELS:
+        if table is not None:
+            raise ValueError(f"the shipped model {model or 'report'!r} carries no parameters")
+        return model, None
+    if table is not None:
+        if not isinstance(table, Mapping):
+            raise ValueError(f"the parameters carried for {model} must be a table, got {table!r}")
+        return model, model_from_dict(dict(table), f"the parameters carried for {model}").to_dict()
+    return model, resolve(model).to_dict()

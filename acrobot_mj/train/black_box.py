@@ -33,7 +33,7 @@ from acrobot_mj.identify.fit import THRESHOLD
 from acrobot_mj.identify.library import LibraryModel, best_angles, library_size
 from acrobot_mj.identify.terms import HARMONICS
 from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.physics.models import resolve
+from acrobot_mj.physics.models import AcrobotModel, carried, resolve, table_setting
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.settings import SettingError, Settings, setting
 from acrobot_mj.train.controller_run import ControllerLearner
@@ -116,6 +116,7 @@ class BlackBoxConfig(Settings):
         "report's)",
         metavar="NAME|FILE",
     )
+    model_table: dict | None = table_setting()
     form: str = setting(
         "best",
         "the model's form: map (x' = x + W' phi), rational (x' = x + W' phi / (1 + w' psi(q))), "
@@ -137,12 +138,17 @@ class BlackBoxConfig(Settings):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.model == "report":  # the default: the packaged MJCF
-            object.__setattr__(self, "model", None)
-        try:
-            resolve(self.model)
+        try:  # the default, "report", is None: the packaged MJCF
+            model, table = carried(self.model, self.model_table)
         except (TypeError, ValueError) as error:
             raise SettingError(f"config model: {error}") from None
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "model_table", table)
+
+    @property
+    def acrobot(self) -> AcrobotModel:
+        """The acrobot it learns, a file's as the run read it (``model_table``)."""
+        return resolve(self.model if self.model_table is None else self.model_table)
 
 
 def fitted_share(decisions: int) -> int:
@@ -189,8 +195,8 @@ def black_box_env(config: BlackBoxConfig | None = None, **kwargs: Any) -> gym.En
     :func:`frame_skip` physics steps: the only env the learner sees."""
     config = config or BlackBoxConfig()
     if config.model is not None:
-        kwargs = {"model": config.model, **kwargs}
-    skip = frame_skip(resolve(config.model).params.dt, config.decision_period)
+        kwargs = {"model": config.acrobot, **kwargs}
+    skip = frame_skip(config.acrobot.params.dt, config.decision_period)
     if skip > 1:
         kwargs = {"frame_skip": skip, **kwargs}
     return gym.make(Balance.env_id, continuous=True, **kwargs)

@@ -16,8 +16,8 @@ import gymnasium as gym
 from acrobot_mj.agents import AGENTS, FEATURES, agent_spec
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
-from acrobot_mj.physics.models import MODELS, AcrobotModel, resolve
-from acrobot_mj.settings import SettingError, check, declared, parse, setting
+from acrobot_mj.physics.models import MODELS, AcrobotModel, carried, resolve, table_setting
+from acrobot_mj.settings import SettingError, check, declared, followers, parse, setting
 
 #: Settings of the task that are config fields (where the task takes them).
 TASK_OPTIONS = ("step_reward", "goal_reward")
@@ -46,12 +46,14 @@ class TrainConfig:
         None,
         "euler or rk4 (default: the model's)",
         choices=("euler", "rk4"),
+        follows="model",
     )
     model: str | None = setting(
         None,
         "a parameter set's name or a .json/.toml file (default: the report's)",
         metavar="NAME|FILE",
     )
+    model_table: dict | None = table_setting()
     max_episode_steps: int = setting(1000, "decisions before an episode is truncated", low=1)
     start_noise: float = setting(
         0.0, "half-width of the uniform noise on the start state", "rad, rad/s", low=0.0, high=1.0
@@ -79,8 +81,12 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check(self)
         _check_names(self.task, self.algorithm, self.features)
-        if self.model == "report":  # the default: the packaged MJCF
-            object.__setattr__(self, "model", None)
+        try:  # the default, "report", is None: the packaged MJCF
+            model, table = carried(self.model, self.model_table)
+        except (TypeError, ValueError) as error:
+            raise SettingError(f"config model: {error}") from None
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "model_table", table)
         acrobot = self.acrobot
         if self.integrator is None:
             object.__setattr__(self, "integrator", acrobot.integrator)
@@ -142,8 +148,7 @@ class TrainConfig:
             raise ValueError(f"config {name} has no effect with {owner}={value!r}")
         options = get_task(task).options
         carried = {k: None for k in TASK_OPTIONS if k not in options and k not in top}
-        if "model" in top and "integrator" not in top:  # the new model's
-            carried["integrator"] = None
+        carried |= followers(TrainConfig, top)  # the new model's integrator and parameters
         if "start_noise" in top and top["start_noise"] == 0 and "noise_until" not in top:
             carried["noise_until"] = None
         values = {f.name: getattr(self, f.name) for f in fields(self)}
@@ -179,9 +184,9 @@ class TrainConfig:
     @property
     def acrobot(self) -> AcrobotModel:
         """The acrobot ``model`` names (:func:`~acrobot_mj.physics.models.resolve`; None: the
-        report's)."""
+        report's), a file's as the run read it (``model_table``)."""
         try:
-            return resolve(self.model)
+            return resolve(self.model if self.model_table is None else self.model_table)
         except (TypeError, ValueError) as error:
             raise SettingError(f"config model: {error}") from None
 
@@ -193,7 +198,7 @@ class TrainConfig:
             "frame_skip": self.frame_skip,
             "integrator": self.integrator,
             "max_episode_steps": self.max_episode_steps,
-            **({} if self.model is None else {"model": self.model}),
+            **({} if self.model is None else {"model": self.acrobot}),
             **options,
         }
 
