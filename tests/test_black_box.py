@@ -16,7 +16,7 @@ from acrobot_mj.control.controller import EnergyRemoval
 from acrobot_mj.control.lqr import LQR, step_jacobians
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.control.trajopt import shipped
-from acrobot_mj.envs.disturbances import model_parameters, set_model_parameters
+from acrobot_mj.envs.links import model_parameters, set_model_parameters
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.identify.library import LibraryModel, best_angles
 from acrobot_mj.identify.terms import DENOMINATOR_TERMS, features

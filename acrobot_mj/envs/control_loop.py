@@ -17,7 +17,8 @@ from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.lqr import SigmaDelta
 from acrobot_mj.control.tracker import clocked
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.envs.disturbances import Perturbation, scale_links
+from acrobot_mj.envs.disturbances import Perturbation
+from acrobot_mj.envs.links import scale_links
 from acrobot_mj.envs.rollout import Hooks, acrobot_of, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in

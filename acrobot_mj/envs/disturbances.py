@@ -22,13 +22,11 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_float
+from acrobot_mj.envs.links import LINK_PARAMETERS, set_model_parameters
 from acrobot_mj.envs.motor import MAX_RESPONSE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics.integrators import limit_velocities, steps_in
 
-#: The links whose mass and inertia ``perturb`` scales, and the record's names for them.
-LINKS = ("link1", "link2")
-LINK_PARAMETERS = ("m1", "m2", "I1", "I2")
 #: Within the tolerance this long [s] on end (or to the end of the episode) counts as balanced:
 #: a swing through upright leaves 0.05 rad within a second (the unstable modes grow e-fold in
 #: 0.35 s and 0.53 s).
@@ -124,36 +122,6 @@ class Perturbation:
     inertia_scale: float = 1.0
     torque_noise: float = 0.0
     seed: int = 0
-
-
-def scale_links(env: gym.Env, mass_scale: float, inertia_scale: float) -> None:
-    """Scale the mass and the three principal inertias of each of ``env``'s links."""
-    model = env.unwrapped.model  # type: ignore[attr-defined]
-    for link in LINKS:
-        model.body_mass[model.body(link).id] *= mass_scale
-        model.body_inertia[model.body(link).id] *= inertia_scale
-
-
-def model_parameters(env: gym.Env) -> dict[str, float]:
-    """The masses [kg] and inertias about the hinge axis [kg m^2] of ``env``'s MuJoCo model."""
-    model = env.unwrapped.model  # type: ignore[attr-defined]
-    values = {}
-    for k, link in enumerate(LINKS, start=1):
-        body = model.body(link).id
-        values[f"m{k}"] = float(model.body_mass[body])
-        values[f"I{k}"] = float(model.body_inertia[body, 1])
-    return values
-
-
-def set_model_parameters(env: gym.Env, values: dict[str, float]) -> None:
-    """Give ``env``'s links the masses and inertias ``values`` (``LINK_PARAMETERS``); the three
-    principal inertias scale together with the one about the hinge axis."""
-    model, now = env.unwrapped.model, model_parameters(env)  # type: ignore[attr-defined]
-    for k, link in enumerate(LINKS, start=1):
-        body = model.body(link).id
-        model.body_mass[body] = values[f"m{k}"]
-        model.body_inertia[body] *= values[f"I{k}"] / now[f"I{k}"]
-        model.body_inertia[body, 1] = values[f"I{k}"]
 
 
 class Pushed(gym.Wrapper):

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from acrobot_mj.checks import check_float
+from acrobot_mj.envs.links import read_link, write_link
 from acrobot_mj.physics.models import ModelSpec, joint_inertias, resolve
 
 #: The protocol's parameters in its order: motor inertia [kg m^2], m1 r1 [kg m], I1 about the
@@ -23,7 +24,7 @@ from acrobot_mj.physics.models import ModelSpec, joint_inertias, resolve
 PROTOCOL_PARAMETERS = ("Ir", "m1r1", "I1", "b1", "cf1", "m2r2", "m2", "I2", "b2", "cf2")
 #: The protocol's gear ratio (model_parameters.yml of design C.1).
 GEAR_RATIO = 6.0
-LINKS, JOINTS = ("link1", "link2"), ("shoulder", "elbow")
+JOINTS = ("shoulder", "elbow")
 
 
 def nominal(model: ModelSpec = "ai_olympics", gear_ratio: float = GEAR_RATIO) -> dict[str, float]:
@@ -129,18 +130,13 @@ def apply(model: mujoco.MjModel, values: Mapping[str, float], gear_ratio: float)
         ir = values["Ir"]
         model.dof_armature[model.joint("shoulder").dofadr[0]] = gear_ratio**2 * ir + ir
         model.dof_armature[model.joint("elbow").dofadr[0]] = gear_ratio**2 * ir
-    for k, link in enumerate(LINKS, start=1):
-        body = model.body(link)
-        mass, r = float(body.mass[0]), float(body.ipos[0])
-        about_joint = float(body.inertia[1]) + mass * r**2
+    for k in (1, 2):
+        mass, r, inertia = read_link(model, k)
+        about_joint = inertia + mass * r**2
         mass = values.get(f"m{k}", mass) if k == 2 else mass
         r = values[f"m{k}r{k}"] / mass if f"m{k}r{k}" in values else r
         about_joint = values.get(f"I{k}", about_joint)
-        centre = about_joint - mass * r**2
-        model.body_inertia[body.id] *= centre / float(body.inertia[1])
-        model.body_inertia[body.id, 1] = centre
-        model.body_mass[body.id] = mass
-        model.body_ipos[body.id, 0] = r
+        write_link(model, k, mass, r, about_joint - mass * r**2)
         if f"b{k}" in values:
             model.dof_damping[model.joint(JOINTS[k - 1]).dofadr[0]] = values[f"b{k}"]
 
@@ -150,11 +146,10 @@ def measured(env: gym.Env, gear_ratio: float = GEAR_RATIO) -> dict[str, float]:
     ``env``'s MuJoCo model has, in the protocol's terms."""
     model = env.unwrapped.model  # type: ignore[attr-defined]
     values = {"Ir": float(model.dof_armature[model.joint("elbow").dofadr[0]]) / gear_ratio**2}
-    for k, link in enumerate(LINKS, start=1):
-        body = model.body(link)
-        mass, r = float(body.mass[0]), float(body.ipos[0])
+    for k in (1, 2):
+        mass, r, inertia = read_link(model, k)
         values[f"m{k}r{k}"] = mass * r
-        values[f"I{k}"] = float(body.inertia[1]) + mass * r**2
+        values[f"I{k}"] = inertia + mass * r**2
         values[f"b{k}"] = float(model.dof_damping[model.joint(JOINTS[k - 1]).dofadr[0]])
         if k == 2:
             values["m2"] = mass

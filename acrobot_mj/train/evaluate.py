@@ -13,7 +13,8 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.control.search import Beam, min_time_search
-from acrobot_mj.envs.disturbances import Pushed, model_parameters, set_model_parameters
+from acrobot_mj.envs.disturbances import Pushed
+from acrobot_mj.envs.links import model_parameters, set_model_parameters
 from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.rollout import FROM_REST, Hooks, acrobot_of, run_episode
 from acrobot_mj.envs.sensor import Sensor
