@@ -470,3 +470,31 @@ def test_a_huge_integer_setting_is_one_line() -> None:
 
     with pytest.raises(SettingError, match="reserve must be finite, got an integer of 401 digits"):
         FeedbackConfig(reserve=10**400)
+
+
+@pytest.mark.parametrize("wrapper", ["Motor", "Sensor", "ModelError", "Pushed"])
+def test_a_wrapper_of_gymnasiums_own_acrobot_is_refused_in_one_line(wrapper: str) -> None:
+    """Acrobot-v1 has no MuJoCo model: once an AttributeError deep in the constructor."""
+    with pytest.raises(TypeError, match=f"{wrapper} wraps an acrobot-mj env"):
+        _every_wrapper()[wrapper](gym.make("Acrobot-v1"))
+
+
+def test_the_motor_drives_the_pendubots_shoulder() -> None:
+    """The pendubot's one motor is on the shoulder (once KeyError 'elbow_motor'): a slow
+    response there changes the trajectory, and the elbow's limit is 0."""
+    make = lambda: gym.make(ID, model="ai_olympics_pendubot", continuous=True)  # noqa: E731
+    motor = Motor(make(), response=0.3)
+    assert motor.dof == 0 and motor.limit.tolist() == [6.0, 0.0]
+    actions = [np.array([3.0], dtype=np.float32)] * 5
+    slow, plain = run(motor, actions)[1][-1], run(make(), actions)[1][-1]
+    assert not np.array_equal(slow, plain)
+
+
+def test_a_second_model_error_after_one_that_zeroed_an_inertia() -> None:
+    """The first sets link 2's inertia about its centre of mass to 0 (I2 about the joint =
+    m2 r2^2); the second once divided by it. Now it sets it."""
+    values = nominal("ai_olympics")
+    first = ModelError(olympics(), {"I2": values["m2r2"] ** 2 / values["m2"]})
+    assert first.unwrapped.model.body("link2").inertia[1] == pytest.approx(0.0, abs=1e-15)
+    second = ModelError(first, {"I2": values["I2"]})
+    assert measured(second)["I2"] == pytest.approx(values["I2"], rel=1e-12)

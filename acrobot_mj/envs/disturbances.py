@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.envs.links import LINK_PARAMETERS, set_model_parameters
+from acrobot_mj.envs.links import LINK_PARAMETERS, acrobot_under, set_model_parameters
 from acrobot_mj.envs.motor import MAX_RESPONSE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics.integrators import limit_velocities, steps_in
@@ -131,12 +131,13 @@ class Pushed(gym.Wrapper):
 
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
-        acrobot, limit = env.unwrapped, env.spec.max_episode_steps if env.spec else None
+        acrobot = acrobot_under(env, "Pushed")
+        limit = env.spec.max_episode_steps if env.spec else None
         if limit is None:
             raise ValueError("pushes need an env with a time limit (gymnasium.make gives one)")
-        self.frame_skip = int(acrobot.frame_skip)  # type: ignore[attr-defined]
+        self.frame_skip = int(acrobot.frame_skip)
         #: Physics steps [s] and how many an episode has at most.
-        self.physics_dt = float(acrobot.model.opt.timestep)  # type: ignore[attr-defined]
+        self.physics_dt = float(acrobot.model.opt.timestep)
         self.physics_steps = limit * self.frame_skip
         self.pushes: list[list[float]] = []
         self._steps: list[int] = []

@@ -8,6 +8,7 @@ protocol's model errors (:class:`~acrobot_mj.envs.model_error.ModelError`)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import gymnasium as gym
 import mujoco
@@ -37,6 +38,20 @@ def write_link(model: mujoco.MjModel, k: int, mass: float, centre: float, inerti
     model.body_inertia[body.id, 1] = inertia
     model.body_mass[body.id] = mass
     model.body_ipos[body.id, 0] = centre
+
+
+def acrobot_under(env: gym.Env, wrapper: str) -> Any:
+    """``env.unwrapped``, refused in one line unless it is a MuJoCo acrobot (an
+    :class:`~acrobot_mj.envs.acrobot.AcrobotEnv`, its ``model``, ``data`` and ``state``),
+    which the disturbance ``wrapper`` changes (Gymnasium's own ``Acrobot-v1`` has none)."""
+    acrobot = env.unwrapped
+    model = getattr(acrobot, "model", None)
+    if not isinstance(model, mujoco.MjModel) or not hasattr(acrobot, "state"):
+        raise TypeError(
+            f"{wrapper} wraps an acrobot-mj env (a MuJoCo acrobot), got "
+            f"{type(acrobot).__module__}.{type(acrobot).__name__}"
+        )
+    return acrobot
 
 
 def _model(env: gym.Env) -> mujoco.MjModel:

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from acrobot_mj.checks import check_float
-from acrobot_mj.envs.links import read_link, write_link
+from acrobot_mj.envs.links import acrobot_under, read_link, write_link
 from acrobot_mj.physics.models import ModelSpec, joint_inertias, resolve
 
 #: The protocol's parameters in its order: motor inertia [kg m^2], m1 r1 [kg m], I1 about the
@@ -88,8 +88,8 @@ class ModelError(gym.Wrapper):
         self.values = check_parameters(values)
         if check_float("gear_ratio", gear_ratio, 0.0, 1e4) <= 0.0:
             raise ValueError(f"gear_ratio must be > 0, got {gear_ratio:g}")
-        acrobot = env.unwrapped
-        self._model, self._data = acrobot.model, acrobot.data  # type: ignore[attr-defined]
+        acrobot = acrobot_under(env, "ModelError")
+        self._model, self._data = acrobot.model, acrobot.data
         m = self._model
         self._saved = {
             name: getattr(m, name).copy()

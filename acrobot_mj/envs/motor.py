@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from acrobot_mj.checks import check_float
+from acrobot_mj.envs.links import acrobot_under
 from acrobot_mj.envs.spaces import action_torque
 
 #: The spawn key of a motor's stream seeded at reset.
@@ -68,9 +69,9 @@ class Motor(gym.Wrapper):
         self.sigma = check_float("sigma", sigma, 0.0, 1e6)
         self.rng, self._reseed = stream(rng, MOTOR_KEY), rng is None
         self.pulses = pulses
-        acrobot = env.unwrapped
-        model = acrobot.model  # type: ignore[attr-defined]
-        motor = model.actuator("elbow_motor")
+        acrobot = acrobot_under(env, "Motor")
+        model = acrobot.model
+        motor = model.actuator(0)  # the acrobot's one motor, on either joint
         joint = int(motor.trnid[0])
         #: The actuated joint's dof, 0 (shoulder) or 1 (elbow), and each joint's torque limit.
         self.dof = int(model.jnt_dofadr[joint])
@@ -78,7 +79,7 @@ class Motor(gym.Wrapper):
         self.limit[self.dof] = float(np.max(np.abs(motor.ctrlrange)))
         self._sigmas = np.zeros(2)
         self._sigmas[self.dof] = self.sigma
-        self._dt = float(acrobot.dt)  # type: ignore[attr-defined]
+        self._dt = float(acrobot.dt)
         self._mine = np.zeros(2)
         self._last, self._t = np.zeros(2), 0.0
         self._applied: list[np.ndarray] = []

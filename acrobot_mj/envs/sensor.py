@@ -13,6 +13,7 @@ import numpy as np
 
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.acrobot import observation
+from acrobot_mj.envs.links import acrobot_under
 from acrobot_mj.envs.motor import stream
 from acrobot_mj.envs.spaces import cos_sin
 
@@ -60,6 +61,7 @@ class Sensor(gym.Wrapper):
         rng: np.random.Generator | int | None = None,
     ) -> None:
         super().__init__(env)
+        acrobot_under(env, "Sensor")
         delay = check_float("delay", delay, 0.0, 86_400.0)
         if mode not in DELAY_MODES:
             raise ValueError(f"mode must be one of {DELAY_MODES}, got {mode!r}")

@@ -208,8 +208,8 @@ def write_olympics(folder: str | Path, results: Olympics) -> Path:
     path = write_json(folder / RECORD_FILE, record)
     stale = {*folder.glob("robustness_*.png"), folder / "performance.png", folder / "global.png"}
     for category in record.get("robustness", {}).get("categories", []):
-        stale.discard(figure := folder / f"robustness_{category['key']}.png")
-        save_figure(category_figure(category), figure)
+        stale.discard(png := folder / f"robustness_{category['key']}.png")
+        save_figure(category_figure(category), png)
     l1, l2 = results.lengths
     for part, recording in (
         ("performance", results.performance),
@@ -227,6 +227,6 @@ def write_olympics(folder: str | Path, results: Olympics) -> Path:
             figure = height_figure(recording.T, heights, line, recording.U, title)
             stale.discard(folder / f"{part}.png")
             save_figure(figure, folder / f"{part}.png")
-    for figure in stale:  # a replaced record's: not beside a record without its score
-        figure.unlink(missing_ok=True)
+    for png in stale:  # a replaced record's: not beside a record without its score
+        png.unlink(missing_ok=True)
     return path
