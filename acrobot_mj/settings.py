@@ -86,9 +86,11 @@ def _bounds(meta: Mapping[str, Any], kind: Any) -> str:
         return f"{'>' if low_open else '>='} {low}"
     if kind is int and low is None:
         return f"{'<' if high_open else '<='} {high}"
-    lo = -math.inf if low is None else low
-    hi = math.inf if high is None else high
-    return f"in {'(' if low_open else '['}{lo:g}, {hi:g}{')' if high_open else ']'}"
+    if kind is int:  # whole numbers as written: 10000000, not 1e+07
+        ends = f"{low}, {high}"
+    else:
+        ends = f"{-math.inf if low is None else low:g}, {math.inf if high is None else high:g}"
+    return f"in {'(' if low_open else '['}{ends}{')' if high_open else ']'}"
 
 
 def _requirement(meta: Mapping[str, Any], kind: Any) -> str:

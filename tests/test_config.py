@@ -77,3 +77,20 @@ def test_a_record_with_an_unknown_setting_is_refused_in_one_line() -> None:
     with pytest.raises(ValueError, match=r"unknown config keys \['bogus'\]") as error:
         TrainConfig.from_dict({**REPORT.to_dict(), "bogus": 1})
     assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("setting", "value"),
+    [
+        ("max_episode_steps", 2**63),  # once ran 10 minutes, its stops held to the end
+        ("max_episode_steps", 1_000_001),
+        ("episodes", 10**30),
+        ("population", 10_001),
+    ],
+)
+def test_sizes_that_cannot_finish_are_refused(setting: str, value: int) -> None:
+    from acrobot_mj.settings import SettingError
+    from acrobot_mj.train.config import TrainConfig
+
+    with pytest.raises(SettingError, match=f"config {setting} must be in"):
+        TrainConfig(**{setting: value})

@@ -149,6 +149,26 @@ def test_a_stop_at_any_moment_leaves_the_state_of_its_last_episode(tmp_path) -> 
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_during_the_greedy_run_after_training_writes_the_record(tmp_path, stop) -> None:
+    """The greedy episode from rest after training (here a million decisions, about 20 s) once
+    held every stop to its end (with 1e9 decisions only SIGKILL stopped it, leaving no
+    run.json). Now it stops within 2 s (one second of it the learning curve's figure), the run
+    recorded as interrupted, and --resume runs the greedy episode again."""
+    args = ["train", "--episodes", "1", "--max-episode-steps", "1000000", "--no-progress"]
+    child = start([*args, "--out", "r"], tmp_path)
+    wait_for(tmp_path / "r" / CHECKPOINT_FILE)  # trained: the greedy episode has begun
+    time.sleep(1.0)
+    stopped = time.monotonic()
+    child.send_signal(stop)
+    _, err = child.communicate(timeout=30)
+    assert time.monotonic() - stopped < 4.0, err  # 2 s on an idle machine; loaded, twice that
+    assert child.returncode == (130 if stop == signal.SIGINT else 143), err
+    assert "continue with --resume" in err and err.count("\n") == 1, err
+    assert json.loads((tmp_path / "r" / "run.json").read_text())["interrupted"] is True
+
+
+@pytest.mark.slow
 def test_an_interrupted_run_of_several_seeds_resumes_every_seed(tmp_path) -> None:
     # Ctrl-C while seed 1 of 3 trains (1,000 episodes, about 2 s a seed): seed 0 is done, seed 2
     # never started. --resume finishes the run, each seed as the uninterrupted run of that seed.
@@ -1072,7 +1092,7 @@ def test_the_env_refuses_an_absurd_frame_skip() -> None:
 
     with pytest.raises(ValueError, match=r"frame_skip must be in \[1, 1000\]"):
         AcrobotEnv(frame_skip=10**12)
-    with pytest.raises(ValueError, match="seed must be an integer >= 0"):
+    with pytest.raises(ValueError, match="a run.s seed must be >= 0, got -1"):
         train(PRESETS["report"], seed=-1)
 
 

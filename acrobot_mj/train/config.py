@@ -19,6 +19,10 @@ from acrobot_mj.envs.tasks import TASKS, get_task
 from acrobot_mj.physics.models import MODELS, AcrobotModel, carried, resolve, table_setting
 from acrobot_mj.settings import SettingError, check, declared, followers, parse, setting
 
+#: The longest episode [decisions] and the most episodes a run takes: about a minute of steps
+#: each, and days of training (an episode's stops are held until it ends; larger sizes could
+#: not finish).
+MAX_EPISODE_STEPS, MAX_EPISODES = 1_000_000, 10_000_000
 #: Settings of the task that are config fields (where the task takes them).
 TASK_OPTIONS = ("step_reward", "goal_reward")
 #: Fields that records of 0.1 to 0.3 hold and that are no longer settings (evaluation's, now
@@ -54,7 +58,9 @@ class TrainConfig:
         metavar="NAME|FILE",
     )
     model_table: dict | None = table_setting()
-    max_episode_steps: int = setting(1000, "decisions before an episode is truncated", low=1)
+    max_episode_steps: int = setting(
+        1000, "decisions before an episode is truncated", low=1, high=MAX_EPISODE_STEPS
+    )
     start_noise: float = setting(
         0.0, "half-width of the uniform noise on the start state", "rad, rad/s", low=0.0, high=1.0
     )
@@ -66,17 +72,19 @@ class TrainConfig:
     energy_shaping: float = setting(
         0.0, "weight of a potential-based energy shaping term (0: none)", low=0.0
     )
-    episodes: int = setting(200, "training episodes", low=1)
+    episodes: int = setting(200, "training episodes", low=1, high=MAX_EPISODES)
     population: int = setting(
-        1, "learners trained; the best by its last 20 episodes is kept", low=1
+        1, "learners trained; the best by its last 20 episodes is kept", low=1, high=10_000
     )
     max_decisions: int = setting(
-        0, "a cap on the decisions of training (0: none; else at least population)"
+        0,
+        "a cap on the decisions of training (0: none; else at least population)",
+        high=MAX_EPISODE_STEPS * MAX_EPISODES,
     )
     identify_decisions: int = setting(
-        0, "decisions of data to identify a model first, then learn in it", low=0
+        0, "decisions of data to identify a model first, then learn in it", low=0, high=10**9
     )
-    checkpoint_every: int = setting(50, "episodes between checkpoints", low=1)
+    checkpoint_every: int = setting(50, "episodes between checkpoints", low=1, high=MAX_EPISODES)
 
     def __post_init__(self) -> None:
         check(self)

@@ -17,7 +17,7 @@ import numpy as np
 
 from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
-from acrobot_mj.checks import check_memory
+from acrobot_mj.checks import check_int, check_memory
 from acrobot_mj.envs.disturbances import Disturbances
 from acrobot_mj.envs.rollout import Actor, Episode, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import get_task
@@ -156,8 +156,8 @@ class HeldOut:
     def to_dict(self) -> dict[str, Any]:
         """Its settings; those added in 0.5.0 only where they differ from their defaults, so an
         older record's protocol reads the same."""
-        data, default = asdict(self), asdict(DEFAULT)
-        return {k: v for k, v in data.items() if k in BASIC or v != default[k]}
+        default = asdict(DEFAULT)
+        return {k: v for k, v in asdict(self).items() if k in BASIC or v != default[k]}
 
 
 #: What every protocol record holds; the later settings appear where they are not the default.
@@ -182,9 +182,7 @@ class Learner(ABC):
     swing_up: int | None = None
 
     def __init__(self, config: Any, seed: int) -> None:
-        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-            raise ValueError(f"a run's seed must be an integer >= 0, got {seed!r}")
-        self.config, self.seed = config, seed
+        self.config, self.seed = config, check_int("a run's seed", seed, 0)
 
     @abstractmethod
     def learn(self, run: Run) -> dict[str, Any]:
@@ -347,25 +345,30 @@ def train_one(
             # killed, or diverges), it is this config's, interrupted where it resumed.
             record = run_record(config, seed, history, Outcome(0.0, True), env=env_name)
             write_run(run.out, record, f"seed {seed}", curve=False)
-    with SafePoints() as stops:  # from the first checkpoint on, stops land between episodes
-        state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
-        label = f"{config.algorithm} seed {seed}"
-        with watching(run.monitor or False, run_total(config), label) as monitor:
+    started, stop = time.perf_counter(), None
+    state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
+    watched = watching(run.monitor or False, run_total(config), f"{config.algorithm} seed {seed}")
+    try:
+        with SafePoints() as stops, watched as monitor:  # stops land between episodes
             books = Books(checkpoints, state, monitor, history, on_episode=run.on_episode)
             books.start()
-            started = time.perf_counter()
             stop = _episodes(books, env, agent, stops)
-        elapsed = time.perf_counter() - started
-        checkpoints.save()
-        checkpoints.close()
+            elapsed = time.perf_counter() - started
+            checkpoints.save()
+            checkpoints.close()
+    except KeyboardInterrupt as interrupt:  # held while the checkpoint was saved
+        stop = stop or interrupt
+    try:  # not held: the greedy episode may be long, and nothing of it is saved
         rest = None if stop or not greedy else greedy_from_rest(env, agent, seed)
-        outcome = Outcome(elapsed, bool(stop), rest)
-        record = run_record(config, seed, history, outcome, env=env_name)
-        if run.out is not None:
+    except KeyboardInterrupt as interrupt:
+        stop, rest = interrupt, None
+    record = run_record(config, seed, history, Outcome(elapsed, bool(stop), rest), env=env_name)
+    if run.out is not None:
+        with SafePoints():  # the record written whole
             write_run(run.out, record, f"seed {seed}", curve=greedy)
-        if stop:
-            raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
-        return record, agent
+    if stop:
+        raise type(stop)(f"interrupted after {len(history)} episodes; checkpoint saved")
+    return record, agent
 
 
 def _episodes(books: Books, env: gym.Env, agent: Agent, stops: SafePoints) -> BaseException | None:
