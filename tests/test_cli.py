@@ -87,3 +87,14 @@ def test_python_dash_m_runs_the_command() -> None:
         timeout=60,
     )
     assert done.returncode == 0 and done.stdout.strip() == __version__
+
+
+def test_no_help_shows_a_default_as_python_writes_it(capsys) -> None:
+    """A tuple default as it is typed (olympics --scores once showed ``('performance', ...)``)."""
+    from acrobot_mj.cli import build_parser
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    for name, parser in commands.items():
+        text = parser.format_help()
+        assert "(default: (" not in text and "(default: [" not in text, name
+    assert "performance,robustness,global" in " ".join(commands["olympics"].format_help().split())

@@ -1092,7 +1092,7 @@ def test_the_env_refuses_an_absurd_frame_skip() -> None:
 
     with pytest.raises(ValueError, match=r"frame_skip must be in \[1, 1000\]"):
         AcrobotEnv(frame_skip=10**12)
-    with pytest.raises(ValueError, match="a run.s seed must be >= 0, got -1"):
+    with pytest.raises(ValueError, match="seed must be >= 0, got -1"):
         train(PRESETS["report"], seed=-1)
 
 

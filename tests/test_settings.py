@@ -52,7 +52,10 @@ _spec.loader.exec_module(tables)
         (lambda: BlackBoxConfig(seconds=True), "config seconds must be a real number"),
         (lambda: PlanConfig(reserve=True), "config reserve must be a real number"),
         (lambda: PlanConfig(targets=(1, 6)), r"config targets must be .* in \[0, 5\]"),
-        (lambda: TrainConfig(episodes=True), r"config episodes must be an integer in \[1, 10000000\]"),
+        (
+            lambda: TrainConfig(episodes=True),
+            r"config episodes must be an integer in \[1, 10000000\]",
+        ),
         (lambda: TrainConfig(start_noise=float("nan")), "config start_noise must be finite"),
         (lambda: HeldOut(episodes=np.float64(3.0)), "config episodes must be an integer"),
         (lambda: FeedbackConfig(funnel={"levels": 3}), r"unknown funnel settings \['levels'\]"),

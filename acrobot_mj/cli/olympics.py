@@ -47,7 +47,11 @@ def add_olympics(commands: tools.Commands) -> None:
         "the protocol is scaled to it (docs: guide/olympics-scaled)",
     )
     p.add_argument(
-        "--scores", type=parts, default=PARTS, metavar="LIST", help="which scores, comma-separated"
+        "--scores",
+        type=parts,
+        default=PARTS,
+        metavar="LIST",
+        help="which scores, comma-separated",
     )
     p.add_argument("--out", type=tools.path_text, required=True, help="folder for olympics.json")
     p.add_argument("--seed", type=tools.seed, default=0, help="seed of every draw")

@@ -39,7 +39,8 @@ class HelpFormatter(argparse.HelpFormatter):
             and default not in (None, False, argparse.SUPPRESS)
             and "default" not in text
         ):
-            text += f" (default: {default})"
+            shown = ",".join(map(str, default)) if isinstance(default, (tuple, list)) else default
+            text += f" (default: {shown})"  # a tuple as it is typed
         return text
 
 
