@@ -69,7 +69,7 @@ def hand_written() -> list[Case]:
         Case("olympics unknown model", [*ol, "--model", "nobody"], "model must be one of"),
         Case("olympics model without a plan", [*ol, "--model", "gymnasium"], "no planned"),
         Case("olympics jobs 0", [*ol, "--jobs", "0"], "--jobs"),
-        Case("olympics out a file", [*ol[:-1], "c.txt"], "is a file, not a folder"),
+        Case("olympics out a file", [*ol[:-1], "c.txt"], "exists and is not a folder"),
         Case("olympics no out", ol[:-2], "--out"),
         Case("olympics performance", ol, None),
         Case(
@@ -273,7 +273,242 @@ def hand_written() -> list[Case]:
         Case("no command", [], None),
         Case("unknown command", ["nope"], "invalid choice"),
     ]
-    return cases + constructors()
+    return cases + constructors() + fourth_round()
+
+
+#: Model files the fourth round reads (fixtures writes them): name, text.
+MODEL_FILES = {
+    "huge_torque.json": '{"max_torque": 2e10}',
+    "big_torque.json": '{"max_torque": 9e9}',
+    "tiny_mass.json": '{"m1": 1e-300}',
+    "light.json": '{"m2": 1e-12, "I2": 1e-12}',
+    "long.json": '{"l1": 1e300}',
+    "digits.json": '{"m1": 1' + "0" * 400 + "}",
+    "digits_damping.json": '{"damping": [1' + "0" * 400 + ", 0]}",
+    "empty.toml": "",
+    "empty.json": "{}",
+    "upper.JSON": '{"m1": 2.0}',
+    "wild.json": '{"g": 1e6, "dt": 1.0, "max_vel1": null, "max_vel2": null}',
+    "no_limits.json": '{"max_vel1": null, "max_vel2": null}',
+    "mine.json": '{"m2": 1.5}',
+}
+
+
+def fourth_round() -> list[Case]:
+    """The fourth reliability round's cases: model files read where they are refused, the
+    disturbance wrappers on any env and after a copy, olympics' folders and sizes that cannot
+    finish."""
+    import copy
+    import pickle
+
+    import gymnasium as gym
+
+    from acrobot_mj.envs.disturbances import Pushed
+    from acrobot_mj.envs.model_error import ModelError
+    from acrobot_mj.envs.motor import Motor
+    from acrobot_mj.envs.sensor import Sensor
+    from acrobot_mj.train.feedback_run import FeedbackConfig
+
+    refusals = {
+        "huge_torque.json": "max_torque must be in",
+        "big_torque.json": "max_torque must be in",
+        "tiny_mass.json": "m1 must be in",
+        "light.json": "m2 must be in",
+        "long.json": "l1 must be in",
+        "digits.json": "an integer of 401 digits",
+        "digits_damping.json": "an integer of 401 digits",
+        "empty.toml": "not empty",
+        "empty.json": "not empty",
+        "nothing.json": "is not found",
+        "folder.json": "is a folder",  # olympics, evaluate: a folder is a run, "not a readable"
+        "loop.json": "symbolic links",
+    }
+    cases = []
+    for name, says in refusals.items():
+        for command in (
+            ["params"],
+            ["demo", "--steps", "3"],
+            ["train", "--episodes", "1", "--max-episode-steps", "5", "--out", "t"],
+            ["olympics", "funnel", "--scores", "performance", "--out", "o"],
+            ["balance", "--feedback", "--no-video", "--out", "f3"],
+            ["evaluate", "funnel", "--out", "e", "--episodes", "1", "--seconds", "1"],
+        ):
+            run_too = name == "folder.json" and command[0] in ("olympics", "evaluate")
+            expected = "is not a readable trained run" if run_too else says
+            cases.append(
+                Case(f"{command[0]} --model {name}", [*command, "--model", name], expected)
+            )
+    for name in ("upper.JSON", "no_limits.json", "mine.json"):
+        cases.append(Case(f"params --model {name}", ["params", "--model", name], None))
+        cases.append(Case(f"demo --model {name}", ["demo", "--steps", "3", "--model", name], None))
+    cases += [
+        Case(
+            "demo a diverging model", ["demo", "--steps", "5", "--model", "wild.json"], "non-finite"
+        ),
+        Case(
+            "train 2**63 steps",
+            ["train", "--max-episode-steps", str(2**63), "--out", "t"],
+            "in [1, 1000000]",
+        ),
+        Case(
+            "train 1e30 episodes",
+            ["train", "--episodes", "1" + "0" * 30, "--out", "t"],
+            "an integer of 31",
+        ),
+        Case(
+            "train population 1e5",
+            ["train", "--population", "100000", "--out", "t"],
+            "in [1, 10000]",
+        ),
+        Case(
+            "train on a file, evaluated",
+            [
+                "train",
+                "--model",
+                "mine.json",
+                "--episodes",
+                "1",
+                "--max-episode-steps",
+                "5",
+                "--out",
+                "t",
+            ],
+            None,
+        ),
+        Case(
+            "olympics below a file",
+            ["olympics", "funnel", "--out", "c.txt/o"],
+            "exists and is not a folder",
+        ),
+        Case("olympics empty controller", ["olympics", "", "--out", "o"], "must name a path"),
+        Case(
+            "olympics a folder as model",
+            ["olympics", "funnel", "--model", "run", "--out", "o"],
+            "not a controller run",
+        ),
+        Case("olympics seed -1", ["olympics", "funnel", "--seed", "-1", "--out", "o"], "--seed"),
+        Case(
+            "olympics scores twice",
+            ["olympics", "funnel", "--scores", "performance,performance", "--out", "o"],
+            None,
+        ),
+    ]
+
+    def olympics() -> gym.Env:
+        return gym.make("acrobot_mj/Acrobot-v0", model="ai_olympics", continuous=True)
+
+    def gymnasium() -> gym.Env:
+        return gym.make("Acrobot-v1")
+
+    wrappers = {
+        "Motor": lambda env: Motor(env, response=0.3),
+        "Sensor": lambda env: Sensor(env, delay=0.01, sigma=0.1),
+        "ModelError": lambda env: ModelError(env, {"m2": 0.7}),
+        "Pushed": Pushed,
+    }
+    for name, wrap in wrappers.items():
+        cases.append(Case(f"{name} on Acrobot-v1", call=lambda w=wrap: w(gymnasium())))
+        cases.append(
+            Case(f"{name} deep-copied", call=lambda w=wrap: copy.deepcopy(w(olympics())), says=None)
+        )
+        cases.append(
+            Case(
+                f"{name} pickled",
+                call=lambda w=wrap: pickle.loads(pickle.dumps(w(olympics()))),
+                says=None,
+            )
+        )
+
+    def pendubot() -> gym.Env:
+        return gym.make("acrobot_mj/Acrobot-v0", model="ai_olympics_pendubot", continuous=True)
+
+    cases += [
+        Case(
+            "Motor on the pendubot", call=lambda: Motor(pendubot(), response=0.5).reset(), says=None
+        ),
+        Case(
+            "two ModelErrors, an inertia 0 between",
+            call=lambda: ModelError(
+                ModelError(olympics(), {"I2": 0.6255677234174437 * 0.25569305436052964**2}),
+                {"I2": 0.05},
+            ),
+            says=None,
+        ),
+        Case("Sensor sigma None", call=lambda: Sensor(olympics(), sigma=None), says="got None"),
+        Case(
+            "Sensor delay 400 digits",
+            call=lambda: Sensor(olympics(), delay=10**400),
+            says="401 digits",
+        ),
+        Case("Sensor mode vel", call=lambda: Sensor(olympics(), delay=0.01, mode="vel"), says=None),
+        Case(
+            "Sensor mode pos",
+            call=lambda: Sensor(olympics(), mode="pos"),
+            says="mode must be one of",
+        ),
+        Case(
+            "Motor sigma 400 digits",
+            call=lambda: Motor(olympics(), sigma=10**400),
+            says="401 digits",
+        ),
+        Case(
+            "Motor response 0",
+            call=lambda: Motor(olympics(), response=0.0),
+            says="response must be in",
+        ),
+        Case("Motor response 3", call=lambda: Motor(olympics(), response=3.0), says="response"),
+        Case(
+            "Motor pulses wrong shape",
+            call=lambda: Motor(olympics(), pulses=np.ones(3)),
+            says="pulses",
+        ),
+        Case(
+            "Motor pulses nan",
+            call=lambda: Motor(olympics(), pulses=np.full((2, 3), np.nan)),
+            says="finite",
+        ),
+        Case("Motor rng -1", call=lambda: Motor(olympics(), rng=-1), says="seed must be >= 0"),
+        Case("Motor rng string", call=lambda: Motor(olympics(), rng="1"), says="rng must be"),
+        Case(
+            "ModelError unknown",
+            call=lambda: ModelError(olympics(), {"mass": 1.0}),
+            says="unknown model parameters",
+        ),
+        Case(
+            "ModelError 400 digits",
+            call=lambda: ModelError(olympics(), {"m2": 10**400}),
+            says="401 digits",
+        ),
+        Case(
+            "ModelError not a mapping", call=lambda: ModelError(olympics(), [1.0]), says="mapping"
+        ),
+        Case(
+            "ModelError m2 0",
+            call=lambda: ModelError(olympics(), {"m2": 0.0}),
+            says="m2 must be > 0",
+        ),
+        Case(
+            "ModelError gear 0",
+            call=lambda: ModelError(olympics(), {"m2": 1.0}, gear_ratio=0.0),
+            says="gear_ratio",
+        ),
+        Case(
+            "Pushed without a time limit",
+            call=lambda: Pushed(olympics().unwrapped),
+            says="time limit",
+        ),
+        Case(
+            "FeedbackConfig reserve 400 digits",
+            call=lambda: FeedbackConfig(reserve=10**400),
+            says="401 digits",
+        ),
+        Case(
+            "FeedbackConfig model a folder",
+            call=lambda: FeedbackConfig(model="folder.json"),
+            says="is a folder",
+        ),
+    ]
+    return cases
 
 
 def constructors() -> list[Case]:
@@ -374,7 +609,7 @@ def snapshot(folder: Path) -> dict[str, str]:
     return {
         str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
         for p in sorted(folder.rglob("*"))
-        if p.is_file() and p.name != ".lock"
+        if not p.is_symlink() and p.is_file() and p.name != ".lock"
     }
 
 
@@ -387,6 +622,10 @@ def fixtures(folder: Path) -> None:
     train(FeedbackConfig(), seed=0, out_dir=folder / "fb")
     train(PRESETS["report"].replace(episodes=2, max_episode_steps=30), 0, folder / "run")
     (folder / "c.txt").write_text("not a folder\n")
+    for name, text in MODEL_FILES.items():
+        (folder / name).write_text(text)
+    (folder / "folder.json").mkdir()
+    (folder / "loop.json").symlink_to("loop.json")
 
 
 def _alarm(signum: int, frame: Any) -> None:
@@ -458,7 +697,7 @@ def main(argv: list[str] | None = None) -> int:
         for case in cases:
             folder = Path(tmp) / "case"
             shutil.rmtree(folder, ignore_errors=True)
-            shutil.copytree(template, folder)
+            shutil.copytree(template, folder, symlinks=True)
             os.chdir(folder)
             try:
                 outcome, why = run_case(case, folder, args.cut)

@@ -11,6 +11,8 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
+import mujoco
+
 from acrobot_mj.cli import balance, evaluation, learning, olympics, render, tools
 from acrobot_mj.envs.acrobot import Diverged
 from acrobot_mj.envs.gl import GLBackendError
@@ -90,6 +92,14 @@ def _unraisable(report: Any) -> None:
         sys.__unraisablehook__(report)
 
 
+def quiet_mujoco() -> None:
+    """No MUJOCO_LOG.TXT in the user's folder and no second line on stderr: a simulation that
+    diverges is one line naming MuJoCo's warnings (:class:`~acrobot_mj.envs.acrobot.Diverged`)."""
+    config = mujoco.MjLogConfig.get()
+    config.logto_file = config.logto_console = False
+    config.set()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -97,6 +107,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     clear_stop()
+    quiet_mujoco()
     main_thread = threading.current_thread() is threading.main_thread()
     if main_thread:  # restored on return: main may run inside another program (the tests)
         before = [signal.signal(s, _stop) for s in (signal.SIGINT, signal.SIGTERM)]

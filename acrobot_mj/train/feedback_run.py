@@ -27,7 +27,7 @@ from acrobot_mj.envs.control_loop import (
 from acrobot_mj.envs.rollout import Actor
 from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS, steps_in
-from acrobot_mj.physics.models import AcrobotModel
+from acrobot_mj.physics.models import AcrobotModel, resolve
 from acrobot_mj.settings import SettingError, Settings, setting
 from acrobot_mj.train.controller_run import ControllerLearner
 from acrobot_mj.train.learners import HeldOut
@@ -71,6 +71,13 @@ class FeedbackConfig(Settings):
     )
 
     what = "state-feedback"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        try:  # a model file refused where it is given, not when the swing-up is planned
+            resolve(self.model)
+        except (TypeError, ValueError) as error:
+            raise SettingError(f"config model: {error}") from None
 
 
 def feedback_swing_up(config: FeedbackConfig) -> Trajectory:
