@@ -20,6 +20,7 @@ from acrobot_mj.control.controller import Controller
 from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.model_error import ModelError
 from acrobot_mj.envs.motor import Motor
+from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.sensor import Sensor
 from acrobot_mj.olympics import protocol, sources
 from acrobot_mj.olympics.globaltest import GlobalTester
@@ -62,28 +63,66 @@ def protocol_env(model: str, conditions: Conditions, seed: int) -> tuple[Any, Mo
     return Sensor(motor, rng=sensor_seed, **conditions.sensor), motor
 
 
+class ProtocolActor:
+    """A controller as an episode-loop actor on the protocol's env: it acts on what the env
+    observes at the protocol's ``times`` [s], its torque clipped to ``limit`` [N m] as the
+    protocol's plant clips it, and is told the clipped torque; ``states`` records the true
+    state at each time."""
+
+    def __init__(self, controller: Controller, env: Any, times: np.ndarray, limit: float) -> None:
+        self.controller, self.times, self.limit = controller, times, limit
+        self.acrobot = env.unwrapped
+        self.states: list[np.ndarray] = []
+
+    def begin(self, obs: np.ndarray) -> Any:
+        self.controller.reset()
+        self.states = [self.acrobot.state]
+        return self._act(obs)
+
+    def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
+        self.states.append(self.acrobot.state)
+        return None if terminated or truncated else self._act(obs)
+
+    def _act(self, obs: np.ndarray) -> np.ndarray:
+        t = float(self.times[len(self.states) - 1])
+        torque = min(max(self.controller.act(obs, t), -self.limit), self.limit)
+        self.controller.applied(torque)
+        return np.array([torque])
+
+
+class GlobalActor(ProtocolActor):
+    """The protocol's testing controller (:class:`~acrobot_mj.olympics.globaltest.GlobalTester`)
+    as an actor: it acts on the true state; its shoulder torque, and a reset's elbow torque
+    beyond the motor's limit, drive the joints through MuJoCo's ``qfrc_applied`` (the env's
+    motor drives the elbow only); ``torques`` records the elbow's whole torque."""
+
+    def __init__(self, tester: GlobalTester, env: Any, times: np.ndarray, limit: float) -> None:
+        super().__init__(tester, env, times, limit)
+        self.tester, self.torques = tester, list[float]()
+
+    def _act(self, obs: np.ndarray) -> np.ndarray:
+        t = float(self.times[len(self.states) - 1])
+        elbow = self.tester.act(self.acrobot.state, t)
+        clipped = float(np.clip(elbow, -self.limit, self.limit))
+        excess = elbow - clipped if self.tester.resetting else 0.0
+        self.acrobot.data.qfrc_applied[:] = (self.tester.shoulder, excess)
+        self.torques.append(elbow)
+        return np.array([elbow - excess])
+
+
 def episode(
     scored: Scored, model: str, seconds: float, conditions: Conditions, seed: int, dt: float = DT
 ) -> Recording:
     """One episode of ``seconds`` [s] in steps of ``dt`` [s] from hanging at rest under the
-    controller ``scored`` for ``model`` and ``conditions``: true states and the elbow torques
-    applied. The controller's torque is clipped to the motor's limit, as the protocol's plant
-    clips it, and the controller told the clipped torque."""
-    controller = sources.build(scored, model)
+    controller ``scored`` for ``model`` and ``conditions`` (:class:`ProtocolActor`, through
+    the one episode loop): true states and the elbow torques applied."""
     env, motor = protocol_env(model, conditions, seed)
     times = protocol.episode_times(seconds, dt)
     limit = resolve(model).params.max_torque
-    obs, _ = env.reset(options={"state": HANGING})
-    controller.reset()
-    acrobot = env.unwrapped
-    states = [acrobot.state]
-    for t in times[:-1]:
-        torque = min(max(controller.act(obs, float(t)), -limit), limit)
-        controller.applied(torque)
-        obs = env.step(np.array([torque]))[0]
-        states.append(acrobot.state)
+    actor = ProtocolActor(sources.build(scored, model), env, times, limit)
+    run_episode(env, actor, options={"state": HANGING}, max_steps=len(times) - 1)
     env.close()
-    return Recording(times, np.array(states), motor.applied[:, motor.dof])
+    return Recording(times, np.array(actor.states), motor.applied[:, motor.dof])
 
 
 def global_run(
@@ -97,26 +136,15 @@ def global_run(
 ) -> Recording:
     """``controller`` for ``policy``'s episode from ``start`` (the protocol's: hanging at rest)
     inside the protocol's testing controller (resets to ``targets`` at ``reset_times``), both
-    joints driven within ``policy``'s limits (the shoulder through MuJoCo's ``qfrc_applied``:
-    the env's motor drives the elbow only; a reset's elbow torque beyond the motor's limit acts
-    there too)."""
+    joints driven within ``policy``'s limits (:class:`GlobalActor`)."""
     acrobot = resolve(model)
     tester = GlobalTester(controller, acrobot, targets, reset_times, policy)
     env = AcrobotEnv(model=model, continuous=True, task="balance")
     times = protocol.episode_times(policy.t_final, policy.dt)
-    env.reset(options={"state": start})
-    tester.reset()
-    states, torques = [env.state], []
-    limit = acrobot.params.max_torque
-    for t in times[:-1]:
-        elbow = tester.act(env.state, float(t))
-        excess = elbow - float(np.clip(elbow, -limit, limit)) if tester.resetting else 0.0
-        env.data.qfrc_applied[:] = (tester.shoulder, excess)
-        env.step(np.array([elbow - excess]))
-        states.append(env.state)
-        torques.append(elbow)
+    actor = GlobalActor(tester, env, times, acrobot.params.max_torque)
+    run_episode(env, actor, options={"state": start}, max_steps=len(times) - 1)
     env.close()
-    return Recording(times, np.array(states), np.array(torques))
+    return Recording(times, np.array(actor.states), np.array(actor.torques))
 
 
 def global_episode(
