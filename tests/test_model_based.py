@@ -149,7 +149,7 @@ def test_training_in_the_model_costs_the_env_only_data_and_greedy_run(tmp_path) 
 
 
 def test_model_based_settings_are_checked() -> None:
-    with pytest.raises(ValueError, match="identify_decisions must be >= 0"):
+    with pytest.raises(ValueError, match=r"identify_decisions must be in \[0, 1000000000\]"):
         PRESETS["book"].replace(identify_decisions=-1)
     assert not can_lockstep(PRESETS["report"].replace(identify_decisions=10))
     with pytest.raises(ValueError, match="give no env"):

@@ -195,7 +195,7 @@ def black_box_env(config: BlackBoxConfig | None = None, **kwargs: Any) -> gym.En
     :func:`frame_skip` physics steps: the only env the learner sees."""
     config = config or BlackBoxConfig()
     if config.model is not None:
-        kwargs = {"model": config.acrobot, **kwargs}
+        kwargs = {"model": config.model if config.model_table is None else config.acrobot, **kwargs}
     skip = frame_skip(config.acrobot.params.dt, config.decision_period)
     if skip > 1:
         kwargs = {"frame_skip": skip, **kwargs}

@@ -202,11 +202,12 @@ class TrainConfig:
         """Keyword arguments for ``gymnasium.make(config.env_id, ...)`` (no ``model`` for the
         report's acrobot: the packaged MJCF)."""
         options = {k: getattr(self, k) for k in TASK_OPTIONS if getattr(self, k) is not None}
+        model = self.model if self.model_table is None else self.acrobot  # a file's, as read
         return {
             "frame_skip": self.frame_skip,
             "integrator": self.integrator,
             "max_episode_steps": self.max_episode_steps,
-            **({} if self.model is None else {"model": self.acrobot}),
+            **({} if model is None else {"model": model}),
             **options,
         }
 
