@@ -19,7 +19,7 @@ from acrobot_mj.control.controller import Controller, Held
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention, sb3_policy
 from acrobot_mj.olympics.plants import equations, learnt
-from acrobot_mj.physics.models import AcrobotModel, resolve
+from acrobot_mj.physics.models import AcrobotModel, carried_acrobot, resolve
 from acrobot_mj.train.records import RUN_FILE, read_record
 
 #: The run kinds that are controllers (each acts on the observation, angles wrapped).
@@ -87,7 +87,7 @@ def trained_acrobot(record: dict[str, Any]) -> AcrobotModel:
     config's ``model_table``): not the file as it is now."""
     config = record.get("config")
     table = config.get("model_table") if isinstance(config, dict) else None
-    return resolve(trained_model(record) if table is None else table)
+    return carried_acrobot(trained_model(record), table)
 
 
 def same_acrobot(record: dict[str, Any], model: str, what: str) -> None:

@@ -18,7 +18,7 @@ from typing import Any, TypeAlias
 from acrobot_mj.checks import shown_number
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.params import REPORT, AcrobotParams
-from acrobot_mj.settings import setting
+from acrobot_mj.settings import SettingError, setting
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -266,3 +266,20 @@ def carried(
             raise ValueError(f"the parameters carried for {model} must be a table, got {table!r}")
         return model, model_from_dict(dict(table), f"the parameters carried for {model}").to_dict()
     return model, resolve(model).to_dict()
+
+
+def carry_model(config: Any) -> None:
+    """In a frozen config's ``__post_init__``: its ``model`` and ``model_table`` as
+    :func:`carried` makes them, refused as the ``model`` setting in one line."""
+    try:  # the default, "report", is None: the packaged MJCF
+        model, table = carried(config.model, config.model_table)
+    except (TypeError, ValueError) as error:
+        raise SettingError(f"config model: {error}") from None
+    object.__setattr__(config, "model", model)
+    object.__setattr__(config, "model_table", table)
+
+
+def carried_acrobot(model: str | None, table: Mapping[str, Any] | None) -> AcrobotModel:
+    """The acrobot a run records as ``model`` and ``table`` (:func:`carried`): a file's as the
+    run read it, not as the file is now."""
+    return resolve(model if table is None else table)

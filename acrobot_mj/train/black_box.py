@@ -33,9 +33,14 @@ from acrobot_mj.identify.fit import THRESHOLD
 from acrobot_mj.identify.library import LibraryModel, best_angles, library_size
 from acrobot_mj.identify.terms import HARMONICS
 from acrobot_mj.physics.integrators import steps_in
-from acrobot_mj.physics.models import AcrobotModel, carried, resolve, table_setting
+from acrobot_mj.physics.models import (
+    AcrobotModel,
+    carried_acrobot,
+    carry_model,
+    table_setting,
+)
 from acrobot_mj.physics.params import REPORT, AcrobotParams
-from acrobot_mj.settings import SettingError, Settings, setting
+from acrobot_mj.settings import Settings, setting
 from acrobot_mj.train.controller_run import ControllerLearner
 from acrobot_mj.train.learners import HeldOut
 from acrobot_mj.train.records import MODEL_FILE
@@ -138,17 +143,12 @@ class BlackBoxConfig(Settings):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        try:  # the default, "report", is None: the packaged MJCF
-            model, table = carried(self.model, self.model_table)
-        except (TypeError, ValueError) as error:
-            raise SettingError(f"config model: {error}") from None
-        object.__setattr__(self, "model", model)
-        object.__setattr__(self, "model_table", table)
+        carry_model(self)
 
     @property
     def acrobot(self) -> AcrobotModel:
         """The acrobot it learns, a file's as the run read it (``model_table``)."""
-        return resolve(self.model if self.model_table is None else self.model_table)
+        return carried_acrobot(self.model, self.model_table)
 
 
 def fitted_share(decisions: int) -> int:

@@ -16,7 +16,13 @@ import gymnasium as gym
 from acrobot_mj.agents import AGENTS, FEATURES, agent_spec
 from acrobot_mj.envs.acrobot import MAX_FRAME_SKIP
 from acrobot_mj.envs.tasks import TASKS, get_task
-from acrobot_mj.physics.models import MODELS, AcrobotModel, carried, resolve, table_setting
+from acrobot_mj.physics.models import (
+    MODELS,
+    AcrobotModel,
+    carried_acrobot,
+    carry_model,
+    table_setting,
+)
 from acrobot_mj.settings import SettingError, check, declared, followers, parse, setting
 
 #: The longest episode [decisions] and the most episodes a run takes: about a minute of steps
@@ -89,12 +95,7 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check(self)
         _check_names(self.task, self.algorithm, self.features)
-        try:  # the default, "report", is None: the packaged MJCF
-            model, table = carried(self.model, self.model_table)
-        except (TypeError, ValueError) as error:
-            raise SettingError(f"config model: {error}") from None
-        object.__setattr__(self, "model", model)
-        object.__setattr__(self, "model_table", table)
+        carry_model(self)
         acrobot = self.acrobot
         if self.integrator is None:
             object.__setattr__(self, "integrator", acrobot.integrator)
@@ -194,7 +195,7 @@ class TrainConfig:
         """The acrobot ``model`` names (:func:`~acrobot_mj.physics.models.resolve`; None: the
         report's), a file's as the run read it (``model_table``)."""
         try:
-            return resolve(self.model if self.model_table is None else self.model_table)
+            return carried_acrobot(self.model, self.model_table)
         except (TypeError, ValueError) as error:
             raise SettingError(f"config model: {error}") from None
 
