@@ -13,8 +13,9 @@ from typing import Any
 import gymnasium as gym
 import mujoco
 
-#: The links' bodies, and the names a record gives their masses and inertias.
+#: The links' bodies in the MJCF.
 LINKS = ("link1", "link2")
+#: The names a record gives the links' masses [kg] and inertias [kg m^2].
 LINK_PARAMETERS = ("m1", "m2", "I1", "I2")
 
 
