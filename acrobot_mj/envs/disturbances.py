@@ -114,8 +114,8 @@ class Disturbances:
 @dataclass(frozen=True)
 class Perturbation:
     """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
-    scaled in MuJoCo's model (:func:`~acrobot_mj.envs.links.scale_links`), and Gaussian torque noise on the elbow
-    [N m] drawn from ``seed``."""
+    scaled in MuJoCo's model (:func:`~acrobot_mj.envs.links.scale_links`), and Gaussian torque noise
+    on the elbow [N m] drawn from ``seed``."""
 
     start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
     mass_scale: float = 1.0
