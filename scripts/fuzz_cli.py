@@ -178,7 +178,7 @@ def hand_written() -> list[Case]:
         Case(
             "balance hold 1e9",
             ["balance", "--hold", "1e9", "--no-video", "--out", "b"],
-            "hold time must be in",
+            "hold must be in [0.05, 3600]",
         ),
         Case("balance hold 1", ["balance", "--hold", "1", "--no-video", "--out", "b"], None),
         Case(
