@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 import sys
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, TypeAlias
 
-from acrobot_mj.checks import shown_number
+from acrobot_mj.checks import check_float, shown_number
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.params import REPORT, AcrobotParams
 from acrobot_mj.settings import SettingError, setting
@@ -87,12 +86,11 @@ class AcrobotModel:
 def _loss(value: Any) -> bool:
     """Whether ``value`` is a joint loss or motor inertia this project takes: a real number in
     [0, 1e6] (past that no acrobot moves)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
     try:
-        return 0.0 <= float(value) <= 1e6
-    except OverflowError:
+        check_float("a loss", value, 0.0, 1e6)
+    except (TypeError, ValueError):
         return False
+    return True
 
 
 def joint_inertias(model: AcrobotModel) -> tuple[float, float]:
