@@ -41,11 +41,17 @@ STOP_SIGNALS = tuple(
 class SafePoints:
     """Hold the stop signals while the block runs, and act on them at its safe points
     (:meth:`check`) or as it ends, by calling the handler each signal had (which raises). A
-    training loop checks between episodes, so a stop never lands between an update of the
-    learner and its record. Only Python handlers are held, and only in the main thread."""
+    training loop checks between episodes and between the steps of one (its checkpoint keeps
+    the state after the last whole episode), so a stop never lands between an update of the
+    learner and its record, nor inside an update. Only Python handlers are held, and only in
+    the main thread."""
+
+    def __init__(self) -> None:
+        #: The signals held and not yet acted on: empty until a stop arrives.
+        self.held: list[tuple[int, Any]] = []
 
     def __enter__(self) -> SafePoints:
-        self._held: list[tuple[int, Any]] = []
+        self.held.clear()
         self._handlers: dict[int, Any] = {}
         if threading.current_thread() is threading.main_thread():
             for number in STOP_SIGNALS:
@@ -56,12 +62,12 @@ class SafePoints:
         return self
 
     def _hold(self, signum: int, frame: Any) -> None:
-        self._held.append((signum, frame))
+        self.held.append((signum, frame))
 
     def check(self) -> None:
         """Act on the signals held so far (a handler's exception comes out here)."""
-        while self._held:
-            signum, frame = self._held.pop(0)
+        while self.held:
+            signum, frame = self.held.pop(0)
             self._handlers[signum](signum, frame)
 
     def __exit__(self, kind: type[BaseException] | None, *rest: object) -> None:

@@ -113,6 +113,7 @@ def test_the_reserve_trajectory_tolerates_what_it_was_not_designed_for(label, pe
         assert closed_loop(RESERVE, discrete, 60.0, perturbation)["balanced"], (label, discrete)
 
 
+@pytest.mark.slow
 def test_without_reserve_the_minimum_time_swing_up_is_fragile() -> None:
     # The README's claim: at full torque there is none left for the feedback, and a start
     # 1e-4 rad off (or {-1, 0, +1} torques) is enough to fall.

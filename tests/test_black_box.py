@@ -108,6 +108,7 @@ def test_the_ode_fit_recovers_a_field_integrated_by_rk4_where_the_map_cannot() -
     assert mapped.form == "map" and mapped.terms > 100
 
 
+@pytest.mark.slow
 def test_the_ode_fit_recovers_a_rational_field() -> None:
     # A field divided by 1 + 0.4 cos 2 q2, as a mass matrix's determinant divides an arm's.
     def divided(x: np.ndarray, u: np.ndarray, h: float, n: int) -> np.ndarray:

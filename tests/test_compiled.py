@@ -7,6 +7,8 @@ compiled learner's own machinery: the checkpoint state rebuilt mid-episode, resu
 from __future__ import annotations
 
 import inspect
+import os
+import signal
 import sys
 
 import gymnasium as gym
@@ -437,6 +439,45 @@ def test_a_compiled_run_stopped_mid_episode_resumes_to_the_same_run(tmp_path) ->
     a = load_checkpoint(tmp_path / "whole" / "checkpoint.npz")[1]
     b = load_checkpoint(tmp_path / "split" / "checkpoint.npz")[1]
     assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+class SignalAtDecision(gym.Wrapper):
+    """A real SIGINT sent during the ``n``-th decision of the run; counts the decisions after."""
+
+    def __init__(self, env, n: int) -> None:
+        super().__init__(env)
+        self.n, self.after = n, 0
+
+    def step(self, action):
+        self.n -= 1
+        if self.n == 0:
+            os.kill(os.getpid(), signal.SIGINT)
+        if self.n < 0:
+            self.after += 1
+        return self.env.step(action)
+
+
+def test_a_stop_inside_a_long_episode_cuts_it_at_the_next_step(tmp_path) -> None:
+    # The stop is held while an update runs and acted on after the step it arrived in: before,
+    # it waited for the episode's end (up to max_episode_steps, 1e6 decisions). The cut episode
+    # is not recorded; the run resumes to the uninterrupted one.
+    config = BOOK.replace(episodes=3, checkpoint_every=1000)
+    whole = train(config, 6, tmp_path / "whole")
+    lengths = whole["episode_lengths"]
+    assert lengths[1] > 100  # a decision 50 steps into the second episode
+    stopped = SignalAtDecision(make_env(config), lengths[0] + 50)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt, match="after 1 episodes"):
+            train(config, 6, tmp_path / "split", env=stopped)
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert stopped.after == 0  # no decision taken after the one the signal came in
+    meta, _ = load_checkpoint(tmp_path / "split" / "checkpoint.npz")
+    assert meta["episodes_done"] == 1
+    resumed = train(config, 6, tmp_path / "split", options=RunOptions(resume=True))
+    for key in ("episode_lengths", "episode_returns", "greedy_from_rest", "steps"):
+        assert resumed[key] == whole[key], key
 
 
 def test_a_diverging_compiled_learner_checkpoints_its_last_finite_state(

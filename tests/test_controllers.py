@@ -106,6 +106,7 @@ def examples_on_path():
     sys.path.remove(str(EXAMPLES))
 
 
+@pytest.mark.slow
 def test_their_convention_and_ours_give_the_same_torques_and_scores(examples_on_path) -> None:
     """The law of examples/double_pendulum_style.py in both shapes: the performance episode's
     torques equal to the bit, so every score equal; and its global episode too."""

@@ -145,6 +145,7 @@ def test_checked_entries_reach_upright_sooner_from_uniform_starts() -> None:
     assert checked.sum() < 0.85 * unchecked.sum()  # measured 0.79
 
 
+@pytest.mark.slow
 def test_the_constrained_lqr_holds_more_kicks_than_the_saturated_one(tmp_path) -> None:
     # Kicks of U(-0.05, 0.05) rad/s at upright, in MuJoCo, 30 s after a swing-up from rest.
     # Measured over 100 (seed 0): the saturated LQR holds 43 without a fall, the constrained
@@ -204,6 +205,7 @@ def test_a_run_with_another_swing_up_is_refused(tmp_path) -> None:
         load_learner(tmp_path)
 
 
+@pytest.mark.slow
 def test_the_adaptive_controller_replans_on_the_model_it_identifies(tmp_path) -> None:
     # Masses and inertias off by up to 5 %: the nominal funnel balanced 15 of 100 uniform
     # starts, the adaptive one (3 s of its own transitions identify the five lumped parameters;
@@ -229,6 +231,7 @@ def test_the_adaptive_controller_keeps_a_model_that_predicts_its_data(tracker) -
     assert adaptive.adapted == "kept"
 
 
+@pytest.mark.slow
 def test_the_feedback_is_built_for_another_acrobot_and_carries_it(tmp_path, capsys) -> None:
     """``balance --feedback --model ai_olympics``: the tracker along that acrobot's planned
     swing-up, with the levels chosen for it; the run's plan carries the acrobot, and its

@@ -275,19 +275,19 @@ def test_black_box_sizes_are_refused_before_any_work(
     assert not out.exists()
 
 
-def test_the_fewest_decisions_fit_the_library() -> None:
+@pytest.mark.parametrize("harmonics", [1, 4, pytest.param(8, marks=pytest.mark.slow)])
+def test_the_fewest_decisions_fit_the_library(harmonics) -> None:
     from acrobot_mj.identify.library import LibraryModel
     from acrobot_mj.train.black_box import fewest_decisions, fitted_share
 
-    for harmonics in (1, 4, 8):
-        least = fewest_decisions(harmonics)
-        n = fitted_share(least)
-        rng = np.random.default_rng(harmonics)
-        states = rng.uniform(-1.0, 1.0, (n, 4))
-        LibraryModel.fit(states, rng.uniform(-1.0, 1.0, n), states + 0.01, harmonics)
-        with pytest.raises(ValueError, match="cannot fit"):
-            k = fitted_share(least - 1)
-            LibraryModel.fit(states[:k], np.zeros(k), states[:k], harmonics)
+    least = fewest_decisions(harmonics)
+    n = fitted_share(least)
+    rng = np.random.default_rng(harmonics)
+    states = rng.uniform(-1.0, 1.0, (n, 4))
+    LibraryModel.fit(states, rng.uniform(-1.0, 1.0, n), states + 0.01, harmonics)
+    with pytest.raises(ValueError, match="cannot fit"):
+        k = fitted_share(least - 1)
+        LibraryModel.fit(states[:k], np.zeros(k), states[:k], harmonics)
 
 
 @pytest.mark.parametrize(

@@ -83,6 +83,7 @@ def user_report(tmp_path_factory: pytest.TempPathFactory) -> str:
     return stdout
 
 
+@pytest.mark.slow
 def test_a_misspelt_env_keyword_is_a_type_error(user_report: str) -> None:
     errors = _errors(user_report, "user.py")
     assert [line for line, _ in errors] == [4, 6], user_report
@@ -91,6 +92,7 @@ def test_a_misspelt_env_keyword_is_a_type_error(user_report: str) -> None:
     assert "AcrobotEnv" in errors[0][1] and "AcrobotVectorEnv" in errors[1][1]
 
 
+@pytest.mark.slow
 def test_a_misspelt_keyword_of_the_main_functions_is_a_type_error(user_report: str) -> None:
     errors = _errors(user_report, "library.py")
     assert [line for line, _ in errors] == list(range(9, 16)), user_report

@@ -269,6 +269,7 @@ def test_the_mpc_is_the_lqr_until_the_torque_saturates() -> None:
         mpc(UPRIGHT + np.array([np.nan, 0.0, 0.0, 0.0]))
 
 
+@pytest.mark.slow
 def test_the_mpc_recovers_the_kicks_the_null_controllable_region_holds() -> None:
     # On the linear discrete model (where the region is exact): every kick of U(-0.05, 0.05)
     # rad/s well inside is brought back, none outside, and more than the saturated LQR.

@@ -265,7 +265,11 @@ def test_reward_threshold_on_the_specs() -> None:
 
 @pytest.mark.parametrize(
     ("name", "discrete", "solved"),
-    [("reserve", False, True), ("reserve", True, True), ("min_time", True, False)],
+    [
+        ("reserve", False, True),
+        ("reserve", True, True),
+        pytest.param("min_time", True, False, marks=pytest.mark.slow),  # plans a swing-up
+    ],
 )
 def test_the_balance_threshold_separates_balancing_from_falling(name, discrete, solved) -> None:
     # The shipped controllers over one registered episode (2000 steps): those that swing up and

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, Protocol, cast
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.stops import check_stop
+from acrobot_mj.stops import SafePoints, check_stop
 
 if TYPE_CHECKING:  # not at run time: MuJoCo loads with the env
     from acrobot_mj.envs.acrobot import AcrobotEnv
@@ -93,10 +93,12 @@ def run_episode(
     *,
     max_steps: int | None = None,
     hooks: Hooks = UNWATCHED,
+    stops: SafePoints | None = None,
 ) -> Episode:
     """Run one episode of ``actor`` on ``env`` from ``env.reset(seed, options)`` until it ends
     or has taken ``max_steps`` actions (the actor sees a truncation; the Episode the env's
-    flag); ``hooks`` see the reset and each step."""
+    flag); ``hooks`` see the reset and each step. ``stops``: the held stop signals are acted on
+    after each step the actor has seen (a stop raised there cuts the episode short)."""
     check_stop()  # a stop that numba's loader dropped: taken between episodes
     obs, info = env.reset(seed=seed, options=options)
     if hooks.on_reset is not None:
@@ -106,6 +108,7 @@ def run_episode(
     step = cast("Callable[[Any], tuple[Any, float, bool, bool, dict[str, Any]]]", env.step)
     observe, on_step = actor.observe, hooks.on_step
     limit = sys.maxsize if max_steps is None else max_steps
+    held = () if stops is None else stops.held  # checked each step: a list, empty until a stop
     length, total = 0, 0.0
     while True:
         obs, reward, terminated, env_truncated, info = step(action)
@@ -115,6 +118,8 @@ def run_episode(
         total += info.get("unshaped_reward", reward)
         truncated = env_truncated or length >= limit
         action = observe(reward, obs, terminated, truncated)
+        if held:
+            stops.check()  # type: ignore[union-attr]  # held is () without stops
         if terminated or truncated:
             success = bool(info.get("is_success", terminated))
             return Episode(length, float(total), success, bool(env_truncated), info)

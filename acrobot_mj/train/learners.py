@@ -349,7 +349,7 @@ def train_one(
     state = agent.checkpoint_state if isinstance(agent, Rewinding) else agent.state_dict
     watched = watching(run.monitor or False, run_total(config), f"{config.algorithm} seed {seed}")
     try:
-        with SafePoints() as stops, watched as monitor:  # stops land between episodes
+        with SafePoints() as stops, watched as monitor:  # stops land between steps
             books = Books(checkpoints, state, monitor, history, on_episode=run.on_episode)
             books.start()
             stop = _episodes(books, env, agent, stops)
@@ -387,7 +387,9 @@ def _episodes(books: Books, env: gym.Env, agent: Agent, stops: SafePoints) -> Ba
             try:
                 with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
                     seed_now = episode_seed(seed, episode)
-                    result = run_episode(env, Learning(agent), seed_now, options, max_steps=left)
+                    result = run_episode(
+                        env, Learning(agent), seed_now, options, max_steps=left, stops=stops
+                    )
                 books.end(result.length, result.episode_return, result.success)
             except DivergenceError as error:
                 books.checkpoints.save()  # the state after the last finite episode
