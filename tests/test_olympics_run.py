@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,9 +18,11 @@ from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.globaltest import GlobalTester
 from acrobot_mj.olympics.plants import equations
-from acrobot_mj.olympics.protocol import from_protocol
-from acrobot_mj.olympics.run import Conditions, episode
-from acrobot_mj.olympics.scores import final_success, performance
+from acrobot_mj.olympics.protocol import GLOBAL, from_protocol
+from acrobot_mj.olympics.report import olympics_record
+from acrobot_mj.olympics.run import Conditions, OlympicsRun, episode, global_episode, score
+from acrobot_mj.olympics.scaling import protocol_for
+from acrobot_mj.olympics.scores import final_success, performance, uptime
 from acrobot_mj.olympics.sources import Source
 from acrobot_mj.olympics.swing_ups import performance_swing_up
 from acrobot_mj.physics import integrators
@@ -226,3 +229,31 @@ def test_the_funnel_entry_pumps_energy_only_on_ai_olympics() -> None:
         funnel = tracker_of(entries.ENTRIES["funnel"].build(equations(model)))
         assert sign * funnel.act(x, 0.0) * x[3] > 0.0, model
         assert funnel.mode == "fallback"
+
+
+def test_the_global_score_of_several_seeds_is_their_mean_with_a_t_interval() -> None:
+    """Three seeds of a short global test (4 s, 3 resets), over two processes: each seed's
+    uptime is that of its own episode run alone, the score their mean, the interval
+    mean +- t(0.975, 2) s / sqrt(3) with t = 4.302652729749 (a printed t table)."""
+    short = replace(GLOBAL, t_final=4.0, resets=3)
+    rules = replace(protocol_for("ai_olympics"), global_policy=short)
+    run = OlympicsRun(Constant(), parts=("global",), seed=3, jobs=2, protocol=rules, global_seeds=3)
+    record = olympics_record(run.run())["global"]
+    alone = [
+        uptime(global_episode(Constant(), "ai_olympics", s, short)[0], 0.2, 0.3, 4.0)
+        for s in (3, 4, 5)
+    ]
+    assert [s["seed"] for s in record["seeds"]] == [3, 4, 5]
+    assert [s["uptime"] for s in record["seeds"]] == [a["uptime"] for a in alone]
+    values = np.array([a["score"] for a in alone])
+    assert len(set(values)) == 3  # three different episodes
+    assert record["score"] == pytest.approx(values.mean(), abs=1e-15)
+    half = 4.302652729749 * values.std(ddof=1) / math.sqrt(3)
+    assert record["interval"] == pytest.approx([values.mean() - half, values.mean() + half])
+    assert record["episode"]["disturbance"]["reset_times"] == pytest.approx(
+        short.draw(np.random.default_rng(3))[1].tolist()
+    )
+    with pytest.raises(ValueError, match="global_seeds=2 needs the global score"):
+        score(Constant(), scores=("performance",), global_seeds=2)
+    with pytest.raises(ValueError, match=r"global_seeds must be in \[1, 10000\], got 0"):
+        OlympicsRun(Constant(), global_seeds=0)

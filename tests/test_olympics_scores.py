@@ -273,7 +273,8 @@ def small_results() -> Olympics:
         performance=performance,
         categories=categories,
         episodes=episodes,
-        global_episode=episode(slice(200, None), 1.0),
+        global_episodes=(episode(slice(200, None), 1.0),),
+        global_seeds=(0,),
         global_draws={"reset_times": [0.5]},
     )
 
@@ -323,3 +324,26 @@ def test_a_foreign_or_corrupt_record_is_one_line(tmp_path) -> None:
         with pytest.raises(ValueError, match=words) as error:
             read_olympics(path)
         assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("p", "dof", "table"),
+    # Student's t quantiles from a printed table (NIST/SEMATECH e-Handbook, 1.3.6.7.2).
+    [
+        (0.975, 1, 12.706),
+        (0.975, 2, 4.303),
+        (0.975, 7, 2.365),
+        (0.975, 29, 2.045),
+        (0.95, 10, 1.812),
+    ],
+)
+def test_the_t_quantile_is_the_tables(p, dof, table) -> None:
+    assert scores.t_quantile(p, dof) == pytest.approx(table, abs=5e-4)  # the table's 3 decimals
+
+
+def test_the_t_quantile_refuses_what_it_cannot_give() -> None:
+    with pytest.raises(ValueError, match="dof >= 1"):
+        scores.t_quantile(0.975, 0)
+    with pytest.raises(ValueError, match=r"0\.5 <= p < 1"):
+        scores.t_quantile(1.0, 3)
+    assert scores.mean_interval([0.4])["interval"] is None  # one seed: no spread to measure

@@ -55,6 +55,14 @@ def add_olympics(commands: tools.Commands) -> None:
     )
     p.add_argument("--out", type=tools.path_text, required=True, help="folder for olympics.json")
     p.add_argument("--seed", type=tools.seed, default=0, help="seed of every draw")
+    p.add_argument(
+        "--seeds",
+        type=tools.positive_int,
+        default=1,
+        metavar="K",
+        help="the global score over K seeds from --seed (one episode each): their mean, its 95 "
+        "%% interval and every seed's uptime",
+    )
     p.add_argument("--jobs", type=tools.positive_int, default=1, help="processes for episodes")
     p.add_argument("--force", action="store_true", help="replace a record already in --out")
     tools.add_progress(p)
@@ -78,6 +86,7 @@ def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
         args.seed,
         args.jobs,
         tools.show_progress(args),
+        global_seeds=args.seeds,
     )
     path = write_olympics(Path(args.out), run.run())
     record = read_olympics(path)
@@ -99,6 +108,11 @@ def summary(record: dict[str, Any]) -> str:
             f"robustness {overall:.3f} ({categories})" if overall is not None else categories
         )
     if record.get("global"):
-        words.append(f"global {record['global']['score']:.3f}")
+        run = record["global"]
+        spread = ""
+        if run.get("interval"):
+            low, high = run["interval"]
+            spread = f" (mean of {len(run['seeds'])} seeds, 95 % interval {low:.3f}-{high:.3f})"
+        words.append(f"global {run['score']:.3f}{spread}")
     scaled = record.get("protocol") not in (None, "ai_olympics")
     return ("scaled protocol: " if scaled else "") + ", ".join(words)

@@ -85,10 +85,10 @@ Episodes = Sequence[Sequence[Sequence[EpisodeRecord]]]
 class Olympics:
     """What a run of the protocol produced: the ``model`` (as JSON) and its arm ``lengths``
     ``(l1, l2)`` [m], the ``seeds`` of every draw; the ``performance`` episode; the robustness
-    ``categories`` run and their ``episodes`` by category key; the ``global_episode`` and its
-    ``global_draws`` (targets, reset times, as JSON); the ``protocol`` they ran under (the
-    original or scaled, :mod:`~acrobot_mj.olympics.scaling`). A part not run is None or
-    empty."""
+    ``categories`` run and their ``episodes`` by category key; the ``global_episodes`` of
+    ``global_seeds`` (one per seed) and the first one's ``global_draws`` (targets, reset times,
+    as JSON); the ``protocol`` they ran under (the original or scaled,
+    :mod:`~acrobot_mj.olympics.scaling`). A part not run is None or empty."""
 
     model: Mapping[str, Any]
     lengths: tuple[float, float]
@@ -96,9 +96,21 @@ class Olympics:
     performance: Recording | None = None
     categories: tuple[Category, ...] = ()
     episodes: Mapping[str, Episodes] = field(default_factory=dict)
-    global_episode: Recording | None = None
+    global_episodes: Sequence[Recording] = ()
+    global_seeds: Sequence[int] = ()
     global_draws: Mapping[str, Any] = field(default_factory=dict)
     protocol: Rules = ORIGINAL
+
+    def __post_init__(self) -> None:
+        if len(self.global_seeds) != len(self.global_episodes):
+            raise ValueError(
+                f"{len(self.global_episodes)} global episodes for {len(self.global_seeds)} seeds"
+            )
+
+    @property
+    def global_episode(self) -> Recording | None:
+        """The first seed's global episode, the one the record keeps whole (None: none)."""
+        return self.global_episodes[0] if self.global_episodes else None
 
 
 def _category(category: Category, episodes: Episodes) -> dict[str, Any]:
@@ -156,9 +168,21 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
         record["robustness"] = robustness
     if results.global_episode is not None:
         g = used.global_policy
-        up = scores.uptime(results.global_episode, l1, l2, g.t_final, g.height)
+        ups = [scores.uptime(run, l1, l2, g.t_final, g.height) for run in results.global_episodes]
         episode = EpisodeRecord.of(results.global_episode, True, results.global_draws)
-        record["global"] = {**up, "episode": episode.to_dict()}
+        record["global"] = {
+            **ups[0],
+            "episode": episode.to_dict(),
+            "seeds": [{"seed": s, **up} for s, up in zip(results.global_seeds, ups, strict=True)],
+        }
+        if len(ups) > 1:  # the score is the mean over the seeds
+            spread = scores.mean_interval([up["score"] for up in ups])
+            record["global"] |= {
+                "uptime": float(np.mean([up["uptime"] for up in ups])),
+                "score": spread["mean"],
+                "interval": spread["interval"],
+                "level": spread["level"],
+            }
     return sealed(record)
 
 
@@ -220,7 +244,10 @@ def write_olympics(folder: str | Path, results: Olympics) -> Path:
             title = (
                 f"Performance: score {run['score']:.3f}, swing-up time {run['swingup_time']} s"
                 if part == "performance"
-                else f"Global policy: uptime {run['uptime']:.2f} s, score {run['score']:.3f}"
+                else (
+                    f"Global policy, seed {run['seeds'][0]['seed']}: uptime "
+                    f"{run['seeds'][0]['uptime']:.2f} s, score {run['seeds'][0]['score']:.3f}"
+                )
             )
             heights = scores.tip_heights(to_protocol(recording.X), l1, l2)
             line = PERFORMANCE.height * (l1 + l2)

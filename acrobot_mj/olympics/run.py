@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.bars import Steps
+from acrobot_mj.checks import check_int
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.envs.acrobot import AcrobotEnv
 from acrobot_mj.envs.model_error import ModelError
@@ -244,7 +245,8 @@ class OlympicsRun:
     :data:`PARTS`, every draw from ``seed``, episodes on ``jobs`` processes (a controller
     object must then be picklable), a bar on stderr with ``progress``; ``protocol`` (None: the
     original on ``ai_olympics``, else scaled to ``model``,
-    :func:`~acrobot_mj.olympics.scaling.protocol_for`)."""
+    :func:`~acrobot_mj.olympics.scaling.protocol_for`); ``global_seeds`` global episodes, of
+    seeds ``seed``, ``seed + 1``, ... (their mean is the global score)."""
 
     scored: Scored
     model: str = "ai_olympics"
@@ -253,8 +255,12 @@ class OlympicsRun:
     jobs: int = 1
     progress: bool = False
     protocol: Rules | None = None
+    global_seeds: int = 1
 
     def __post_init__(self) -> None:
+        check_int("global_seeds", self.global_seeds, 1, 10_000)
+        if self.global_seeds > 1 and "global" not in self.parts:
+            raise ValueError(f"global_seeds={self.global_seeds} needs the global score")
         if isinstance(self.scored, str):
             object.__setattr__(self, "scored", Source(self.scored))
         if isinstance(self.scored, Source):
@@ -279,8 +285,10 @@ class OlympicsRun:
             for category in categories
             for c in _calls(self.scored, self.model, category, self.seed, robustness)
         ]
-        total = len(work) + ("performance" in self.parts) + ("global" in self.parts)
-        pool = WorkerPool(self.jobs) if self.jobs > 1 and work else None
+        drawn = range(self.seed, self.seed + self.global_seeds) if "global" in self.parts else ()
+        tests = [(self.scored, self.model, s, used.global_policy) for s in drawn]
+        total = len(work) + ("performance" in self.parts) + len(tests)
+        pool = WorkerPool(self.jobs) if self.jobs > 1 and len(work) + len(tests) > 1 else None
         with (
             pool or contextlib.nullcontext(),
             Steps(total, "olympics", self.progress, "episodes") as bar,
@@ -301,11 +309,15 @@ class OlympicsRun:
             for record in each:
                 records.append(record)
                 bar.done("robustness")
-            global_run, draws = None, dict[str, Any]()
-            if "global" in self.parts:
-                global_run, draws = global_episode(
-                    self.scored, self.model, self.seed, used.global_policy
-                )
+            runs, draws = [], dict[str, Any]()
+            each = (
+                (global_episode(*c) for c in tests)
+                if pool is None
+                else pool.map(global_episode, tests)
+            )
+            for recording, drawn_here in each:
+                runs.append(recording)
+                draws = draws or drawn_here  # the first seed's
                 bar.done("global")
         p = model.params
         return Olympics(
@@ -315,7 +327,8 @@ class OlympicsRun:
             performance=performance,
             categories=categories,
             episodes=_grouped(categories, records),
-            global_episode=global_run,
+            global_episodes=tuple(runs),
+            global_seeds=tuple(drawn),
             global_draws=draws,
             protocol=used,
         )
@@ -328,15 +341,18 @@ def score(
     scores: tuple[str, ...] = PARTS,
     seed: int = 0,
     jobs: int = 1,
+    global_seeds: int = 1,
 ) -> dict[str, Any]:
     """The protocol's ``scores`` (some of :data:`PARTS`) of ``controller`` on ``model``: a
     :class:`~acrobot_mj.control.controller.Controller`, an object in ``double_pendulum``'s
     convention, a :class:`~acrobot_mj.olympics.sources.Source` or its name. The record
     :func:`~acrobot_mj.olympics.report.olympics_record` makes (every score, every episode),
-    nothing written."""
+    nothing written; ``global_seeds``: the global score's mean over that many seeds from
+    ``seed``, with its 95 % interval."""
     from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention
     from acrobot_mj.olympics.report import olympics_record
 
     if isinstance(controller, DoublePendulumController) and not isinstance(controller, Controller):
         controller = TheirConvention(controller)
-    return olympics_record(OlympicsRun(controller, model, tuple(scores), seed, jobs).run())
+    run = OlympicsRun(controller, model, tuple(scores), seed, jobs, global_seeds=global_seeds)
+    return olympics_record(run.run())

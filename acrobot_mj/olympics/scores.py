@@ -208,3 +208,38 @@ def uptime(
     up = is_up(X, l1, l2, height)
     time = float(np.sum(np.diff(T, prepend=0.0)[up]))
     return {"uptime": time, "score": float(1.0 * time / t_final)}
+
+
+def t_quantile(p: float, dof: int) -> float:
+    """Student's t quantile: the x with P(T <= x) = ``p`` (0.5 <= p < 1) for ``dof`` >= 1
+    degrees of freedom; the CDF integrated by Simpson's rule on a change of variable that
+    maps the whole half-line onto a finite interval, solved by bisection (to about 1e-9)."""
+    if not 0.5 <= p < 1.0 or dof < 1:
+        raise ValueError(f"t_quantile needs 0.5 <= p < 1 and dof >= 1, got p={p}, dof={dof}")
+    log_c = math.lgamma((dof + 1) / 2) - math.lgamma(dof / 2) - 0.5 * math.log(dof * math.pi)
+
+    def above_half(x: float) -> float:  # P(0 <= T <= x), with t = x s, s in [0, 1]
+        s = np.linspace(0.0, 1.0, 2001)
+        density = np.exp(log_c - (dof + 1) / 2 * np.log1p((x * s) ** 2 / dof))
+        weights = np.ones(s.size)
+        weights[1:-1:2], weights[2:-1:2] = 4.0, 2.0
+        return float(x * (s[1] - s[0]) / 3.0 * weights @ density)
+
+    low, high = 0.0, 1.0
+    while above_half(high) < p - 0.5:
+        low, high = high, 2.0 * high
+    for _ in range(100):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if above_half(middle) < p - 0.5 else (low, middle)
+    return 0.5 * (low + high)
+
+
+def mean_interval(values: Sequence[float], level: float = 0.95) -> dict[str, object]:
+    """The mean of ``values`` (episodes of independent seeds) and its ``level`` confidence
+    interval by Student's t (None with fewer than two values)."""
+    x = np.asarray(values, dtype=float)
+    mean = float(x.mean())
+    if x.size < 2:
+        return {"mean": mean, "interval": None, "level": level}
+    half = t_quantile(0.5 + level / 2, x.size - 1) * float(x.std(ddof=1)) / math.sqrt(x.size)
+    return {"mean": mean, "interval": [mean - half, mean + half], "level": level}
