@@ -310,12 +310,12 @@ class OlympicsRun:
                 records.append(record)
                 bar.done("robustness")
             runs, draws = [], dict[str, Any]()
-            each = (
+            tested = (
                 (global_episode(*c) for c in tests)
                 if pool is None
                 else pool.map(global_episode, tests)
             )
-            for recording, drawn_here in each:
+            for recording, drawn_here in tested:
                 runs.append(recording)
                 draws = draws or drawn_here  # the first seed's
                 bar.done("global")
