@@ -53,7 +53,7 @@ def main() -> None:
     print(f"{len(plans)} plans; lengths [s]: min, median, max {lengths.round(2).tolist()}")
     policy = protocol_for("report").global_policy
     for seed in (int(s) for s in arguments.seeds.split(",")):
-        targets, times = policy.draw(np.random.default_rng(seed))
+        targets, times = policy.draw(seed)
         plant = equations("report")
         counted = Entries(backward(plant, plans))
         run = global_run(plant.estimated(counted), "report", targets, times, policy)

@@ -69,7 +69,7 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = PLANS) -> P
     controller = plant.estimated(tracker)
     started = time.process_time()
     for seed in range(first, first + count):
-        targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
+        targets, reset_times = GLOBAL.draw(seed)
         before = dict(tracker_stats(tracker))
         recording = global_run(controller, "ai_olympics", targets, reset_times)
         for plan in tracker.planned[before["planned"] :]:

@@ -73,10 +73,10 @@ def shortest(model: str, x0: np.ndarray, longest: float) -> float | None:
 
 def starts(model: str, seed: int, count: int, resets: bool) -> list[np.ndarray]:
     """The starts (4,) [rad, rad/s]: rest poses, or the states after the first resets."""
-    rng = np.random.default_rng(seed)
     if resets:
-        targets = from_protocol(protocol_for(model).global_policy.draw(rng)[0])
+        targets = from_protocol(protocol_for(model).global_policy.draw(seed)[0])
         return [after_reset(model, target) for target in targets[:count]]
+    rng = np.random.default_rng(seed)
     return [np.append(rng.uniform(-np.pi, np.pi, 2), [0.0, 0.0]) for _ in range(count)]
 
 

@@ -41,7 +41,7 @@ def main(entry: str, seed: int) -> None:
     started = time.perf_counter()
     controller = Timed(sources.build(sources.Source(entry), "ai_olympics"))
     built = time.perf_counter() - started
-    targets, reset_times = GLOBAL.draw(np.random.default_rng(seed))
+    targets, reset_times = GLOBAL.draw(seed)
     recording = global_run(controller, "ai_olympics", targets, reset_times)
     p = resolve("ai_olympics").params
     score = uptime(recording, p.l1, p.l2, GLOBAL.t_final, GLOBAL.height)["score"]

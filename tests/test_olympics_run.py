@@ -179,6 +179,14 @@ def test_olympics_command_refuses_a_file_as_out(tmp_path, capsys) -> None:
         (["olympics", "", "--out", "x"], "must name a path"),  # once the current folder
         (["olympics", "funnel", "--scores", "speed", "--out", "x"], "--scores"),
         (["olympics", "funnel", "--model", "dm_control", "--out", "x"], "no planned swing-up"),
+        (["olympics", "funnel", "--global-test", "april", "--out", "x"], "got 'april'"),
+        (["olympics", "funnel", "--global-test", "icra2025:me", "--out", "x"], "got 'me'"),
+        (
+            ["olympics", "funnel", "--global-test", "icra2025:AR-EAPO", "--seeds", "2"]
+            + ["--out", "x"],
+            "is one draw: give no --seeds",
+        ),
+        (["olympics", "funnel", "--scores", "performance", "--seeds", "2", "--out", "x"], "global"),
     ],
 )
 def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
@@ -238,12 +246,14 @@ def test_the_global_score_of_several_seeds_is_their_mean_with_a_t_interval() -> 
     short = replace(GLOBAL, t_final=4.0, resets=3)
     rules = replace(protocol_for("ai_olympics"), global_policy=short)
     run = OlympicsRun(Constant(), parts=("global",), seed=3, jobs=2, protocol=rules, global_seeds=3)
-    record = olympics_record(run.run())["global"]
+    whole = olympics_record(run.run())
+    record = whole["global"]
     alone = [
         uptime(global_episode(Constant(), "ai_olympics", s, short)[0], 0.2, 0.3, 4.0)
         for s in (3, 4, 5)
     ]
     assert [s["seed"] for s in record["seeds"]] == [3, 4, 5]
+    assert whole["scaling"]["constants"]["global"]["version"] == "current"
     assert [s["uptime"] for s in record["seeds"]] == [a["uptime"] for a in alone]
     values = np.array([a["score"] for a in alone])
     assert len(set(values)) == 3  # three different episodes
@@ -251,7 +261,7 @@ def test_the_global_score_of_several_seeds_is_their_mean_with_a_t_interval() -> 
     half = 4.302652729749 * values.std(ddof=1) / math.sqrt(3)
     assert record["interval"] == pytest.approx([values.mean() - half, values.mean() + half])
     assert record["episode"]["disturbance"]["reset_times"] == pytest.approx(
-        short.draw(np.random.default_rng(3))[1].tolist()
+        short.draw(3)[1].tolist()
     )
     with pytest.raises(ValueError, match="global_seeds=2 needs the global score"):
         score(Constant(), scores=("performance",), global_seeds=2)

@@ -237,7 +237,7 @@ def _reset_energy(model: str, policy: GlobalPolicy, start: np.ndarray, count: in
     arm with, from ``start`` (ours, unwrapped, at rest), when the reset lets go."""
     p = MODELS[model].analytic
     up, down = (float(dynamics.total_energy(x[:2], x[2:], p)) for x in (UPRIGHT, HANGING))
-    targets = from_protocol(policy.draw(np.random.default_rng(0))[0][:count])
+    targets = from_protocol(policy.draw(0)[0][:count])
     let_go = replace(policy, t_final=policy.reset_length + 2 * policy.dt)
     shares = []
     for target in targets:

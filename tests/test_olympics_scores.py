@@ -216,7 +216,7 @@ def test_the_draws_are_seeded_and_within_the_protocols_ranges() -> None:
     assert torques.shape == (2, 5000)
     k = round(drawn.mu[1, 0] / 0.002)
     assert torques[1, k] == pytest.approx(drawn.amplitude[1, 0], abs=0.01)
-    targets, resets = GLOBAL.draw(np.random.default_rng(3))
+    targets, resets = GLOBAL.draw(3)
     assert targets.shape == (151, 4) and np.all(targets[:, 2:] == 0.0)
     assert np.all(np.abs(targets[:, :2]) <= math.pi)
     nominal = np.linspace(60 / 16, 60 - 60 / 16, 15)

@@ -5,6 +5,8 @@ is the protocol's own definition (dfki-ric-underactuated-lab/double_pendulum: th
 them fails here: the up test's strict inequality, the delay's mode, the overall robustness as a
 mean, each category's conditions, and the robustness run's episodes, order and pool."""
 
+# ruff: noqa: NPY002  # the April 2025 global test draws from numpy's legacy global generator
+
 from __future__ import annotations
 
 import math
@@ -145,3 +147,65 @@ def test_an_episode_cut_short_has_no_swing_up_time() -> None:
     up = np.ones(1000, dtype=bool)
     assert scores.swingup_time(np.linspace(0.0, 9.5, 1000), up, 10.0) == math.inf
     assert scores.swingup_time(np.linspace(0.0, 9.95, 1000), up, 10.0) < math.inf
+
+
+def their_draw(version: str, seed: int, n: int = 15, t_max: float = 60.0):
+    """The global test's draws in double_pendulum's own lines
+    (src/python/double_pendulum/controller/global_policy_testing_controller.py,
+    ``GlobalPolicyTestingControllerV2.__init__``): commit 9bb3a032, which the ICRA 2025
+    simulation leaderboard ran (April 2025), and ff81de3d (current), on numpy's global
+    generator seeded as ``np.random.seed(seed)`` (9bb3a032) or a seeded Generator (here)."""
+    if version == "icra2025":
+        np.random.seed(seed)
+        random_states = np.random.uniform(0.0, 2 * np.pi, (n, 4))
+        random_states -= np.pi
+        random_states.T[2:] *= 4.0
+        avg_time_between_reset = t_max / float(n + 1)
+        reset_times = np.arange(avg_time_between_reset, t_max, avg_time_between_reset) + 2.0 * (
+            np.random.rand(n) - 0.5
+        )
+        return random_states, reset_times
+    rng = np.random.default_rng(seed)
+    random_states = rng.uniform(0.0, 2 * np.pi, (10 * n + 1, 4))
+    random_states -= np.pi
+    random_states.T[2:] *= 0.0
+    avg_time_between_reset = t_max / float(n + 1)
+    reset_times = np.linspace(avg_time_between_reset, t_max - avg_time_between_reset, n) + 2.0 * (
+        rng.random(n) - 0.5
+    )
+    return random_states, reset_times
+
+
+@pytest.mark.parametrize("version", ["current", "icra2025"])
+@pytest.mark.parametrize("seed", [0, 333, 777])
+def test_the_global_draws_are_the_protocols_to_the_bit(version, seed) -> None:
+    state = np.random.get_state()
+    try:
+        targets, times = their_draw(version, seed)
+    finally:
+        np.random.set_state(state)
+    ours = replace(GLOBAL, version=version).draw(seed)
+    assert np.array_equal(ours[0], targets) and np.array_equal(ours[1], times)
+
+
+def test_the_leaderboards_draw_is_replayed() -> None:
+    # Seed 333's first reset times, as the leaderboard's stored acrobot plots show them
+    # (mcpilco's and prx's, within 0.18 s of a plot's pixels): 3.40 s, 6.86 s, 11.08 s.
+    targets, times = replace(GLOBAL, version="icra2025", replay="mcpilco").draw(5)
+    assert times[:3] == pytest.approx([3.4035, 6.8570, 11.0847], abs=1e-4)
+    assert targets.shape == (15, 4)
+    state = np.random.get_state()
+    try:
+        np.random.seed(333)
+        np.random.random_sample(1_146_567)  # what the entries before AR-EAPO drew
+        expected = np.arange(3.75, 60.0, 3.75)[:15]
+        np.random.uniform(size=60)
+        expected = expected + 2.0 * (np.random.rand(15) - 0.5)
+    finally:
+        np.random.set_state(state)
+    replayed = replace(GLOBAL, version="icra2025", replay="AR-EAPO").draw(0)[1]
+    assert np.array_equal(replayed, expected)
+    with pytest.raises(ValueError, match="one of \\['current', 'icra2025'\\], got 'april'"):
+        replace(GLOBAL, version="april")
+    with pytest.raises(ValueError, match="replay is a draw of the icra2025 version"):
+        replace(GLOBAL, replay="AR-EAPO")  # the current version

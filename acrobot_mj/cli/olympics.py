@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from acrobot_mj.cli import tools
 from acrobot_mj.cli.controllers import CONTROLLERS, add_source, source_of
+from acrobot_mj.olympics.protocol import GLOBAL_VERSIONS, ICRA2025_DRAWS, GlobalPolicy
 from acrobot_mj.olympics.report import RECORD_FILE, read_olympics, write_olympics
 from acrobot_mj.olympics.run import PARTS, OlympicsRun
+from acrobot_mj.olympics.scaling import protocol_for
 
 
 def parts(text: str) -> tuple[str, ...]:
@@ -19,6 +22,17 @@ def parts(text: str) -> tuple[str, ...]:
     if unknown or not chosen:
         raise argparse.ArgumentTypeError(f"must be some of {','.join(PARTS)}, got {text!r}")
     return chosen
+
+
+def global_test(text: str) -> tuple[str, str]:
+    """An argparse type: a version of the global test, with ``:ENTRY`` a leaderboard entry's
+    draw to replay (:data:`~acrobot_mj.olympics.protocol.ICRA2025_DRAWS`)."""
+    version, _, replay = text.partition(":")
+    try:
+        GlobalPolicy(version=version, replay=replay)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return version, replay
 
 
 def add_olympics(commands: tools.Commands) -> None:
@@ -63,6 +77,15 @@ def add_olympics(commands: tools.Commands) -> None:
         help="the global score over K seeds from --seed (one episode each): their mean, its 95 "
         "%% interval and every seed's uptime",
     )
+    p.add_argument(
+        "--global-test",
+        type=global_test,
+        default=("current", ""),
+        metavar="VERSION[:ENTRY]",
+        help=f"the global test's draws: {' or '.join(GLOBAL_VERSIONS)} (the ICRA 2025 "
+        "leaderboard's, April 2025); icra2025:ENTRY replays that entry's draw ("
+        f"{', '.join(ICRA2025_DRAWS)}) (default: current)",
+    )
     p.add_argument("--jobs", type=tools.positive_int, default=1, help="processes for episodes")
     p.add_argument("--force", action="store_true", help="replace a record already in --out")
     tools.add_progress(p)
@@ -79,6 +102,11 @@ def check_out(folder: Path, force: bool) -> None:
 def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
     check_out(Path(args.out), args.force)
     source, model = source_of(args, args.controller)
+    version, replay = args.global_test
+    if replay and args.seeds > 1:
+        raise ValueError(f"--global-test {version}:{replay} is one draw: give no --seeds")
+    rules = protocol_for(model)
+    drawn = replace(rules.global_policy, version=version, replay=replay)
     run = OlympicsRun(
         source,
         model,
@@ -86,6 +114,7 @@ def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
         args.seed,
         args.jobs,
         tools.show_progress(args),
+        replace(rules, global_policy=drawn),
         global_seeds=args.seeds,
     )
     path = write_olympics(Path(args.out), run.run())

@@ -310,13 +310,40 @@ class Robustness:
         )
 
 
+#: The versions of the global test's draws (double_pendulum,
+#: src/python/double_pendulum/controller/global_policy_testing_controller.py): ``"current"``
+#: (commit ff81de3d, May 2025: 10 resets + 1 targets drawn, then the jitters) and
+#: ``"icra2025"`` (commit 9bb3a032, which the ICRA 2025 simulation leaderboard ran in April
+#: 2025: one target a reset, then the jitters, from numpy's legacy global generator).
+GLOBAL_VERSIONS = ("current", "icra2025")
+
+#: The ICRA 2025 acrobot simulation leaderboard's draws: ``(seed, skip)`` by entry, the seed
+#: of ``np.random.RandomState`` and the doubles drawn from it before the entry's draw. One
+#: process seeded ``np.random.seed(333)`` (double_pendulum 95048f84,
+#: leaderboard/acrobot/simulation_v3/sim_parameters.py, as a comment) and ran the entries in
+#: turn; each simulation drew normals every step, so each later entry's draw begins that
+#: many doubles into the stream. Found by matching the reset times seen in the leaderboard's
+#: stored plots (real_ai_gym_leaderboard, data/acrobot/simulation_icra2025/<entry>/
+#: timeseries.png): every reset time seen within 0.18 s, against 6 of 15 for seed 777.
+ICRA2025_DRAWS = {
+    "mcpilco": (333, 0),
+    "prx_analytical": (333, 0),
+    "VIMPPI": (333, 381_853),
+    "AcadosMpc": (333, 764_226),
+    "AR-EAPO": (333, 1_146_567),
+}
+
+
 @dataclass(frozen=True)
 class GlobalPolicy:
     """The global policy leaderboard (simulation_v3): one episode of ``t_final`` [s] from
     hanging; ``resets`` times (evenly spaced, each moved by up to ``jitter`` [s]) a PID (gains
     ``kp``, ``ki``, ``kd``, its own step ``pid_dt`` [s], both joints clipped to ``torque_limit``
     [N m]) plus gravity compensation drives the arm to a random target for more than
-    ``reset_length`` [s]; the score is the time up over ``t_final``."""
+    ``reset_length`` [s]; the score is the time up over ``t_final``. ``version``: how the
+    targets and times are drawn (:data:`GLOBAL_VERSIONS`); ``replay``: with ``"icra2025"``,
+    an entry of :data:`ICRA2025_DRAWS` whose draw every episode replays (whatever its seed).
+    """
 
     t_final: float = 60.0
     dt: float = DT
@@ -329,19 +356,45 @@ class GlobalPolicy:
     ki: float = 0.1
     kd: float = 1.0
     pid_dt: float = 0.001
+    version: str = "current"
+    replay: str = ""
+
+    def __post_init__(self) -> None:
+        if self.version not in GLOBAL_VERSIONS:
+            raise ValueError(
+                f"the global test's version must be one of {list(GLOBAL_VERSIONS)}, "
+                f"got {self.version!r}"
+            )
+        if self.replay and (self.version != "icra2025" or self.replay not in ICRA2025_DRAWS):
+            raise ValueError(
+                f"replay is a draw of the icra2025 version, one of {list(ICRA2025_DRAWS)}; "
+                f"got {self.replay!r} with version {self.version!r}"
+            )
 
     @property
     def steps(self) -> int:
         """The episode's step count N (:func:`step_count`)."""
         return step_count(self.t_final, self.dt)
 
-    def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """The episode's targets (10 resets + 1, 4) in the protocol's convention (angles uniform
-        in ``[-pi, pi)``, velocities 0) and its reset times (resets,) [s], drawn from ``rng`` in
-        the protocol's order."""
+    def draw(self, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """The episode's targets in the protocol's convention (angles uniform in ``[-pi, pi)``;
+        (10 resets + 1, 4), velocities 0, or with ``"icra2025"`` (resets, 4), velocities
+        uniform in ``[-4 pi, 4 pi)``, which the PID does not use) and its reset times (resets,)
+        [s], drawn in the protocol's order: ``"current"`` from ``np.random.default_rng(seed)``,
+        ``"icra2025"`` from ``np.random.RandomState(seed)`` (``np.random.seed``), or the
+        ``replay`` entry's seed after its skipped doubles."""
+        gap = self.t_final / float(self.resets + 1)
+        if self.version == "icra2025":
+            seed, skip = ICRA2025_DRAWS[self.replay] if self.replay else (seed, 0)
+            legacy = np.random.RandomState(seed)
+            legacy.random_sample(skip)
+            targets = legacy.uniform(0.0, 2 * np.pi, (self.resets, 4)) - np.pi
+            targets[:, 2:] *= 4.0
+            nominal = np.arange(gap, self.t_final, gap)[: self.resets]  # 15 of 60 s
+            return targets, nominal + 2.0 * self.jitter * (legacy.rand(self.resets) - 0.5)
+        rng = np.random.default_rng(seed)
         targets = rng.uniform(0.0, 2 * np.pi, (10 * self.resets + 1, 4)) - np.pi
         targets[:, 2:] *= 0.0
-        gap = self.t_final / float(self.resets + 1)
         nominal = np.linspace(gap, self.t_final - gap, self.resets)
         return targets, nominal + 2.0 * self.jitter * (rng.random(self.resets) - 0.5)
 

@@ -153,7 +153,7 @@ def global_episode(
 ) -> tuple[Recording, dict[str, Any]]:
     """The global-policy episode of ``seed``: the controller ``scored`` in :func:`global_run`
     for ``policy``'s episode, random targets and reset times."""
-    targets, reset_times = policy.draw(np.random.default_rng(seed))
+    targets, reset_times = policy.draw(seed)
     recording = global_run(sources.build(scored, model), model, targets, reset_times, policy)
     return recording, {"targets": targets.tolist(), "reset_times": reset_times.tolist()}
 
