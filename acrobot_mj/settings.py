@@ -180,7 +180,7 @@ def _sequence(name: str, meta: Mapping[str, Any], kind: Any, value: Any) -> tupl
     fixed = None if len(args) == 2 and args[1] is Ellipsis else len(args)
     label = _label(name, meta)
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list, np.ndarray)):
-        raise SettingError(f"{label} must be {_sequence_words(meta, fixed)}, got {value!r}")
+        raise SettingError(f"{label} must be {_sequence_words(meta, fixed, item)}, got {value!r}")
     inner = {k: v for k, v in meta.items() if k != "unit"}
     try:
         values = tuple(_scalar(name, inner, item, v) for v in value)
@@ -188,20 +188,21 @@ def _sequence(name: str, meta: Mapping[str, Any], kind: Any, value: Any) -> tupl
             _in_range(name, inner, item, v)
     except SettingError:
         raise SettingError(
-            f"{label} must be {_sequence_words(meta, fixed)}, got {value!r}"
+            f"{label} must be {_sequence_words(meta, fixed, item)}, got {value!r}"
         ) from None
     wrong = not values or (fixed is not None and len(values) != fixed)
     if wrong or (meta.get("sep") == ":" and values[1] <= values[0]):
-        raise SettingError(f"{label} must be {_sequence_words(meta, fixed)}, got {values!r}")
+        raise SettingError(f"{label} must be {_sequence_words(meta, fixed, item)}, got {values!r}")
     return values
 
 
-def _sequence_words(meta: Mapping[str, Any], fixed: int | None) -> str:
+def _sequence_words(meta: Mapping[str, Any], fixed: int | None, item: type = int) -> str:
     unit = meta.get("unit", "")
     if meta.get("sep") == ":":
         return f"(start, stop, step) {unit} > 0 with stop > start".replace("  ", " ")
-    bounds = _bounds(meta, int)
-    return f"{'a tuple' if fixed is None else f'{fixed}'} of integers {bounds}".strip()
+    bounds = _bounds(meta, item)
+    what = "integers" if item is int else "numbers"
+    return f"{'a tuple of' if fixed is None else fixed} {what} {bounds}".strip()
 
 
 def checked(cls: type, name: str, value: Any) -> Any:

@@ -4,12 +4,15 @@ the recorded states; and the measures of catching, falling and recovering."""
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 from acrobot_mj.envs.disturbances import (
     Disturbances,
+    Perturbation,
     recoveries,
     replay,
 )
@@ -100,6 +103,31 @@ def test_a_protocol_of_the_old_settings_reads_as_before() -> None:
 def test_bad_settings_are_refused_by_name(settings, words) -> None:
     with pytest.raises(ValueError, match=words):
         HeldOut(**settings)
+
+
+@pytest.mark.parametrize(
+    ("settings", "words"),
+    [
+        ({"mass_scale": 0.0}, "mass_scale must be > 0, got 0"),
+        ({"inertia_scale": -1.0}, r"inertia_scale must be in \(0, 10\]"),
+        ({"start_offset": (0.1, 0.0)}, "start_offset must be 4 numbers in"),
+        ({"start_offset": (2.0, 0.0, 0.0, 0.0)}, r"start_offset must be 4 numbers in \[-1, 1\]"),
+        ({"torque_noise": float("nan")}, "torque_noise must be finite"),
+        ({"seed": -1}, "seed must be"),
+    ],
+)
+def test_a_bad_perturbation_is_refused_by_name(settings, words) -> None:
+    # Before, a Perturbation was a plain dataclass: a mass scale of 0 reached MuJoCo.
+    with pytest.raises(ValueError, match=words):
+        Perturbation(**settings)
+
+
+def test_the_disturbances_are_declared_once_and_held_out_adds_the_starts() -> None:
+    own = {f.name for f in fields(Disturbances)}
+    assert own < {f.name for f in fields(HeldOut)}
+    assert HeldOut(torque_noise=0.1).disturbances() == Disturbances(torque_noise=0.1)
+    with pytest.raises(ValueError, match=r"torque_noise must be in \[0, 1000\]"):
+        HeldOut(torque_noise=2e3)  # a range HeldOut declared nowhere before
 
 
 def test_pushes_land_on_decision_boundaries() -> None:

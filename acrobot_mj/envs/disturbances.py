@@ -16,16 +16,16 @@ push as drawn; one that would pass a velocity limit is clipped there, as every p
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 
-from acrobot_mj.checks import check_float
 from acrobot_mj.envs.links import LINK_PARAMETERS, acrobot_under, set_model_parameters
 from acrobot_mj.envs.motor import MAX_RESPONSE
 from acrobot_mj.envs.spaces import MAX_VEL1, MAX_VEL2
 from acrobot_mj.physics.integrators import limit_velocities, steps_in
+from acrobot_mj.settings import Settings, setting
 
 #: Within the tolerance this long [s] on end (or to the end of the episode) counts as balanced:
 #: a swing through upright leaves 0.05 rad within a second (the unstable modes grow e-fold in
@@ -38,36 +38,70 @@ FALL = 0.5
 
 
 @dataclass(frozen=True)
-class Disturbances:
+class Disturbances(Settings):
     """Pushes of ``U(-push_size, push_size)`` [rad/s] on each joint velocity every
     ``push_every`` [s] (None: no pushes), and each link's mass and inertia scaled by
     ``U(1 - perturb, 1 + perturb)``, drawn per episode; Gaussian noise of ``velocity_noise``
     [rad/s] on each measured velocity and a measurement ``delay`` [s] of the whole state
     (the protocol's ``"posvel"``); Gaussian noise of ``torque_noise`` [N m] on the applied
     torque and the motor's ``torque_response`` (wrappers of the env:
-    :func:`acrobot_mj.train.evaluate.disturbed`)."""
+    :func:`acrobot_mj.train.evaluate.disturbed`). The one declaration of these settings:
+    :class:`~acrobot_mj.train.learners.HeldOut` adds the starts to them."""
 
-    push_every: float | None = None
-    push_size: float = 0.0
-    perturb: float = 0.0
-    velocity_noise: float = 0.0
-    delay: float = 0.0
-    torque_noise: float = 0.0
-    torque_response: float = 1.0
+    what: ClassVar[str] = "disturbance"
+
+    push_every: float | None = setting(
+        None,
+        "push every P seconds (none: no pushes)",
+        "s",
+        low=0.0,
+        low_open=True,
+        high=86_400.0,
+        metavar="P",
+    )
+    push_size: float = setting(
+        0.0,
+        "each push adds U(-V, V) to each joint velocity",
+        "rad/s",
+        low=0.0,
+        high=MAX_VEL1,
+        metavar="V",
+    )
+    perturb: float = setting(
+        0.0,
+        "scale each link's mass and inertia by U(1-F, 1+F) per episode; the controller keeps "
+        "its model",
+        low=0.0,
+        high=0.9,
+        metavar="F",
+    )
+    velocity_noise: float = setting(
+        0.0,
+        "Gaussian noise on each observed joint velocity",
+        "rad/s",
+        low=0.0,
+        high=MAX_VEL2,
+        metavar="S",
+    )
+    delay: float = setting(
+        0.0, "observe the state int(D/dt) decisions old", "s", low=0.0, high=86_400.0, metavar="D"
+    )
+    torque_noise: float = setting(
+        0.0, "Gaussian noise on the applied elbow torque", "N m", low=0.0, high=1e3, metavar="S"
+    )
+    torque_response: float = setting(
+        1.0,
+        "the applied torque moves this fraction of the way to the command each decision",
+        low=0.0,
+        low_open=True,
+        high=MAX_RESPONSE,
+        metavar="K",
+    )
 
     def __post_init__(self) -> None:
-        if self.push_every is not None:
-            if check_float("push_every", self.push_every, 0.0, 86_400.0) <= 0.0:
-                raise ValueError(f"push_every must be > 0 s, got {self.push_every:g}")
-        check_float("push_size", self.push_size, 0.0, MAX_VEL1)
-        check_float("perturb", self.perturb, 0.0, 0.9)
+        super().__post_init__()
         if (self.push_every is None) != (self.push_size == 0.0):
             raise ValueError("pushes need both push_every > 0 s and push_size > 0 rad/s")
-        check_float("velocity_noise", self.velocity_noise, 0.0, MAX_VEL2)
-        check_float("delay", self.delay, 0.0, 86_400.0)
-        check_float("torque_noise", self.torque_noise, 0.0, 1e3)
-        if not 0.0 < check_float("torque_response", self.torque_response, 0.0, MAX_RESPONSE):
-            raise ValueError(f"torque_response must be > 0, got {self.torque_response:g}")
 
     @property
     def sensed(self) -> bool:
@@ -112,16 +146,26 @@ class Disturbances:
 
 
 @dataclass(frozen=True)
-class Perturbation:
+class Perturbation(Settings):
     """What the controller does not know: a start offset [rad, rad/s], link masses and inertias
     scaled in MuJoCo's model (:func:`~acrobot_mj.envs.links.scale_links`), and Gaussian torque noise
     on the elbow [N m] drawn from ``seed``."""
 
-    start_offset: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    mass_scale: float = 1.0
-    inertia_scale: float = 1.0
-    torque_noise: float = 0.0
-    seed: int = 0
+    what: ClassVar[str] = "perturbation"
+
+    start_offset: tuple[float, float, float, float] = setting(
+        (0.0, 0.0, 0.0, 0.0), "added to the start state", "rad, rad/s", low=-1.0, high=1.0
+    )
+    mass_scale: float = setting(
+        1.0, "each link's mass times this", low=0.0, low_open=True, high=10.0
+    )
+    inertia_scale: float = setting(
+        1.0, "each link's inertia times this", low=0.0, low_open=True, high=10.0
+    )
+    torque_noise: float = setting(
+        0.0, "Gaussian noise on the elbow torque, drawn from seed", "N m", low=0.0, high=1e3
+    )
+    seed: int = setting(0, "seed of the torque noise", low=0)
 
 
 class Pushed(gym.Wrapper):

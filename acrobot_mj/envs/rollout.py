@@ -75,10 +75,13 @@ StepHook = Callable[[Any, np.ndarray, float, bool, bool, dict[str, Any]], None]
 @dataclass(frozen=True)
 class Hooks:
     """What watches an episode: ``on_reset(obs, info)`` after the reset, ``on_step(action, obs,
-    reward, terminated, truncated, info)`` after each step (None: nothing)."""
+    reward, terminated, truncated, info)`` after each step (None: nothing), and ``stops``, whose
+    held stop signals are acted on after each step the actor has seen (a stop raised there
+    cuts the episode short)."""
 
     on_reset: ResetHook | None = None
     on_step: StepHook | None = None
+    stops: SafePoints | None = None
 
 
 #: An episode nothing watches.
@@ -93,12 +96,10 @@ def run_episode(
     *,
     max_steps: int | None = None,
     hooks: Hooks = UNWATCHED,
-    stops: SafePoints | None = None,
 ) -> Episode:
     """Run one episode of ``actor`` on ``env`` from ``env.reset(seed, options)`` until it ends
     or has taken ``max_steps`` actions (the actor sees a truncation; the Episode the env's
-    flag); ``hooks`` see the reset and each step. ``stops``: the held stop signals are acted on
-    after each step the actor has seen (a stop raised there cuts the episode short)."""
+    flag); ``hooks`` see the reset and each step, and act on held stops after it."""
     check_stop()  # a stop that numba's loader dropped: taken between episodes
     obs, info = env.reset(seed=seed, options=options)
     if hooks.on_reset is not None:
@@ -108,6 +109,7 @@ def run_episode(
     step = cast("Callable[[Any], tuple[Any, float, bool, bool, dict[str, Any]]]", env.step)
     observe, on_step = actor.observe, hooks.on_step
     limit = sys.maxsize if max_steps is None else max_steps
+    stops = hooks.stops
     held = () if stops is None else stops.held  # checked each step: a list, empty until a stop
     length, total = 0, 0.0
     while True:

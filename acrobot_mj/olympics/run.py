@@ -300,25 +300,8 @@ class OlympicsRun:
                     self.scored, self.model, run.t_final, Conditions(), self.seed, run.dt
                 )
                 bar.done("performance")
-            records = []
-            each = (
-                (_robust_episode(*c) for c in work)
-                if pool is None
-                else pool.map(_robust_episode, work)
-            )
-            for record in each:
-                records.append(record)
-                bar.done("robustness")
-            runs, draws = [], dict[str, Any]()
-            tested = (
-                (global_episode(*c) for c in tests)
-                if pool is None
-                else pool.map(global_episode, tests)
-            )
-            for recording, drawn_here in tested:
-                runs.append(recording)
-                draws = draws or drawn_here  # the first seed's
-                bar.done("global")
+            records = _played(pool, _robust_episode, work, bar, "robustness")
+            runs = _played(pool, global_episode, tests, bar, "global")
         p = model.params
         return Olympics(
             model={"name": self.model, "entry": named(self.scored)},
@@ -327,11 +310,21 @@ class OlympicsRun:
             performance=performance,
             categories=categories,
             episodes=_grouped(categories, records),
-            global_episodes=tuple(runs),
+            global_episodes=tuple(recording for recording, _ in runs),
             global_seeds=tuple(drawn),
-            global_draws=draws,
+            global_draws=runs[0][1] if runs else {},
             protocol=used,
         )
+
+
+def _played(pool: WorkerPool | None, play: Any, calls: list[tuple], bar: Steps, part: str) -> list:
+    """``play(*call)`` of each of ``calls``, in order, on ``pool`` (None: here), ``bar`` told
+    of each ``part`` episode as it ends."""
+    done = []
+    for result in (play(*c) for c in calls) if pool is None else pool.map(play, calls):
+        done.append(result)
+        bar.done(part)
+    return done
 
 
 def score(

@@ -19,11 +19,11 @@ from acrobot_mj.agents import Agent, DivergenceError
 from acrobot_mj.agents.base import Greedy, Learning, RandomStream, Rewinding
 from acrobot_mj.checks import check_int, check_memory
 from acrobot_mj.envs.disturbances import Disturbances
-from acrobot_mj.envs.rollout import Actor, Episode, run_episode, run_from_rest
+from acrobot_mj.envs.rollout import Actor, Episode, Hooks, run_episode, run_from_rest
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.envs.wrappers import EnergyShaping
 from acrobot_mj.files import versions, write_json
-from acrobot_mj.settings import check, setting
+from acrobot_mj.settings import setting
 from acrobot_mj.stops import SafePoints
 from acrobot_mj.train.bookkeeping import Books
 from acrobot_mj.train.checkpoint import (
@@ -66,13 +66,15 @@ HELDOUT_BRANCH = 0xE7A1
 
 
 @dataclass(frozen=True)
-class HeldOut:
+class HeldOut(Disturbances):
     """The held-out evaluation protocol: ``episodes`` starts from a stream no training seed
     gives, either rest plus ``U(-start_noise, start_noise)`` on each state variable
     (``starts_from="noise"``) or both angles uniform on the circle at rest (``"uniform"``), each
-    episode ``seconds`` long (None: the env's own limit), with the
-    :class:`~acrobot_mj.envs.disturbances.Disturbances` (which checks them): all drawn from
+    episode ``seconds`` long (None: the env's own limit), under the
+    :class:`~acrobot_mj.envs.disturbances.Disturbances` it adds these to: all drawn from
     ``seed``."""
+
+    what: ClassVar[str] = "evaluation"
 
     episodes: int = setting(100, "held-out episodes", low=1, metavar="N")
     start_noise: float = setting(
@@ -99,39 +101,6 @@ class HeldOut:
         high=86_400.0,
         metavar="T",
     )
-    push_every: float | None = setting(
-        None, "push every P seconds (none: no pushes)", "s", metavar="P"
-    )
-    push_size: float = setting(
-        0.0, "each push adds U(-V, V) to each joint velocity", "rad/s", metavar="V"
-    )
-    perturb: float = setting(
-        0.0,
-        "scale each link's mass and inertia by U(1-F, 1+F) per episode; the controller keeps "
-        "its model",
-        metavar="F",
-    )
-    velocity_noise: float = setting(
-        0.0, "Gaussian noise on each observed joint velocity", "rad/s", low=0.0, metavar="S"
-    )
-    delay: float = setting(
-        0.0, "observe the state int(D/dt) decisions old", "s", low=0.0, metavar="D"
-    )
-    torque_noise: float = setting(
-        0.0, "Gaussian noise on the applied elbow torque", "N m", low=0.0, metavar="S"
-    )
-    torque_response: float = setting(
-        1.0,
-        "the applied torque moves this fraction of the way to the command each decision",
-        low=0.0,
-        low_open=True,
-        high=2.0,
-        metavar="K",
-    )
-
-    def __post_init__(self) -> None:
-        check(self)
-        self.disturbances()  # checks the rest
 
     def disturbances(self) -> Disturbances:
         return Disturbances(**{f.name: getattr(self, f.name) for f in fields(Disturbances)})
@@ -375,6 +344,7 @@ def _episodes(books: Books, env: gym.Env, agent: Agent, stops: SafePoints) -> Ba
     """Train ``agent`` until its config's episodes or decisions are spent; the Ctrl-C that cut
     the run short, if one did. A divergence saves the checkpoint and stops the run."""
     config, seed, history = books.checkpoints.config, books.checkpoints.seed, books.history
+    watch = Hooks(stops=stops)
     try:
         for episode in range(len(history), config.episodes):
             stops.check()
@@ -388,7 +358,7 @@ def _episodes(books: Books, env: gym.Env, agent: Agent, stops: SafePoints) -> Ba
                 with np.errstate(over="ignore", invalid="ignore"):  # checked, by value
                     seed_now = episode_seed(seed, episode)
                     result = run_episode(
-                        env, Learning(agent), seed_now, options, max_steps=left, stops=stops
+                        env, Learning(agent), seed_now, options, max_steps=left, hooks=watch
                     )
                 books.end(result.length, result.episode_return, result.success)
             except DivergenceError as error:
