@@ -26,8 +26,7 @@ from acrobot_mj.physics.models import (
 from acrobot_mj.settings import SettingError, check, declared, followers, parse, setting
 
 #: The longest episode [decisions] and the most episodes a run takes: about a minute of steps
-#: each, and days of training (an episode's stops are held until it ends; larger sizes could
-#: not finish).
+#: each, and days of training (larger sizes could not finish).
 MAX_EPISODE_STEPS, MAX_EPISODES = 1_000_000, 10_000_000
 #: Settings of the task that are config fields (where the task takes them).
 TASK_OPTIONS = ("step_reward", "goal_reward")
