@@ -273,7 +273,97 @@ def hand_written() -> list[Case]:
         Case("no command", [], None),
         Case("unknown command", ["nope"], "invalid choice"),
     ]
-    return cases + constructors() + fourth_round()
+    return cases + constructors() + fourth_round() + many_seeds()
+
+
+def many_seeds() -> list[Case]:
+    """The global test over many seeds and its April 2025 draws (``--seeds``,
+    ``--global-test``), and the disturbances declared as settings."""
+    from acrobot_mj.envs.disturbances import Disturbances, Perturbation
+    from acrobot_mj.olympics.protocol import GlobalPolicy
+    from acrobot_mj.olympics.run import OlympicsRun, score
+    from acrobot_mj.train.learners import HeldOut
+
+    ol = ["olympics", "funnel", "--scores", "performance", "--out", "o"]
+    cases = [
+        Case(f"olympics --seeds {v!r}", [*ol, "--seeds", v], "--seeds")
+        for v in ("0", "-1", "x", "1e400", "2.5", "")
+    ]
+    cases += [
+        Case(f"olympics --global-test {v!r}", [*ol, "--global-test", v], "--global-test")
+        for v in ("", "ICRA2025", "april", "current:AR-EAPO", "icra2025:ar-eapo", "icra2025:x:y")
+    ]
+    return [
+        *cases,
+        Case("olympics seeds without global", [*ol, "--seeds", "2"], "needs the global score"),
+        Case(
+            "olympics seeds 10001",
+            ["olympics", "funnel", "--scores", "global", "--seeds", "10001", "--out", "o"],
+            "global_seeds must be in [1, 10000]",
+        ),
+        Case(
+            "olympics a replayed draw and seeds",
+            [*ol[:3], "global", "--global-test", "icra2025:VIMPPI", "--seeds", "2", *ol[4:]],
+            "one draw",
+        ),
+        Case("olympics icra2025 performance", [*ol, "--global-test", "icra2025"], None),
+        Case(
+            "score global_seeds 0", call=lambda: score("funnel", global_seeds=0), says="[1, 10000]"
+        ),
+        Case(
+            "OlympicsRun global_seeds 1.5",
+            call=lambda: OlympicsRun("funnel", global_seeds=1.5),
+            says="must be an integer",
+        ),
+        Case("GlobalPolicy version x", call=lambda: GlobalPolicy(version="x"), says="got 'x'"),
+        Case(
+            "GlobalPolicy replay today",
+            call=lambda: GlobalPolicy(replay="AR-EAPO"),
+            says="replay is a draw of the icra2025",
+        ),
+        Case(
+            "GlobalPolicy replay a draw",
+            call=lambda: GlobalPolicy(version="icra2025", replay="AR-EAPO").draw(0),
+            says=None,
+        ),
+        Case("Perturbation mass 0", call=lambda: Perturbation(mass_scale=0.0), says="> 0"),
+        Case(
+            "Perturbation offset text",
+            call=lambda: Perturbation(start_offset="abcd"),
+            says="start_offset must be 4 numbers",
+        ),
+        Case(
+            "Perturbation offset 1e400",
+            call=lambda: Perturbation(start_offset=(1e400, 0, 0, 0)),
+            says="start_offset",
+        ),
+        Case(  # numpy's SeedSequence takes any integer >= 0
+            "Perturbation seed 400 digits", call=lambda: Perturbation(seed=10**400), says=None
+        ),
+        Case("Perturbation noise -1", call=lambda: Perturbation(torque_noise=-1.0), says="noise"),
+        Case("Perturbation unknown", call=lambda: Perturbation(mass=2.0), says="mass"),
+        Case(
+            "Disturbances push_every 1e400",
+            call=lambda: Disturbances(push_every=1e400, push_size=0.1),
+            says="push_every",
+        ),
+        Case(
+            "Disturbances response 0",
+            call=lambda: Disturbances(torque_response=0.0),
+            says="torque_response must be > 0",
+        ),
+        Case(
+            "Disturbances velocity noise 400 digits",
+            call=lambda: Disturbances(velocity_noise=10**400),
+            says="401 digits",
+        ),
+        Case("HeldOut torque noise 2e3", call=lambda: HeldOut(torque_noise=2e3), says="1000"),
+        Case(
+            "HeldOut from a record with an unknown key",
+            call=lambda: HeldOut.from_dict({"episodes": 3, "pushes": 2}),
+            says="unknown evaluation settings ['pushes']",
+        ),
+    ]
 
 
 #: Model files the fourth round reads (fixtures writes them): name, text.
