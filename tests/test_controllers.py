@@ -184,7 +184,35 @@ def test_evaluate_and_render_take_a_controller(tmp_path, capsys) -> None:
     argv = ["render", "funnel", "--model", "ai_olympics", "--steps", "50", "--out", str(video)]
     assert main([*argv, "--no-progress"]) == 0
     assert video.stat().st_size > 0
-    assert json.loads(video.with_suffix(".json").read_text())["controller"] == "funnel"
+    shown = json.loads(video.with_suffix(".json").read_text())
+    assert shown["controller"] == "funnel"
+    # Steps of 0.002 s drawn one in ten: 50 fps, the reset frame and steps 10, 20, ..., 50.
+    assert shown["fps"] == 50.0 and shown["frames"] == 6
+
+
+def test_balance_takes_a_controller(examples_on_path, tmp_path, capsys) -> None:
+    """``balance CONTROLLER``: its 120 s from hanging on the report's acrobot (2,400 decisions
+    of 0.05 s), every torque and the balance measures in balance.json; the plan's options
+    refused with it."""
+    out = tmp_path / "b"
+    argv = ["balance", "double_pendulum_style:ours", "--no-video", "--out", str(out)]
+    assert main(argv) == 0
+    assert "from hanging: NOT balanced at the end" in capsys.readouterr().out  # an LQR alone
+    record = json.loads((out / "balance.json").read_text())
+    assert record["controller"] == "double_pendulum_style:ours" and record["video"] is None
+    assert record["model"]["max_torque"] == 1.0 and len(record["actions"]) == 2400
+    assert record["start_state"] == pytest.approx([-np.pi / 2, 0.0, 0.0, 0.0])
+    assert record["assessment"]["balanced_at_end"] is False
+    for extra, words in (
+        (["--hold", "3"], "--hold are for the planned swing-up"),
+        (["--feedback"], "--feedback are for the planned swing-up"),
+    ):
+        with pytest.raises(SystemExit):
+            main(argv + extra)
+        assert words in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["balance", "--option", "mpc=true", "--out", str(out)])
+    assert "are for a CONTROLLER" in capsys.readouterr().err
 
 
 def test_a_controller_needs_an_acrobot_and_a_folder_and_a_run_takes_neither(

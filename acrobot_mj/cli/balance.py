@@ -10,9 +10,9 @@ from typing import Any
 
 import gymnasium as gym
 
+from acrobot_mj.cli.controllers import CONTROLLERS, add_source, controlled
 from acrobot_mj.cli.tools import (
     Commands,
-    acrobot_model,
     add_command,
     add_progress,
     path_text,
@@ -24,7 +24,7 @@ from acrobot_mj.envs.tasks import Balance
 from acrobot_mj.report.video import RenderSettings, check_video
 from acrobot_mj.settings import add_arguments
 from acrobot_mj.train.balance_preset import PlanConfig
-from acrobot_mj.train.evaluate import render_run
+from acrobot_mj.train.evaluate import balance_controlled, render_run
 from acrobot_mj.train.lock import RunLock
 from acrobot_mj.train.records import CHECKPOINT_FILE, RUN_FILE, SUMMARY_FILE, check_fresh
 from acrobot_mj.train.run import RunOptions
@@ -44,24 +44,30 @@ def add_balance(commands: Commands) -> None:
     p.add_argument(
         "--feedback",
         action="store_true",
-        help="build the state-feedback controller "
-        "(no clock: swings up from any start, again after a push) into a run "
-        "directory for evaluate and render",
+        help="build the state-feedback controller (no clock: swings up from any start, again "
+        "after a push) into a run directory for evaluate and render",
     )
     p.add_argument(
         "--adaptive",
         action="store_true",
-        help="with --feedback: identify the "
-        "model from the first 3 s of each episode and replan the swing-up on it "
-        "(CasADi)",
+        help="with --feedback: identify the model from the first 3 s of each episode and "
+        "replan the swing-up on it (CasADi)",
+    )
+    p.add_argument(
+        "controller",
+        nargs="?",
+        type=path_text,
+        metavar="CONTROLLER",
+        help=f"swing up and balance with this controller instead: {CONTROLLERS}; its episode "
+        "from hanging, 120 s, into balance.json (each decision's torque, the balance measures) "
+        "and the video",
     )
     add_arguments(p, PlanConfig, ("discrete", "reserve"))
-    p.add_argument(
-        "--model",
-        type=acrobot_model,
-        metavar="NAME|FILE",
-        help="with --feedback: the acrobot, a shipped model's name or a .json/.toml file with a "
-        "planned swing-up (default: the report's)",
+    add_source(
+        p,
+        None,
+        "with --feedback or a CONTROLLER: the acrobot (default: the report's), with --feedback "
+        "one with a planned swing-up",
     )
     add_arguments(p, PlanConfig, ("hold",), given=True)  # --feedback takes none
     p.add_argument(
@@ -76,12 +82,8 @@ def add_balance(commands: Commands) -> None:
         help="with --feedback: replace the run in --out (never one that is running)",
     )
     p.add_argument("--optimise", action="store_true", help="optimise the trajectory anew")
-    p.add_argument(
-        "--video",
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help="render an MP4 of the closed loop",
-    )
+    video = argparse.BooleanOptionalAction
+    p.add_argument("--video", action=video, default=True, help="render an MP4 of the closed loop")
     p.add_argument("--width", type=positive_int, default=480, help="video width [pixels]")
     p.add_argument("--height", type=positive_int, default=480, help="video height [pixels]")
     add_progress(p)
@@ -144,9 +146,54 @@ def feedback_command(
     return record
 
 
+def controller_command(
+    args: argparse.Namespace, out: Path, video: RenderSettings | None
+) -> dict[str, Any]:
+    """``balance CONTROLLER``: the controller's episode from hanging, and its video."""
+    plan = [
+        flag for flag in ("feedback", "adaptive", "optimise", "discrete") if getattr(args, flag)
+    ]
+    if plan or args.hold is not None or args.force:
+        given = [f"--{name}" for name in plan] + ["--hold"] * (args.hold is not None)
+        raise ValueError(
+            f"{' '.join(given + ['--force'] * args.force)} are for the planned swing-up: a "
+            "CONTROLLER runs 120 s from hanging and replaces its own balance.json"
+        )
+    args.model = args.model or "report"
+    learner = controlled(args, args.controller)
+    with RunLock(out, "balance"):
+        refuse_a_run(out)
+        record = balance_controlled(learner, out, video)
+    held = (
+        f"balanced after {record['assessment']['first_balance_seconds']:g} s"
+        if record["assessment"]["balanced_at_end"]
+        else "NOT balanced at the end"
+    )
+    video_words = f", {record['video']}" if record["video"] else ""
+    print(
+        f"{args.controller} on {args.model}, from hanging: {held} -> {out / 'balance.json'}"
+        + video_words
+    )
+    return record
+
+
+def refuse_a_run(out: Path) -> None:
+    """Refuse ``out`` where it holds a run: balance writes a folder of its own."""
+    if taken := [n for n in (RUN_FILE, CHECKPOINT_FILE, SUMMARY_FILE) if (out / n).exists()]:
+        raise FileExistsError(
+            f"{out} holds a run ({', '.join(taken)}): balance writes its own folder; "
+            "choose another --out"
+        )
+
+
 def balance_command(args: argparse.Namespace) -> dict[str, Any]:
     from acrobot_mj.report.balance_run import BalanceRun, run_balance
 
+    if args.controller is not None:
+        out = balance_folder(args)
+        return controller_command(args, out, balance_video(args, out))
+    if args.option or args.env or args.env_kwargs:
+        raise ValueError("--option, --env and --env-kwargs are for a CONTROLLER")
     if args.feedback and (args.optimise or args.hold is not None):
         raise ValueError(
             "--feedback follows a shipped swing-up for as long as an episode lasts "
@@ -155,7 +202,9 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
     if args.adaptive and not args.feedback:
         raise ValueError("--adaptive is an option of --feedback")
     if args.model is not None and not args.feedback:
-        raise ValueError("--model is an option of --feedback: balance follows the report's plans")
+        raise ValueError(
+            "--model is an option of --feedback or a CONTROLLER: balance follows the report's plans"
+        )
     if args.force and not args.feedback:
         raise ValueError("--force is for --feedback: balance replaces its own balance.json")
     out = balance_folder(args)
@@ -167,11 +216,7 @@ def balance_command(args: argparse.Namespace) -> dict[str, Any]:
         args.discrete, args.reserve, hold, args.optimise, args.video, (args.width, args.height)
     )
     with RunLock(out, "balance"):
-        if taken := [n for n in (RUN_FILE, CHECKPOINT_FILE, SUMMARY_FILE) if (out / n).exists()]:
-            raise FileExistsError(
-                f"{out} holds a run ({', '.join(taken)}): balance writes its own folder; "
-                "choose another --out"
-            )
+        refuse_a_run(out)
         record = run_balance(out, settings, show_progress(args))
     trajectory = record["trajectory"]
     kind = "{-1, 0, +1}" if args.discrete else "continuous"

@@ -290,6 +290,32 @@ def render_controlled(
     return record
 
 
+def balance_controlled(
+    learner: ControlledLearner, out: str | Path, settings: RenderSettings | None = None
+) -> dict[str, Any]:
+    """``acrobot-mj balance CONTROLLER``: the controller's episode from hanging at rest on its
+    acrobot's balance task (120 s, as ``evaluate`` runs it), each decision's action and torque
+    and the task's assessment in ``out/balance.json``; with ``settings``, a video of the same
+    episode (``out/swing_up.mp4``)."""
+    out = Path(out)
+    env = episode_env(learner, learner.protocol)
+    try:
+        episode = play(env, learner, 0, dict(FROM_REST), seed=learner.seed)
+    finally:
+        env.close()
+    video = None if settings is None else render_controlled(learner, out / "swing_up.mp4", settings)
+    record = {
+        "command": "balance",
+        "controller": learner.name,
+        "model": learner.model.to_dict(),
+        "versions": versions(),
+        **episode,
+        "video": None if video is None else video["video"],
+    }
+    write_json(out / "balance.json", record)
+    return record
+
+
 def render_learner(
     learner: Learner, out: str | Path, settings: RenderSettings = _RENDER
 ) -> dict[str, Any]:
