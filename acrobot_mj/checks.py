@@ -25,7 +25,7 @@ def check_state(name: str, value: Any) -> np.ndarray:
     """``value`` as a state ``(q1, q2, dq1, dq2)`` [rad, rad/s] of floats (a new array),
     refused unless it is 4 finite numbers."""
     x = np.array(value, dtype=float)
-    if x.shape != (4,) or not np.isfinite(x).all():
+    if x.shape != (4,) or not all(map(math.isfinite, x.tolist())):
         raise ValueError(f"{name} must be 4 finite numbers, got {np.ravel(x).tolist()}")
     return x
 

@@ -44,6 +44,13 @@ class Observer:
         if self.step is None:
             integrators.method_code(self.method)  # a known method
 
+    def _one_step(self) -> integrators.OneStep:
+        """The compiled step of one state on ``params`` by ``method``, kept while they stay."""
+        kept = self.__dict__.get("_kept")
+        if kept is None or kept.p is not self.params or kept.method is not self.method:
+            kept = self._kept = integrators.OneStep(self.params, self.method)
+        return kept
+
     def reset(self) -> None:
         """Forget the estimate: the next measurement is taken as it is."""
         self.estimate, self.torque = None, 0.0
@@ -55,14 +62,13 @@ class Observer:
             x = y.copy()
         else:  # on floats: a call every 0.002 s, where numpy's small arrays cost most
             p = self.params
-            if self.step is None:
-                predicted = integrators.step_states(
-                    self.estimate, self.torque, p, method=self.method
-                )
+            if self.step is None:  # step_states' compiled step of one state, called directly
+                q1, q2, v1, v2 = self._one_step()(*self.estimate.tolist(), self.torque)
             else:
                 predicted = np.asarray(self.step(self.estimate, self.torque), dtype=float)
-            q1, q2, v1, v2 = predicted.tolist()
-            r1, r2 = wrap(float(y[0]) - q1), wrap(float(y[1]) - q2)
+                q1, q2, v1, v2 = predicted.tolist()
+            y0, y1, y2, y3 = y.tolist()
+            r1, r2 = wrap(y0 - q1), wrap(y1 - q2)
             if abs(r1) > self.jump or abs(r2) > self.jump:  # not this model's motion: restart
                 self.estimate = None
                 return self(y)
@@ -71,8 +77,8 @@ class Observer:
                 [
                     q1 + r1,
                     q2 + r2,
-                    v1 + a * r1 / p.dt + weight * (float(y[2]) - v1),
-                    v2 + a * r2 / p.dt + weight * (float(y[3]) - v2),
+                    v1 + a * r1 / p.dt + weight * (y2 - v1),
+                    v2 + a * r2 / p.dt + weight * (y3 - v2),
                 ]
             )
         self.estimate = x

@@ -16,6 +16,7 @@ from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import UPRIGHT, state_error
 from acrobot_mj.physics.params import REPORT, AcrobotParams
+from acrobot_mj.physics.xp import clip
 
 #: A feedback law on many states at once: states (n, 4) to torques (n,) [N m].
 BatchLaw = Callable[[np.ndarray], np.ndarray]
@@ -122,7 +123,15 @@ class LQR(Controller):
         return np.clip(-(state_error(x, self.target) @ self.gain.T)[..., 0], -limit, limit)
 
     def act(self, x: np.ndarray, t: float) -> float:
-        return float(self(x))
+        x = np.asarray(x, dtype=float)
+        if x.shape != (4,):
+            return float(self(x))
+        # One state: __call__'s numbers, its error and clip on floats.
+        return self.torque(state_error(x, self.target))
+
+    def torque(self, error: np.ndarray) -> float:
+        """The torque [N m] of one state's error ``x - target`` (4,), angles wrapped."""
+        return clip(-float((error @ self.gain.T)[0]), -self.p.max_torque, self.p.max_torque)
 
 
 def balances(
@@ -371,9 +380,10 @@ def tvlqr(
 def tvlqr_torque(trajectory: Trajectory, gains: np.ndarray, k: int, x: np.ndarray) -> float:
     """TVLQR at point ``k`` of ``trajectory`` (``gains`` from :func:`tvlqr`) in state ``x``:
     ``clip(u*_k - K_k (x - x*_k), -u_max, u_max)`` [N m], ``u_max`` the model's torque bound."""
-    u = trajectory.torques[k] - gains[k] @ state_error(x, trajectory.states[k])
+    error = state_error(x, trajectory.states[k])
+    u = float(trajectory.torques[k]) - float(gains[k] @ error)
     limit = trajectory.params.max_torque
-    return float(np.clip(u, -limit, limit))
+    return clip(u, -limit, limit)
 
 
 class SigmaDelta:

@@ -21,8 +21,8 @@ from acrobot_mj.control.controller import Controller, EnergyRemoval
 from acrobot_mj.control.lqr import LQR, MPC, Jacobians, tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import dynamics, integrators
-from acrobot_mj.physics.dynamics import UPRIGHT, state_error
-from acrobot_mj.physics.xp import wrap_angle
+from acrobot_mj.physics.dynamics import UPRIGHT, float_error, state_error
+from acrobot_mj.physics.xp import clip, wrap
 from acrobot_mj.settings import Settings, setting
 
 #: The TVLQR and LQR weights on the state error and the torque.
@@ -133,6 +133,7 @@ class PlanTracker(Controller):
         # The LQR at the first plan's end (upright at rest), on the model the gains come from.
         end = UPRIGHT.copy() if linear is None else first.states[-1].copy()
         self.lqr = LQR(Q, R, first.params, end, linear)
+        self._target = tuple(end.tolist())
         self.balancer: Controller = MPC(self.lqr, levels.horizon) if levels.horizon else self.lqr
         self.fallback = fallback or EnergyRemoval(levels.damping, first.params.max_torque)
         self.upright_energy = float(dynamics.total_energy(UPRIGHT[:2], UPRIGHT[2:], self.params))
@@ -205,9 +206,13 @@ class PlanTracker(Controller):
 
     def _jumped(self, x: np.ndarray) -> bool:
         last, self.last = self.last, x.copy()
-        if last is None or self.settings.jump is None:
+        jump = self.settings.jump
+        if last is None or jump is None:
             return False
-        return bool(np.abs(wrap_angle(x[:2] - last[:2])).max() > self.settings.jump)
+        # On floats: the largest wrapped angle change past ``jump`` (the state is finite).
+        q1, q2 = x.tolist()[:2]
+        l1, l2 = last.tolist()[:2]
+        return abs(wrap(q1 - l1)) > jump or abs(wrap(q2 - l2)) > jump
 
     def reaches(self, x: np.ndarray, i: int, k: int) -> bool:
         """Does plan ``i``, followed from its point ``k`` in state ``x`` on the tracker's own
@@ -216,13 +221,51 @@ class PlanTracker(Controller):
         if self.step is None:
             return False
         plan, (costs, gains) = self.plans[i], self.tracking[i]
+        # On floats but for numpy's products: state_error, tvlqr_torque and self.step's
+        # numbers (the compiled step itself where self.step is step_states), a rollout of up
+        # to a plan's length at every call outside the funnel.
+        states, torques = self._rows(i)
+        track, limit, one = self.levels.track, plan.params.max_torque, self._one_step()
+        state = tuple(np.asarray(x, dtype=float).tolist())
         for j in range(k, plan.steps):
-            e = state_error(x, plan.states[j])
-            if e @ costs[j] @ e > self.levels.track:
+            e = np.array(float_error(state, states[j]))
+            if e @ costs[j] @ e > track:
                 return False
-            x = np.asarray(self.step(x, tvlqr_torque(plan, gains, j, x)), dtype=float)
-        error = state_error(x, self.lqr.target)
+            u = clip(torques[j] - float(gains[j] @ e), -limit, limit)
+            if one is None:
+                state = tuple(np.asarray(self.step(np.array(state), u), dtype=float).tolist())
+            else:
+                state = one(*state, u)
+        error = state_error(np.array(state), self._target)
         return bool(error @ self.lqr.cost @ error < self.levels.upright)
+
+    def _rows(self, i: int) -> tuple[list[list[float]], list[float]]:
+        """Plan ``i``'s states and torques as floats, kept while it is the same plan."""
+        kept = self.__dict__.setdefault("_kept_rows", {})
+        plan = self.plans[i]
+        if i not in kept or kept[i][0] is not plan:
+            kept[i] = (plan, plan.states.tolist(), plan.torques.tolist())
+        return kept[i][1], kept[i][2]
+
+    def _one_step(self) -> integrators.OneStep | None:
+        """The compiled step of one state where ``step`` is
+        :func:`~acrobot_mj.physics.integrators.step_states` on a model (the same numbers),
+        kept while it is the same step; else None."""
+        step = self.step
+        if not (
+            isinstance(step, partial)
+            and step.func is integrators.step_states
+            and not step.args
+            and set(step.keywords) == {"p", "method"}
+        ):
+            return None
+        kept = self.__dict__.get("_kept_step")
+        if kept is None or kept[0] is not step:
+            kept = self._kept_step = (step, integrators.OneStep(**step.keywords))
+        return kept[1]
+
+    def __getstate__(self) -> dict[str, Any]:  # copies and pickles convert the rows again
+        return {k: v for k, v in self.__dict__.items() if k != "_kept_rows"}
 
     def _planned(self, x: np.ndarray, near: int) -> bool:
         """Plan from ``x`` (within the energy window, unless blocked) and follow the plan."""
@@ -266,9 +309,11 @@ class PlanTracker(Controller):
             if torque is not None:
                 self.mode = "plan"
                 return torque
-        error = state_error(x, self.lqr.target)
+        error = state_error(x, self._target)
         if error @ self.lqr.cost @ error < self.levels.upright:
             self.mode = "balancer"
+            if self.balancer is self.lqr:  # the saturated LQR, on the error just computed
+                return self.lqr.torque(error)
             return self.balancer.act(x, t)
         i, k, level = self.nearest(x)
         entered = level < self.levels.entry or (level < self.levels.track and self.reaches(x, i, k))

@@ -97,6 +97,7 @@ class ModelError(gym.Wrapper):
         }
         self._cf = np.array([self.values.get("cf1", 0.0), self.values.get("cf2", 0.0)])
         self._coupling = gear_ratio * self.values.get("Ir", 0.0)
+        self._forced = bool(self._cf.any() or self._coupling)  # a force in qfrc_applied
         self._mine = np.zeros(2)
         apply(m, self.values, gear_ratio)
 
@@ -105,7 +106,7 @@ class ModelError(gym.Wrapper):
         return self.env.reset(**kwargs)
 
     def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
-        if self._cf.any() or self._coupling:
+        if self._forced:
             friction = -self._cf * np.arctan(100.0 * self._data.qvel)
             self._set(friction + self._coupling * self._data.qacc[::-1])
         return self.env.step(action)

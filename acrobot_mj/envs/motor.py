@@ -80,9 +80,11 @@ class Motor(gym.Wrapper):
         self._sigmas = np.zeros(2)
         self._sigmas[self.dof] = self.sigma
         self._dt = float(acrobot.dt)
-        self._mine = np.zeros(2)
-        self._last, self._t = np.zeros(2), 0.0
-        self._applied: list[np.ndarray] = []
+        self._mine = (0.0, 0.0)
+        self._last, self._t = (0.0, 0.0), 0.0
+        # Each step's torques as a tuple of floats (the same numbers as numpy's, a fifth of
+        # the time on two-element arrays).
+        self._applied: list[tuple[float, float]] = []
 
     @property
     def pulses(self) -> np.ndarray:
@@ -100,6 +102,7 @@ class Motor(gym.Wrapper):
                 f"pulses must be finite torques of shape (2, steps), got {array.shape}"
             )
         self._pulses = array
+        self._columns = array.T.tolist()  # per decision: (shoulder, elbow) as floats
 
     @property
     def applied(self) -> np.ndarray:
@@ -107,34 +110,46 @@ class Motor(gym.Wrapper):
         return np.array(self._applied).reshape(-1, 2)
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
-        self._set(np.zeros(2))
+        self._set((0.0, 0.0))
         if self._reseed and kwargs.get("seed") is not None:
             self.rng = stream(int(kwargs["seed"]), MOTOR_KEY)
-        self._last, self._t, self._applied = np.zeros(2), 0.0, []
+        self._last, self._t, self._applied = (0.0, 0.0), 0.0, []
         return self.env.reset(**kwargs)
 
     def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
         acrobot: Any = self.env.unwrapped
         commanded = action_torque(action, acrobot.continuous, acrobot.torque_limit)
-        u = np.zeros(2)
-        u[self.dof] = commanded
-        nu = self._last + self.response * (u - self._last)
-        nu = self.rng.normal(nu, self._sigmas, np.shape(nu))
-        nu = np.minimum(np.maximum(nu, -self.limit), self.limit)  # np.clip, a third the time
+        # On floats, each operation numpy's on the two joints (the same numbers): a normal is
+        # ``loc + scale * z`` of a standard normal z, two drawn a decision.
+        dof, response = self.dof, self.response
+        last0, last1 = self._last
+        u0, u1 = (commanded, 0.0) if dof == 0 else (0.0, commanded)
+        nu0, nu1 = last0 + response * (u0 - last0), last1 + response * (u1 - last1)
+        if self.sigma:  # without noise nothing is drawn: nu + 0 z is nu (but for a zero's sign)
+            z0, z1 = self.rng.standard_normal(2).tolist()
+            s0, s1 = self._sigmas.tolist()
+            nu0, nu1 = nu0 + s0 * z0, nu1 + s1 * z1
+        limit0, limit1 = self.limit.tolist()
+        # np.maximum then np.minimum (the first argument where equal or NaN)
+        nu0 = nu0 if nu0 >= -limit0 or nu0 != nu0 else -limit0
+        nu1 = nu1 if nu1 >= -limit1 or nu1 != nu1 else -limit1
+        nu0 = nu0 if nu0 <= limit0 or nu0 != nu0 else limit0
+        nu1 = nu1 if nu1 <= limit1 or nu1 != nu1 else limit1
         index = int(self._t / self._dt)
-        if index < self._pulses.shape[1]:
-            nu += self._pulses[:, index]
-        extra = np.zeros(2)
-        extra[self.dof] = nu[self.dof] - commanded
+        if index < len(self._columns):
+            p0, p1 = self._columns[index]
+            nu0, nu1 = nu0 + p0, nu1 + p1
+        extra = (nu0 - commanded, 0.0) if dof == 0 else (0.0, nu1 - commanded)
         self._set(extra)
-        self._last, self._t = nu, self._t + self._dt
-        self._applied.append(nu)
+        self._last, self._t = (nu0, nu1), self._t + self._dt
+        self._applied.append((nu0, nu1))
         return self.env.step(action)
 
-    def _set(self, extra: np.ndarray) -> None:
+    def _set(self, extra: tuple[float, float]) -> None:
         """Make this motor's part of ``qfrc_applied`` [N m] ``extra`` (read through the env,
         not held: a copy or an unpickled motor writes into its own env's data)."""
         qfrc = self.env.unwrapped.data.qfrc_applied  # type: ignore[attr-defined]
-        qfrc -= self._mine  # exactly 0 where no other writer adds
-        qfrc += extra
-        self._mine = extra
+        # qfrc -= mine (exactly 0 where no other writer adds), then qfrc += extra, on floats
+        (q0, q1), (m0, m1), (e0, e1) = qfrc.tolist(), self._mine, extra
+        qfrc[:] = (q0 - m0 + e0, q1 - m1 + e1)
+        self._mine = (e0, e1)

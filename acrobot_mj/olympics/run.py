@@ -73,19 +73,25 @@ class ProtocolActor:
     def __init__(self, controller: Controller, env: Any, times: np.ndarray, limit: float) -> None:
         self.controller, self.times, self.limit = controller, times, limit
         self.acrobot = env.unwrapped
-        self.states: list[np.ndarray] = []
+        self._times = times.tolist()
+        #: The true states, each ``(q1, q2, dq1, dq2)`` as floats (``acrobot.state``'s numbers).
+        self.states: list[tuple[float, ...]] = []
+
+    def _state(self) -> tuple[float, ...]:
+        data = self.acrobot.data
+        return (*data.qpos.tolist(), *data.qvel.tolist())
 
     def begin(self, obs: np.ndarray) -> Any:
         self.controller.reset()
-        self.states = [self.acrobot.state]
+        self.states = [self._state()]
         return self._act(obs)
 
     def observe(self, reward: float, obs: np.ndarray, terminated: bool, truncated: bool) -> Any:
-        self.states.append(self.acrobot.state)
+        self.states.append(self._state())
         return None if terminated or truncated else self._act(obs)
 
     def _act(self, obs: np.ndarray) -> np.ndarray:
-        t = float(self.times[len(self.states) - 1])
+        t = self._times[len(self.states) - 1]
         torque = min(max(self.controller.act(obs, t), -self.limit), self.limit)
         self.controller.applied(torque)
         return np.array([torque])
