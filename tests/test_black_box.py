@@ -182,6 +182,7 @@ def test_the_plan_takes_one_rk4_step_per_decision_of_the_same_field() -> None:
     assert 0.0 < miss < 1e-3
 
 
+@pytest.mark.slow
 def test_the_learner_keeps_the_form_that_predicts_held_out_data_better() -> None:
     from types import SimpleNamespace
 

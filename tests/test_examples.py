@@ -145,6 +145,7 @@ def test_the_rl_zoo_trains_with_the_shipped_hyperparameters_and_records_a_video(
     assert done.returncode == 0, done.stderr[-2000:]
 
 
+@pytest.mark.slow
 def test_an_sb3_policy_is_scored_end_to_end(tmp_path, capsys) -> None:
     """A SAC policy trained on the continuous RL id with ``model="ai_olympics"`` (a tiny budget)
     is scored by ``acrobot-mj olympics policy.zip``: the record names it and holds a whole

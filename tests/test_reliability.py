@@ -1300,6 +1300,7 @@ def test_a_pipe_in_place_of_a_record_is_one_line_not_a_hang(trained, record, arg
     assert f"{record} exists and is not a regular file" in done.stderr
 
 
+@pytest.mark.slow
 def test_a_video_cut_short_by_a_full_disk_is_not_left_as_the_video(tmp_path, exits, capsys):
     # ffmpeg ended the file early without an error: the truncated video was renamed into place,
     # and the record beside it failed with an errno that named no file.

@@ -399,6 +399,7 @@ def test_lockstep_refuses_sarsa_lambda() -> None:
     assert len(str(refused.value).splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_lockstep_checkpoints_and_resume_exactly(tmp_path, monkeypatch) -> None:
     config = PRESETS["report"].replace(episodes=12, frame_skip=4, checkpoint_every=3)
     whole, resumed = lockstep_interrupted_and_resumed(config, [0, 5], tmp_path, monkeypatch, 1500)
