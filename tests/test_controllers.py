@@ -204,8 +204,8 @@ def test_balance_takes_a_controller(examples_on_path, tmp_path, capsys) -> None:
     assert record["start_state"] == pytest.approx([-np.pi / 2, 0.0, 0.0, 0.0])
     assert record["assessment"]["balanced_at_end"] is False
     for extra, words in (
-        (["--hold", "3"], "--hold are for the planned swing-up"),
-        (["--feedback"], "--feedback are for the planned swing-up"),
+        (["--hold", "3"], "--hold: options of the planned swing-up"),
+        (["--feedback"], "--feedback: options of the planned swing-up"),
     ):
         with pytest.raises(SystemExit):
             main(argv + extra)

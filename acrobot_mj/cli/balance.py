@@ -150,14 +150,13 @@ def controller_command(
     args: argparse.Namespace, out: Path, video: RenderSettings | None
 ) -> dict[str, Any]:
     """``balance CONTROLLER``: the controller's episode from hanging, and its video."""
-    plan = [
-        flag for flag in ("feedback", "adaptive", "optimise", "discrete") if getattr(args, flag)
-    ]
-    if plan or args.hold is not None or args.force:
-        given = [f"--{name}" for name in plan] + ["--hold"] * (args.hold is not None)
+    flags = ("feedback", "adaptive", "optimise", "discrete", "force")
+    given = [f"--{flag}" for flag in flags if getattr(args, flag)]
+    given += ["--hold"] if args.hold is not None else []
+    if given:
         raise ValueError(
-            f"{' '.join(given + ['--force'] * args.force)} are for the planned swing-up: a "
-            "CONTROLLER runs 120 s from hanging and replaces its own balance.json"
+            f"{', '.join(given)}: options of the planned swing-up; a CONTROLLER runs 120 s from "
+            "hanging and replaces its own balance.json"
         )
     args.model = args.model or "report"
     learner = controlled(args, args.controller)

@@ -133,7 +133,6 @@ class PlanTracker(Controller):
         # The LQR at the first plan's end (upright at rest), on the model the gains come from.
         end = UPRIGHT.copy() if linear is None else first.states[-1].copy()
         self.lqr = LQR(Q, R, first.params, end, linear)
-        self._target = tuple(end.tolist())
         self.balancer: Controller = MPC(self.lqr, levels.horizon) if levels.horizon else self.lqr
         self.fallback = fallback or EnergyRemoval(levels.damping, first.params.max_torque)
         self.upright_energy = float(dynamics.total_energy(UPRIGHT[:2], UPRIGHT[2:], self.params))
@@ -236,7 +235,7 @@ class PlanTracker(Controller):
                 state = tuple(np.asarray(self.step(np.array(state), u), dtype=float).tolist())
             else:
                 state = one(*state, u)
-        error = state_error(np.array(state), self._target)
+        error = state_error(np.array(state), self.lqr.target)
         return bool(error @ self.lqr.cost @ error < self.levels.upright)
 
     def _rows(self, i: int) -> tuple[list[list[float]], list[float]]:
@@ -309,7 +308,7 @@ class PlanTracker(Controller):
             if torque is not None:
                 self.mode = "plan"
                 return torque
-        error = state_error(x, self._target)
+        error = state_error(x, self.lqr.target)
         if error @ self.lqr.cost @ error < self.levels.upright:
             self.mode = "balancer"
             if self.balancer is self.lqr:  # the saturated LQR, on the error just computed

@@ -71,9 +71,9 @@ class ProtocolActor:
     state at each time."""
 
     def __init__(self, controller: Controller, env: Any, times: np.ndarray, limit: float) -> None:
-        self.controller, self.times, self.limit = controller, times, limit
+        self.controller, self.limit = controller, limit
         self.acrobot = env.unwrapped
-        self._times = times.tolist()
+        self.times: list[float] = times.tolist()  # floats: a lookup every step
         #: The true states, each ``(q1, q2, dq1, dq2)`` as floats (``acrobot.state``'s numbers).
         self.states: list[tuple[float, ...]] = []
 
@@ -91,7 +91,7 @@ class ProtocolActor:
         return None if terminated or truncated else self._act(obs)
 
     def _act(self, obs: np.ndarray) -> np.ndarray:
-        t = self._times[len(self.states) - 1]
+        t = self.times[len(self.states) - 1]
         torque = min(max(self.controller.act(obs, t), -self.limit), self.limit)
         self.controller.applied(torque)
         return np.array([torque])
@@ -108,7 +108,7 @@ class GlobalActor(ProtocolActor):
         self.tester, self.torques = tester, list[float]()
 
     def _act(self, obs: np.ndarray) -> np.ndarray:
-        t = float(self.times[len(self.states) - 1])
+        t = self.times[len(self.states) - 1]
         elbow = self.tester.act(self.acrobot.state, t)
         clipped = float(np.clip(elbow, -self.limit, self.limit))
         excess = elbow - clipped if self.tester.resetting else 0.0

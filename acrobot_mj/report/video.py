@@ -230,8 +230,7 @@ def record_episode(
     limit = settings.max_steps or getattr(env.spec, "max_episode_steps", None)  # None: unknown
     bar = Steps(limit + 1 if limit else None, "render", settings.progress, "steps")
     with VideoWriter(path, fps) as writer, bar:
-        frames = _Frames(env, writer, bar, settings.captions, kept=[] if strip else None)
-        frames.every = every
+        frames = _Frames(env, writer, bar, settings.captions, [] if strip else None, every)
         watched = Hooks(frames.reset_hook(hooks.on_reset), frames.step_hook(hooks.on_step))
         episode = run_episode(
             env, actor, settings.seed, reset_options, max_steps=settings.max_steps, hooks=watched
@@ -264,12 +263,18 @@ class _Frames:
     """An episode's frames into ``writer`` (and ``kept``, for a strip), captioned or not."""
 
     def __init__(
-        self, env: Any, writer: VideoWriter, bar: Steps, captions: bool, kept: list | None
+        self,
+        env: Any,
+        writer: VideoWriter,
+        bar: Steps,
+        captions: bool,
+        kept: list | None,
+        every: int = 1,
     ) -> None:
         self.env, self.writer, self.bar, self.captions, self.kept = env, writer, bar, captions, kept
         self.steps = itertools.count(1)
         #: Draw one step in ``every`` (and the last); the frames written so far.
-        self.every, self.written = 1, 0
+        self.every, self.written = every, 0
 
     def frame(self, step: int, torque: float, info: dict[str, Any], note: str = "") -> None:
         self.bar.done()
