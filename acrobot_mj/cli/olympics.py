@@ -86,6 +86,12 @@ def add_olympics(commands: tools.Commands) -> None:
         "leaderboard's, April 2025); icra2025:ENTRY replays that entry's draw ("
         f"{', '.join(ICRA2025_DRAWS)}) (default: current)",
     )
+    p.add_argument(
+        "--bound",
+        action="store_true",
+        help="each global episode's bound beside its score: the uptime after the fastest "
+        "returns to up the trajectory optimiser finds (the control extra; about a minute a seed)",
+    )
     p.add_argument("--jobs", type=tools.positive_int, default=1, help="processes for episodes")
     p.add_argument("--force", action="store_true", help="replace a record already in --out")
     tools.add_progress(p)
@@ -116,6 +122,7 @@ def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
         tools.show_progress(args),
         replace(rules, global_policy=drawn),
         global_seeds=args.seeds,
+        bound=args.bound,
     )
     path = write_olympics(Path(args.out), run.run())
     record = read_olympics(path)
@@ -143,5 +150,7 @@ def summary(record: dict[str, Any]) -> str:
             low, high = run["interval"]
             spread = f" (mean of {len(run['seeds'])} seeds, 95 % interval {low:.3f}-{high:.3f})"
         words.append(f"global {run['score']:.3f}{spread}")
+        if "bound" in run:
+            words.append(f"{run['of_bound']:.3f} of the bound {run['bound']['score']:.3f}")
     scaled = record.get("protocol") not in (None, "ai_olympics")
     return ("scaled protocol: " if scaled else "") + ", ".join(words)

@@ -16,6 +16,7 @@ import numpy as np
 
 from acrobot_mj.files import is_sealed, read_json, sealed, versions, write_json
 from acrobot_mj.olympics import scores
+from acrobot_mj.olympics.bound import Bound
 from acrobot_mj.olympics.protocol import CATEGORY_KEYS, PERFORMANCE, Category, to_protocol
 from acrobot_mj.olympics.scaling import ORIGINAL, Rules
 from acrobot_mj.olympics.scores import Recording
@@ -87,7 +88,8 @@ class Olympics:
     ``(l1, l2)`` [m], the ``seeds`` of every draw; the ``performance`` episode; the robustness
     ``categories`` run and their ``episodes`` by category key; the ``global_episodes`` of
     ``global_seeds`` (one per seed) and the first one's ``global_draws`` (targets, reset times,
-    as JSON); the ``protocol`` they ran under (the original or scaled,
+    as JSON), each seed's ``global_bounds`` where asked (:mod:`~acrobot_mj.olympics.bound`);
+    the ``protocol`` they ran under (the original or scaled,
     :mod:`~acrobot_mj.olympics.scaling`). A part not run is None or empty."""
 
     model: Mapping[str, Any]
@@ -99,12 +101,17 @@ class Olympics:
     global_episodes: Sequence[Recording] = ()
     global_seeds: Sequence[int] = ()
     global_draws: Mapping[str, Any] = field(default_factory=dict)
+    global_bounds: Sequence[Bound] = ()
     protocol: Rules = ORIGINAL
 
     def __post_init__(self) -> None:
         if len(self.global_seeds) != len(self.global_episodes):
             raise ValueError(
                 f"{len(self.global_episodes)} global episodes for {len(self.global_seeds)} seeds"
+            )
+        if self.global_bounds and len(self.global_bounds) != len(self.global_seeds):
+            raise ValueError(
+                f"{len(self.global_bounds)} bounds for {len(self.global_seeds)} global seeds"
             )
 
     @property
@@ -170,6 +177,8 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
         g = used.global_policy
         ups = [scores.uptime(run, l1, l2, g.t_final, g.height) for run in results.global_episodes]
         episode = EpisodeRecord.of(results.global_episode, True, results.global_draws)
+        for up, bound in zip(ups, results.global_bounds, strict=False):
+            up |= {"bound": bound.to_dict(), "of_bound": up["uptime"] / bound.uptime}
         record["global"] = {
             **ups[0],
             "episode": episode.to_dict(),
@@ -183,6 +192,12 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
                 "interval": spread["interval"],
                 "level": spread["level"],
             }
+            if results.global_bounds:  # the mean uptime over the mean bound
+                mean = float(np.mean([b.uptime for b in results.global_bounds]))
+                record["global"] |= {
+                    "bound": {"uptime": mean, "score": mean / g.t_final},
+                    "of_bound": record["global"]["uptime"] / mean,
+                }
     return sealed(record)
 
 

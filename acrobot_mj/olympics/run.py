@@ -24,6 +24,7 @@ from acrobot_mj.envs.motor import Motor
 from acrobot_mj.envs.rollout import run_episode
 from acrobot_mj.envs.sensor import Sensor
 from acrobot_mj.olympics import protocol, sources
+from acrobot_mj.olympics.bound import uptime_bound
 from acrobot_mj.olympics.globaltest import GlobalTester
 from acrobot_mj.olympics.protocol import DT, GLOBAL, ROBUSTNESS, Category, GlobalPolicy, Robustness
 from acrobot_mj.olympics.report import EpisodeRecord, Olympics
@@ -32,6 +33,7 @@ from acrobot_mj.olympics.scores import Recording, final_success
 from acrobot_mj.olympics.sources import Source
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import resolve
+from acrobot_mj.physics.xp import symbolic
 from acrobot_mj.pool import WorkerPool
 
 #: The parts of the protocol, in the order they run.
@@ -252,7 +254,8 @@ class OlympicsRun:
     object must then be picklable), a bar on stderr with ``progress``; ``protocol`` (None: the
     original on ``ai_olympics``, else scaled to ``model``,
     :func:`~acrobot_mj.olympics.scaling.protocol_for`); ``global_seeds`` global episodes, of
-    seeds ``seed``, ``seed + 1``, ... (their mean is the global score)."""
+    seeds ``seed``, ``seed + 1``, ... (their mean is the global score); ``bound``: each global
+    episode's bound (:mod:`~acrobot_mj.olympics.bound`) beside its score."""
 
     scored: Scored
     model: str = "ai_olympics"
@@ -262,11 +265,16 @@ class OlympicsRun:
     progress: bool = False
     protocol: Rules | None = None
     global_seeds: int = 1
+    bound: bool = False
 
     def __post_init__(self) -> None:
         check_int("global_seeds", self.global_seeds, 1, 10_000)
         if self.global_seeds > 1 and "global" not in self.parts:
             raise ValueError(f"global_seeds={self.global_seeds} needs the global score")
+        if self.bound and "global" not in self.parts:
+            raise ValueError("the bound is the global score's: it needs the global score")
+        if self.bound:
+            symbolic()  # the control extra, refused at once where missing
         if isinstance(self.scored, str):
             object.__setattr__(self, "scored", Source(self.scored))
         if isinstance(self.scored, Source):
@@ -293,7 +301,8 @@ class OlympicsRun:
         ]
         drawn = range(self.seed, self.seed + self.global_seeds) if "global" in self.parts else ()
         tests = [(self.scored, self.model, s, used.global_policy) for s in drawn]
-        total = len(work) + ("performance" in self.parts) + len(tests)
+        bounds = [(self.model, s, used.global_policy) for s in drawn] if self.bound else []
+        total = len(work) + ("performance" in self.parts) + len(tests) + len(bounds)
         pool = WorkerPool(self.jobs) if self.jobs > 1 and len(work) + len(tests) > 1 else None
         with (
             pool or contextlib.nullcontext(),
@@ -308,6 +317,7 @@ class OlympicsRun:
                 bar.done("performance")
             records = _played(pool, _robust_episode, work, bar, "robustness")
             runs = _played(pool, global_episode, tests, bar, "global")
+            found = _played(pool, uptime_bound, bounds, bar, "bound")
         p = model.params
         return Olympics(
             model={"name": self.model, "entry": named(self.scored)},
@@ -319,6 +329,7 @@ class OlympicsRun:
             global_episodes=tuple(recording for recording, _ in runs),
             global_seeds=tuple(drawn),
             global_draws=runs[0][1] if runs else {},
+            global_bounds=tuple(found),
             protocol=used,
         )
 
@@ -341,17 +352,20 @@ def score(
     seed: int = 0,
     jobs: int = 1,
     global_seeds: int = 1,
+    bound: bool = False,
 ) -> dict[str, Any]:
     """The protocol's ``scores`` (some of :data:`PARTS`) of ``controller`` on ``model``: a
     :class:`~acrobot_mj.control.controller.Controller`, an object in ``double_pendulum``'s
     convention, a :class:`~acrobot_mj.olympics.sources.Source` or its name. The record
     :func:`~acrobot_mj.olympics.report.olympics_record` makes (every score, every episode),
     nothing written; ``global_seeds``: the global score's mean over that many seeds from
-    ``seed``, with its 95 % interval."""
+    ``seed``, with its 95 % interval; ``bound``: each global episode's bound beside it."""
     from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention
     from acrobot_mj.olympics.report import olympics_record
 
     if isinstance(controller, DoublePendulumController) and not isinstance(controller, Controller):
         controller = TheirConvention(controller)
-    run = OlympicsRun(controller, model, tuple(scores), seed, jobs, global_seeds=global_seeds)
+    run = OlympicsRun(
+        controller, model, tuple(scores), seed, jobs, global_seeds=global_seeds, bound=bound
+    )
     return olympics_record(run.run())

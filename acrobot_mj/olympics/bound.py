@@ -1,0 +1,203 @@
+"""The global test's bound: how much of a drawn episode any controller within the torque limit
+could have the tip up. A controller can be up only after the fastest return to "up" from where
+each reset leaves the arm. So the bound takes the arm upright at rest as each reset begins (the
+better of ``theta1 = pi`` and ``-pi`` for the reset's PID), runs the reset as the protocol does,
+and counts the arm up from the fastest return the trajectory optimiser finds to the end of the
+interval; from hanging at rest before the first reset. The returns are local optima (several
+warm starts, each checked on the env's own steps), so the true minimum may be shorter and the
+true bound higher; the arm is taken up after each reset's start wherever its PID leaves it,
+and is never asked to stay balanced, which only makes the bound larger."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from acrobot_mj.control.controller import Controller
+from acrobot_mj.olympics import protocol
+from acrobot_mj.olympics.protocol import GLOBAL, GlobalPolicy, from_protocol
+from acrobot_mj.olympics.scores import is_up, tip_heights
+from acrobot_mj.physics import integrators
+from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.physics.integrators import ENV_INTEGRATORS
+from acrobot_mj.physics.models import AcrobotModel, resolve
+
+#: The knots of the minimum-time problem (its step is the free time over them).
+KNOTS = 30
+#: Above the protocol's height [m] the problem's end must reach: the check on the env's own
+#: steps then reaches the height itself despite the coarser knots.
+MARGIN = 1e-3
+#: The warm starts' horizon [fraction of the resets' gap] and their torques: full torque with 0,
+#: 1 or 2 switches evenly spaced (bang-bang, as a minimum-time optimum is), each sign first.
+WARM_TIME, WARM_SWITCHES = 0.1, (0, 1, 2)
+#: Upright at rest in the protocol's convention, the two windings a controller may hold.
+UPRIGHT = (np.array([math.pi, 0.0, 0.0, 0.0]), np.array([-math.pi, 0.0, 0.0, 0.0]))
+
+
+@dataclass(frozen=True)
+class Returns:
+    """The fastest returns to "up" on ``model`` in ``policy``'s episodes: a CasADi function
+    from a start state (ours) and a warm start to the free time and torques of
+    :data:`KNOTS` knots, each answer checked on the env's steps."""
+
+    model: AcrobotModel
+    policy: GlobalPolicy = GLOBAL
+
+    @property
+    def method(self) -> str:
+        return ENV_INTEGRATORS[self.model.integrator]
+
+    @cached_property
+    def _solve(self) -> Any:
+        import casadi
+
+        from acrobot_mj.control.trajopt import IPOPT, symbolic_step
+
+        p, g = self.model.params, self.policy
+        opti = casadi.Opti()
+        xs, us, seconds = opti.variable(4, KNOTS + 1), opti.variable(1, KNOTS), opti.variable()
+        start = opti.parameter(4)
+        x, u, h = casadi.SX.sym("x", 4), casadi.SX.sym("u"), casadi.SX.sym("h")
+        step = casadi.Function("step", [x, u, h], [symbolic_step(x, u, h, self.method, p)])
+        opti.subject_to(xs[:, 0] == start)
+        opti.subject_to(xs[:, 1:] == step.map(KNOTS)(xs[:, :-1], us, seconds / KNOTS))
+        opti.subject_to(opti.bounded(-p.max_torque, us, p.max_torque))
+        for row, limit in ((2, p.max_vel1), (3, p.max_vel2)):
+            if limit < math.inf:
+                opti.subject_to(opti.bounded(-limit, xs[row, :], limit))
+        opti.subject_to(opti.bounded(g.dt, seconds, self.gap))
+        q1, q2 = xs[0, KNOTS], xs[1, KNOTS]
+        tip = p.l1 * casadi.sin(q1) + p.l2 * casadi.sin(q1 + q2)
+        opti.subject_to(tip >= g.height * (p.l1 + p.l2) + MARGIN)
+        opti.minimize(seconds)
+        options = {"print_time": False, "ipopt.sb": "yes", "expand": True, "error_on_fail": False}
+        opti.solver("ipopt", options, {**IPOPT, "max_iter": 300})
+        return opti.to_function("fastest", [start, xs, us, seconds], [seconds, us])
+
+    @property
+    def gap(self) -> float:
+        """The resets' spacing [s]: no return longer than it counts."""
+        return self.policy.t_final / (self.policy.resets + 1)
+
+    def steps(self, start: np.ndarray) -> int | None:
+        """The fewest env steps found from ``start`` (ours) to a state up (0: up already;
+        None: none found within :attr:`gap`)."""
+        p = self.model.params
+        if self._up(start[None])[0]:
+            return 0
+        best, seconds = None, WARM_TIME * self.gap
+        coarse = dataclasses.replace(p, dt=seconds / KNOTS)
+        for switches in WARM_SWITCHES:
+            pattern = (-1.0) ** (np.arange(KNOTS) * (switches + 1) // KNOTS)
+            for sign in (1.0, -1.0):
+                torques = sign * p.max_torque * pattern
+                warm = integrators.simulate(start, torques, self.method, coarse, limits=False)
+                found, us = self._solve(start, warm.T, torques[None], seconds)
+                steps = self._checked(start, float(found), np.ravel(np.array(us)))
+                if steps is not None and (best is None or steps < best):
+                    best = steps
+        return best
+
+    def _up(self, states: np.ndarray) -> np.ndarray:
+        p = self.model.params
+        return is_up(protocol.to_protocol(states), p.l1, p.l2, self.policy.height)
+
+    def _checked(self, start: np.ndarray, seconds: float, torques: np.ndarray) -> int | None:
+        """The first env step at which the knots' torques, held over the env's steps, have the
+        tip up (None: never within :attr:`gap`)."""
+        p = self.model.params
+        if not (math.isfinite(seconds) and np.isfinite(torques).all()):
+            return None
+        n = integrators.steps_in(min(seconds, self.gap), p.dt)
+        knot = np.minimum((np.arange(n) * p.dt / (seconds / KNOTS)).astype(int), KNOTS - 1)
+        held = np.clip(torques[knot], -p.max_torque, p.max_torque)
+        states = integrators.simulate(start, held, self.method, p)
+        up = np.flatnonzero(self._up(states))
+        return int(up[0]) if up.size else None
+
+
+class _Still(Controller):
+    """No torque; the times [s] at which it was asked."""
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+
+    def act(self, x: np.ndarray, t: float) -> float:
+        self.times.append(t)
+        return 0.0
+
+
+def reset_from_upright(
+    model: str, target: np.ndarray, policy: GlobalPolicy = GLOBAL
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """For each upright winding (:data:`UPRIGHT`): which of the rows of a reset to ``target``
+    (protocol convention) that begins upright at rest have the tip up, from its first row on,
+    and the state (ours) where the controller takes over."""
+    from acrobot_mj.olympics.run import global_run
+
+    lasts = dataclasses.replace(policy, t_final=policy.reset_length + 20 * policy.dt)
+    times = protocol.episode_times(lasts.t_final, lasts.dt)
+    found = []
+    for upright in UPRIGHT:
+        still = _Still()
+        run = global_run(
+            still, model, np.asarray(target)[None], times[1:2], lasts, start=from_protocol(upright)
+        )
+        back = times.tolist().index(still.times[1])  # the row the controller acts again
+        p = resolve(model).params
+        up = tip_heights(protocol.to_protocol(run.X[1:back]), p.l1, p.l2) > (
+            policy.height * (p.l1 + p.l2)
+        )
+        found.append((up, run.X[back]))
+    return found
+
+
+@dataclass(frozen=True)
+class Bound:
+    """The bound on one drawn episode: ``uptime`` [s], ``score`` (uptime over the episode's
+    length) and the ``returns`` [s] found, from hanging and after each reset (None: none)."""
+
+    uptime: float
+    score: float
+    returns: tuple[float | None, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def uptime_bound(model: str, seed: int, policy: GlobalPolicy = GLOBAL) -> Bound:
+    """The bound on the uptime of ``policy``'s episode of ``seed`` on ``model``."""
+    acrobot = resolve(model)
+    if acrobot.actuated != "elbow":
+        raise ValueError(f"the global test's bound is for an acrobot, not model {model!r}")
+    targets, reset_times = policy.draw(seed)
+    times = protocol.episode_times(policy.t_final, policy.dt)
+    rows = len(times) - 1  # the rows the score counts (the last state is not one)
+    begins = [int(np.searchsorted(times, r, side="left")) for r in reset_times] + [rows]
+    returns = Returns(acrobot, policy)
+    up = np.zeros(rows, dtype=bool)
+    first = returns.steps(HANGING)
+    if first is not None:
+        up[first : begins[0]] = True
+    found: list[float | None] = [None if first is None else first * policy.dt]
+    for k, begin in enumerate(begins[:-1]):
+        best, best_rows, best_steps = -1, None, None
+        for during, end in reset_from_upright(model, targets[k], policy):
+            back = begin + len(during)  # the row where the controller acts again
+            steps = returns.steps(end)
+            candidate = np.zeros(rows, dtype=bool)
+            candidate[begin:back] = during[: max(0, rows - begin)]
+            if steps is not None:
+                candidate[back + steps : begins[k + 1]] = True
+            if candidate.sum() > best:
+                best, best_rows, best_steps = int(candidate.sum()), candidate, steps
+        up |= best_rows
+        found.append(None if best_steps is None else best_steps * policy.dt)
+    up[0] = False  # row 0 counts no time
+    uptime = float(np.sum(np.diff(times[:rows], prepend=0.0)[up]))
+    return Bound(uptime, uptime / policy.t_final, tuple(found))
