@@ -17,14 +17,13 @@ import numpy as np
 
 from acrobot_mj.checks import check_float
 from acrobot_mj.envs.links import acrobot_under, read_link, write_link
-from acrobot_mj.physics.models import ModelSpec, joint_inertias, resolve
+from acrobot_mj.physics.models import JOINTS, ModelSpec, joint_inertias, resolve
 
 #: The protocol's parameters in its order: motor inertia [kg m^2], m1 r1 [kg m], I1 about the
 #: shoulder [kg m^2], b1 [N m s/rad], cf1 [N m], then link 2's and m2 [kg].
 PROTOCOL_PARAMETERS = ("Ir", "m1r1", "I1", "b1", "cf1", "m2r2", "m2", "I2", "b2", "cf2")
 #: The protocol's gear ratio (model_parameters.yml of design C.1).
 GEAR_RATIO = 6.0
-JOINTS = ("shoulder", "elbow")
 
 
 def nominal(model: ModelSpec = "ai_olympics", gear_ratio: float = GEAR_RATIO) -> dict[str, float]:

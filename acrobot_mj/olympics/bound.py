@@ -20,10 +20,10 @@ import numpy as np
 
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.olympics import protocol
-from acrobot_mj.olympics.protocol import GLOBAL, GlobalPolicy, from_protocol
+from acrobot_mj.olympics.protocol import GLOBAL, GlobalPolicy, from_protocol, to_protocol
 from acrobot_mj.olympics.scores import is_up, tip_heights
 from acrobot_mj.physics import integrators
-from acrobot_mj.physics.dynamics import HANGING
+from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.models import AcrobotModel, resolve
 
@@ -35,8 +35,9 @@ MARGIN = 1e-3
 #: The warm starts' horizon [fraction of the resets' gap] and their torques: full torque with 0,
 #: 1 or 2 switches evenly spaced (bang-bang, as a minimum-time optimum is), each sign first.
 WARM_TIME, WARM_SWITCHES = 0.1, (0, 1, 2)
-#: Upright at rest in the protocol's convention, the two windings a controller may hold.
-UPRIGHT = (np.array([math.pi, 0.0, 0.0, 0.0]), np.array([-math.pi, 0.0, 0.0, 0.0]))
+#: Upright at rest in the protocol's convention, the two windings a controller may hold it at:
+#: ``theta1 = pi`` and ``-pi``.
+WINDINGS = (to_protocol(UPRIGHT), to_protocol(UPRIGHT) - [2 * math.pi, 0.0, 0.0, 0.0])
 
 
 @dataclass(frozen=True)
@@ -105,7 +106,7 @@ class Returns:
 
     def _up(self, states: np.ndarray) -> np.ndarray:
         p = self.model.params
-        return is_up(protocol.to_protocol(states), p.l1, p.l2, self.policy.height)
+        return is_up(to_protocol(states), p.l1, p.l2, self.policy.height)
 
     def _checked(self, start: np.ndarray, seconds: float, torques: np.ndarray) -> int | None:
         """The first env step at which the knots' torques, held over the env's steps, have the
@@ -135,7 +136,7 @@ class _Still(Controller):
 def reset_from_upright(
     model: str, target: np.ndarray, policy: GlobalPolicy = GLOBAL
 ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """For each upright winding (:data:`UPRIGHT`): which of the rows of a reset to ``target``
+    """For each upright winding (:data:`WINDINGS`): which of the rows of a reset to ``target``
     (protocol convention) that begins upright at rest have the tip up, from its first row on,
     and the state (ours) where the controller takes over."""
     from acrobot_mj.olympics.run import global_run
@@ -143,16 +144,14 @@ def reset_from_upright(
     lasts = dataclasses.replace(policy, t_final=policy.reset_length + 20 * policy.dt)
     times = protocol.episode_times(lasts.t_final, lasts.dt)
     found = []
-    for upright in UPRIGHT:
+    for upright in WINDINGS:
         still = _Still()
         run = global_run(
             still, model, np.asarray(target)[None], times[1:2], lasts, start=from_protocol(upright)
         )
         back = times.tolist().index(still.times[1])  # the row the controller acts again
         p = resolve(model).params
-        up = tip_heights(protocol.to_protocol(run.X[1:back]), p.l1, p.l2) > (
-            policy.height * (p.l1 + p.l2)
-        )
+        up = tip_heights(to_protocol(run.X[1:back]), p.l1, p.l2) > (policy.height * (p.l1 + p.l2))
         found.append((up, run.X[back]))
     return found
 

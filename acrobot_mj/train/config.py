@@ -9,7 +9,7 @@ import dataclasses
 import inspect
 import math
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 
@@ -23,7 +23,7 @@ from acrobot_mj.physics.models import (
     carry_model,
     table_setting,
 )
-from acrobot_mj.settings import SettingError, check, declared, followers, parse, setting
+from acrobot_mj.settings import SettingError, Settings, declared, followers, parse, setting
 
 #: The longest episode [decisions] and the most episodes a run takes: about a minute of steps
 #: each, and days of training (larger sizes could not finish).
@@ -37,9 +37,13 @@ RETIRED = ("eval_episodes", "eval_noise", "kernel")
 
 
 @dataclass(frozen=True)
-class TrainConfig:
+class TrainConfig(Settings):
     """Everything that defines a training run except the seed; the defaults are the report's.
-    ``agent`` and ``encoding``: the algorithm's and the features' configs (None: defaults)."""
+    ``agent`` and ``encoding``: the algorithm's and the features' configs (None: defaults).
+    A :class:`~acrobot_mj.settings.Settings` whose :meth:`replace`, :meth:`to_dict` and
+    :meth:`from_dict` also take the agent's and the features' settings by their flat names."""
+
+    what: ClassVar[str] = "config"
 
     task: str = setting(
         "height_goal", "what counts as success: height_goal (the report's) or balance"
@@ -92,7 +96,7 @@ class TrainConfig:
     checkpoint_every: int = setting(50, "episodes between checkpoints", low=1, high=MAX_EPISODES)
 
     def __post_init__(self) -> None:
-        check(self)
+        super().__post_init__()
         _check_names(self.task, self.algorithm, self.features)
         carry_model(self)
         acrobot = self.acrobot
