@@ -127,8 +127,9 @@ class EnergyRemoval(Controller):
 
 
 class Timed(Controller):
-    """``controller``, the wall time [s] of each of its :meth:`act` calls kept in ``seconds``
-    (every call since it was made); it passes everything else on."""
+    """``controller``, the wall time [s] of each of its calls of
+    :meth:`~acrobot_mj.control.controller.Controller.act` kept in ``seconds`` (every call since
+    it was made); it passes everything else on."""
 
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
