@@ -10,6 +10,8 @@ on Acrobot-v1, the book learner's decisions >= 1.5x and the tuned preset's over 
 Acrobot-v1's ``env.step``, the AI Olympics robustness score's episodes projected at
 most 10 minutes on 2 workers, and the vector env at least as fast as Gymnasium's ``SyncVectorEnv``
 over single envs at N = 1, 4, 16 and 64 (measured A B A B in short alternating runs, medians).
+Apart from the rates, the AI Olympics entries' time per call of their controllers
+(``benchmarks/latency.py``).
 """
 
 from __future__ import annotations
@@ -42,6 +44,9 @@ from acrobot_mj.train.presets import PRESETS
 Rate = Callable[[int], float]  # round -> steps per second
 #: Sizes at which the vector env is measured against Gymnasium's SyncVectorEnv.
 SYNC_SIZES = (1, 4, 16, 64)
+#: The bench's parts: the rates (every row in steps per second and its ratios) and the entries'
+#: time per call of their controllers (``benchmarks/latency.py``).
+PARTS = ("rates", "latency")
 
 
 def env_steps(env: gym.Env, steps: int) -> Rate:
@@ -208,9 +213,43 @@ def robustness_minutes(rate: float, workers: int = 2) -> float:
 
 
 def run(
+    quick: bool = False,
+    rounds: int | None = None,
+    peer_python: str | None = None,
+    parts: tuple[str, ...] = PARTS,
+    entries: tuple[str, ...] | None = None,
+) -> dict[str, Any]:
+    """Measure the ``parts`` of :data:`PARTS` asked for: ``rates`` (:func:`rates_part`) and
+    ``latency``, the time per call of each of ``entries``' controllers (None: the default
+    entries; ``benchmarks/latency.py``)."""
+    unknown = sorted(set(parts) - set(PARTS))
+    if unknown or not parts:
+        raise ValueError(f"the bench's parts are some of {','.join(PARTS)}, got {','.join(parts)}")
+    if entries is not None and "latency" not in parts:
+        raise ValueError("entries are timed by the latency part, which was not asked for")
+    latency = sibling("latency")
+    chosen = latency.checked(latency.DEFAULT_ENTRIES if entries is None else entries)
+    result = rates_part(quick, rounds, peer_python) if "rates" in parts else {"machine": machine()}
+    if "latency" in parts:
+        result["latency"] = latency.latency_rows(chosen, quick)
+    return result
+
+
+def machine() -> dict[str, Any]:
+    """The machine and the versions the bench measured on."""
+    return {
+        "cpus": os.cpu_count(),
+        "processor": platform.processor() or platform.machine(),
+        "python": platform.python_version(),
+        "mujoco": mujoco.__version__,
+        "gymnasium": gym.__version__,
+    }
+
+
+def rates_part(
     quick: bool = False, rounds: int | None = None, peer_python: str | None = None
 ) -> dict[str, Any]:
-    """Measure everything; returns the medians, ratios, scaling table and memory, and the
+    """Measure every rate; returns the medians, ratios, scaling table and memory, and the
     peers (envpool, gymnax: ``benchmarks/peer_compare.py``; ``peer_python`` runs those that
     need their own environment)."""
     rounds = rounds or (1 if quick else 3)
@@ -267,13 +306,7 @@ def run(
         ratios[f"vector_env_vs_batch_N{size}"] = row["vector_env"] / row["batch_ceiling"]
         ratios[f"vector_env_vs_batch_io_floor_N{size}"] = row["vector_env"] / row["batch_io_floor"]
     result = {
-        "machine": {
-            "cpus": os.cpu_count(),
-            "processor": platform.processor() or platform.machine(),
-            "python": platform.python_version(),
-            "mujoco": mujoco.__version__,
-            "gymnasium": gym.__version__,
-        },
+        "machine": machine(),
         "quick": quick,
         "rounds": rounds,
         "scaling_rounds": scaling_rounds,
@@ -319,7 +352,16 @@ def versus_gymnax(result: dict[str, Any]) -> None:
 
 
 def report(result: dict[str, Any]) -> str:
-    """The benchmark's table as text."""
+    """The benchmark's tables as text: the parts measured."""
+    lines = rates_lines(result) if "rates_steps_per_second" in result else []
+    if "latency" in result:
+        apart = [""] if lines else []
+        lines += [*apart, *sibling("latency").latency_lines(result["latency"])]
+    return "\n".join(lines)
+
+
+def rates_lines(result: dict[str, Any]) -> list[str]:
+    """The rates' tables as lines."""
     rates = result["rates_steps_per_second"]
     env_base = rates["gymnasium Acrobot-v1 env.step"]
     sarsa_base = rates["SARSA on Gymnasium Acrobot-v1"]
@@ -366,4 +408,4 @@ def report(result: dict[str, Any]) -> str:
     if "peers" in result:  # and the env rows in simulated seconds per wall second
         lines += ["", *sibling("peer_compare").section_lines(result)]
     lines += sibling("analytic").report_lines(result["analytic_backend"])
-    return "\n".join(lines)
+    return lines

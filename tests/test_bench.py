@@ -70,6 +70,11 @@ def test_bench_quick_runs_and_writes_json(tmp_path, capsys, monkeypatch) -> None
             assert row[f"{name}_sim_s_per_s"] == row[name] * analytic["decision_s"]
     assert analytic["decision_s"] == 0.2  # frame_skip 4 of 0.05 s
     assert analytic["profile_N1024"]["step_us"] > 0 and analytic["profile_N1024"]["physics_us"] > 0
+    latency = result["latency"]  # the default entries, quick: 10 s global-test episodes
+    assert list(latency) == ["tree", "funnel"] and "time per call of each entry's" in text
+    for row in latency.values():
+        assert row["realtime"] and row["steps"] == 5000 and 0 < row["calls"] < 5000
+        assert 0 < row["median_ms"] <= row["p99_ms"] <= row["max_ms"]
 
 
 def test_bench_parser_takes_a_peer_python() -> None:

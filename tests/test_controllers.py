@@ -1,7 +1,8 @@
-"""The one controller interface: its pieces (a chain of fallbacks, a switch, a held decision),
-the entries' registry on every shipped model, and controllers brought from elsewhere: a law in
-double_pendulum's convention scores to the bit as the same law written against the interface,
-through ``olympics module:attribute``; bad sources are refused in one line."""
+"""The one controller interface: its pieces (a chain of fallbacks, a switch, a held decision, a
+timed controller), the entries' registry on every shipped model, and controllers brought from
+elsewhere: a law in double_pendulum's convention scores to the bit as the same law written
+against the interface, through ``olympics module:attribute``; bad sources are refused in one
+line."""
 
 from __future__ import annotations
 
@@ -13,7 +14,14 @@ import numpy as np
 import pytest
 
 from acrobot_mj.cli import main
-from acrobot_mj.control.controller import Combined, Controller, EnergyRemoval, Fallbacks, Held
+from acrobot_mj.control.controller import (
+    Combined,
+    Controller,
+    EnergyRemoval,
+    Fallbacks,
+    Held,
+    Timed,
+)
 from acrobot_mj.olympics import entries, sources
 from acrobot_mj.olympics.plants import equations
 from acrobot_mj.olympics.run import Conditions, episode, score
@@ -75,6 +83,24 @@ def test_energy_removal_works_against_the_elbow() -> None:
 def test_a_held_controller_refuses_a_bad_period() -> None:
     with pytest.raises(ValueError, match="every must be a whole number of calls >= 1, got 0"):
         Held(Constant(1.0), 1.0, every=0)
+
+
+def test_a_timed_controller_passes_everything_on_and_sums_up_its_calls() -> None:
+    inner = Constant(1.5, below=0.0)
+    timed = Timed(inner)
+    x = np.array([-0.1, 0.2, 0.3, 0.4])
+    assert [timed.act(x, 0.0) for _ in range(3)] == [1.5] * 3 and len(timed.seconds) == 3
+    timed.applied(0.5)
+    timed.reset()
+    assert inner.heard == [0.5] and inner.resets == 1 and timed.covers(x)
+    assert not timed.covers(np.array([0.1, 0, 0, 0]))
+    timed.seconds = [0.001] * 97 + [0.003, 0.004, 0.005]  # [s]
+    calls = timed.summary(0.002)
+    assert calls["calls"] == 100 and calls["over_step"] == pytest.approx(0.03)
+    assert calls["median_ms"] == pytest.approx(1.0) and calls["max_ms"] == pytest.approx(5.0)
+    assert calls["p99_ms"] == pytest.approx(4.01)  # numpy's linear: 98.01 of 0 to 99
+    with pytest.raises(ValueError, match="no call was timed"):
+        Timed(inner).summary(0.002)
 
 
 @pytest.mark.parametrize("model", sorted(MODELS))

@@ -179,14 +179,37 @@ def validate_command(args: argparse.Namespace) -> dict[str, Any]:
     return report
 
 
+def names(text: str) -> tuple[str, ...]:
+    """An argparse type: names, comma-separated (at least one)."""
+    chosen = tuple(name.strip() for name in text.split(",") if name.strip())
+    if not chosen:
+        raise argparse.ArgumentTypeError(f"must name at least one, got {text!r}")
+    return chosen
+
+
 def add_bench(commands: Commands) -> None:
     p = add_command(
         commands,
         "bench",
         bench_command,
-        "steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling",
+        "steps per second against Gymnasium's Acrobot-v1 and MuJoCo's ceiling, and the AI "
+        "Olympics entries' time per call",
     )
     p.add_argument("--quick", action="store_true", help="smaller sizes and one round (CI)")
+    p.add_argument(
+        "--only",
+        type=names,
+        metavar="PARTS",
+        help="the parts to run, comma-separated: rates (every steps-per-second row), latency "
+        "(each AI Olympics entry's time per call in one global-test episode, on one core); "
+        "default: both",
+    )
+    p.add_argument(
+        "--entries",
+        type=names,
+        metavar="LIST",
+        help="the entries whose latency is timed, comma-separated (default: tree,funnel)",
+    )
     p.add_argument(
         "--json", metavar="FILE", type=output_file, help="also write the results as JSON"
     )
@@ -213,7 +236,8 @@ def bench_command(args: argparse.Namespace) -> dict[str, Any]:
     suite = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(suite)
     peer_python = args.peer_python or os.environ.get("ACROBOT_MJ_PEER_PYTHON") or None
-    result = suite.run(quick=args.quick, peer_python=peer_python)
+    parts = suite.PARTS if args.only is None else args.only
+    result = suite.run(quick=args.quick, peer_python=peer_python, parts=parts, entries=args.entries)
     print(suite.report(result))
     write_record(args.json, result)
     return result

@@ -1,14 +1,15 @@
 """The one shape of everything that gives the acrobot a torque (:class:`Controller`), and the
 pieces that compose controllers: the first of a chain of laws that acts (:class:`Fallbacks`),
 a switch between two controllers (:class:`Combined`, as ``double_pendulum``'s
-``CombinedController``), a controller that decides every few calls (:class:`Held`), and
-energy removal (:class:`EnergyRemoval`).
+``CombinedController``), a controller that decides every few calls (:class:`Held`),
+energy removal (:class:`EnergyRemoval`), and a controller whose calls are timed (:class:`Timed`).
 
 In our convention throughout: the state ``x = (q1, q2, dq1, dq2)`` [rad, rad/s] with ``q1`` from
 the horizontal, the time ``t`` [s] since the episode began, the elbow torque [N m]."""
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 
@@ -123,3 +124,42 @@ class EnergyRemoval(Controller):
 
     def act(self, x: np.ndarray, t: float) -> float:
         return float(np.clip(-self.damping * x[3], -self.limit, self.limit))
+
+
+class Timed(Controller):
+    """``controller``, the wall time [s] of each of its calls of
+    :meth:`~acrobot_mj.control.controller.Controller.act` kept in ``seconds`` (every call since
+    it was made); it passes everything else on."""
+
+    def __init__(self, controller: Controller) -> None:
+        self.controller = controller
+        self.seconds: list[float] = []
+
+    def reset(self, seed: int | None = None) -> None:
+        self.controller.reset(seed)
+
+    def act(self, x: np.ndarray, t: float) -> float:
+        start = time.perf_counter()
+        u = self.controller.act(x, t)
+        self.seconds.append(time.perf_counter() - start)
+        return u
+
+    def applied(self, torque: float) -> None:
+        self.controller.applied(torque)
+
+    def covers(self, x: np.ndarray) -> bool:
+        return self.controller.covers(x)
+
+    def summary(self, step: float) -> dict[str, float]:
+        """The calls, their median, 99th percentile and longest time [ms], and the fraction of
+        calls longer than ``step`` [s]."""
+        if not self.seconds:
+            raise ValueError("no call was timed")
+        ms = np.asarray(self.seconds) * 1e3
+        return {
+            "calls": len(ms),
+            "median_ms": float(np.median(ms)),
+            "p99_ms": float(np.percentile(ms, 99)),
+            "max_ms": float(ms.max()),
+            "over_step": float(np.mean(ms > step * 1e3)),
+        }

@@ -70,8 +70,8 @@ class Entry:
     """An entry: its ``name``, what it ``describes``, its ``factory`` (a
     :class:`~acrobot_mj.olympics.plants.Plant` and the options to a controller), its
     ``options`` (a :class:`~acrobot_mj.settings.Settings`), ``only``, the acrobot it is set for
-    (None: every one with a planned swing-up), with ``why``, and whether it can be built on a
-    ``learnt`` model."""
+    (None: every one with a planned swing-up), with ``why``, whether it can be built on a
+    ``learnt`` model, and whether it is ``realtime`` (False: the simulation waits for it)."""
 
     name: str
     describes: str
@@ -80,6 +80,7 @@ class Entry:
     only: str | None = None
     why: str = ""
     learnt: bool = False
+    realtime: bool = True
 
     def check(self, model: str, learnt: bool = False) -> None:
         """Refuse, in one line, an acrobot ``model`` the entry cannot work on, from its
@@ -175,6 +176,7 @@ ENTRIES = {
             _replan,
             only="ai_olympics",
             why="its planner's and replanning's settings are that robot's",
+            realtime=False,
         ),
         Entry(
             "tree",
