@@ -1,10 +1,10 @@
 """Write the docs' generated tables: the configs' settings from their declarations
-(acrobot_mj.settings.table), and any table a function of the package writes.
+(acrobot_mj.settings.table), and any table a function of the package writes (the AI Olympics
+scores from the recorded runs: acrobot_mj.olympics.tables).
 
 A table sits between ``<!-- settings: MODULE.NAME -->`` and ``<!-- end settings -->`` in a page
-of docs/guide (``NAME`` a config class, or a function that returns the table); this rewrites
-every such block. tests/test_settings.py checks that the committed
-pages equal what this writes.
+of docs/ (``NAME`` a config class, or a function that returns the table); this rewrites every
+such block. tests/test_settings.py checks that the committed pages equal what this writes.
 
     python scripts/settings_tables.py           # rewrite the pages
     python scripts/settings_tables.py --check   # exit 1 where a page differs
@@ -22,7 +22,7 @@ from typing import Any
 from acrobot_mj.settings import table
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = sorted((ROOT / "docs" / "guide").glob("*.md"))
+PAGES = sorted(p for p in (ROOT / "docs").rglob("*.md") if "_build" not in p.parts)
 BLOCK = re.compile(r"(<!-- settings: ([\w.]+) -->\n)(.*?)(<!-- end settings -->)", re.S)
 
 

@@ -143,7 +143,7 @@ def test_a_table_has_a_row_per_setting() -> None:
 
 def test_the_docs_tables_are_the_declarations() -> None:
     pages = [p for p in tables.PAGES if tables.BLOCK.search(p.read_text())]
-    assert pages, "no settings tables in docs/guide"
+    assert pages, "no generated tables in docs/"
     for page in pages:
         text = page.read_text()
         assert tables.rendered(text) == text, f"{page}: python scripts/settings_tables.py"

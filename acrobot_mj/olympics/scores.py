@@ -25,17 +25,6 @@ from acrobot_mj.olympics.protocol import (
     wrap_top,
 )
 
-#: The ICRA 2025 acrobot simulation leaderboard's global-policy scores, the time up of 60 s
-#: (dfki-ric-underactuated-lab/real_ai_gym_leaderboard,
-#: leaderboards/icra2025/ICRA_2025_acrobot_simulation_results.csv).
-GLOBAL_LEADERBOARD = {
-    "AR-EAPO": 0.658,
-    "VIMPPI": 0.648,
-    "AcadosMpc": 0.630,
-    "mcpilco": 0.307,
-    "prx_analytical": 0.117,
-}
-
 
 @dataclass(frozen=True)
 class Recording:
