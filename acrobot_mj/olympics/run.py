@@ -4,12 +4,11 @@ the disturbance wrappers of :mod:`acrobot_mj.envs` (:class:`~acrobot_mj.envs.sen
 :class:`~acrobot_mj.envs.motor.Motor`, :class:`~acrobot_mj.envs.model_error.ModelError`), its
 controller any :class:`~acrobot_mj.control.controller.Controller` or a
 :class:`~acrobot_mj.olympics.sources.Source` of one, built once per process; episodes shared
-over a :class:`~acrobot_mj.pool.WorkerPool`; scores and record by
-:mod:`acrobot_mj.olympics.scores` and :mod:`acrobot_mj.olympics.report`."""
+over a :class:`~acrobot_mj.pool.WorkerPool` or a :class:`~acrobot_mj.pool.RayPool`; scores
+and record by :mod:`acrobot_mj.olympics.scores` and :mod:`acrobot_mj.olympics.report`."""
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,7 +31,7 @@ from acrobot_mj.olympics.scores import Recording, final_success
 from acrobot_mj.olympics.sources import Source
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import resolve
-from acrobot_mj.pool import WorkerPool
+from acrobot_mj.pool import Ray, RayPool, WorkerPool
 
 #: The parts of the protocol, in the order they run.
 PARTS = ("performance", "robustness", "global")
@@ -249,16 +248,18 @@ class OlympicsRun:
     :class:`~acrobot_mj.control.controller.Controller`, or a
     :class:`~acrobot_mj.olympics.sources.Source` of one) on ``model``, the ``parts`` of
     :data:`PARTS`, every draw from ``seed``, episodes on ``jobs`` processes (a controller
-    object must then be picklable), a bar on stderr with ``progress``; ``protocol`` (None: the
-    original on ``ai_olympics``, else scaled to ``model``,
+    object must then be picklable) or as tasks on a :class:`~acrobot_mj.pool.Ray` cluster
+    (each gets the controller built here), a bar on stderr with ``progress``; ``protocol``
+    (None: the original on ``ai_olympics``, else scaled to ``model``,
     :func:`~acrobot_mj.olympics.scaling.protocol_for`); ``global_seeds`` global episodes, of
-    seeds ``seed``, ``seed + 1``, ... (their mean is the global score)."""
+    seeds ``seed``, ``seed + 1``, ... (their mean is the global score). Each episode's numbers
+    come from its seed alone: the record is the same wherever the episodes run."""
 
     scored: Scored
     model: str = "ai_olympics"
     parts: tuple[str, ...] = PARTS
     seed: int = 0
-    jobs: int = 1
+    jobs: int | Ray = 1
     progress: bool = False
     protocol: Rules | None = None
     global_seeds: int = 1
@@ -267,6 +268,10 @@ class OlympicsRun:
         check_int("global_seeds", self.global_seeds, 1, 10_000)
         if self.global_seeds > 1 and "global" not in self.parts:
             raise ValueError(f"global_seeds={self.global_seeds} needs the global score")
+        if isinstance(self.jobs, Ray):
+            self.jobs.check()
+        else:
+            check_int("jobs", self.jobs, 1)
         if isinstance(self.scored, str):
             object.__setattr__(self, "scored", Source(self.scored))
         if isinstance(self.scored, Source):
@@ -282,32 +287,31 @@ class OlympicsRun:
         :class:`~acrobot_mj.olympics.report.Olympics` to score."""
         model, used = resolve(self.model), self.protocol
         assert used is not None
-        if isinstance(self.scored, Source):  # built here once (a learnt plan is planned, kept)
-            sources.build(self.scored, self.model)
+        scored = self.scored
+        if isinstance(scored, Source):  # built here once (a learnt plan is planned, kept)
+            built = sources.build(scored, self.model)
+            # Ray's workers are no forks of this process: they get what was built here (no
+            # plan made again, no file of this machine read there).
+            scored = built if isinstance(self.jobs, Ray) else scored
         robustness = used.robustness
         categories = robustness.categories(model) if "robustness" in self.parts else ()
-        work = [
-            c
+        episodes: list[tuple[str, Any, tuple]] = [
+            ("robustness", _robust_episode, c)
             for category in categories
-            for c in _calls(self.scored, self.model, category, self.seed, robustness)
+            for c in _calls(scored, self.model, category, self.seed, robustness)
         ]
+        if "performance" in self.parts:
+            run = used.performance
+            call = (scored, self.model, run.t_final, Conditions(), self.seed, run.dt)
+            episodes.insert(0, ("performance", episode, call))
         drawn = range(self.seed, self.seed + self.global_seeds) if "global" in self.parts else ()
-        tests = [(self.scored, self.model, s, used.global_policy) for s in drawn]
-        total = len(work) + ("performance" in self.parts) + len(tests)
-        pool = WorkerPool(self.jobs) if self.jobs > 1 and len(work) + len(tests) > 1 else None
-        with (
-            pool or contextlib.nullcontext(),
-            Steps(total, "olympics", self.progress, "episodes") as bar,
-        ):
-            performance = None
-            if "performance" in self.parts:
-                run = used.performance
-                performance = episode(
-                    self.scored, self.model, run.t_final, Conditions(), self.seed, run.dt
-                )
-                bar.done("performance")
-            records = _played(pool, _robust_episode, work, bar, "robustness")
-            runs = _played(pool, global_episode, tests, bar, "global")
+        episodes += [
+            ("global", global_episode, (scored, self.model, s, used.global_policy)) for s in drawn
+        ]
+        with Steps(len(episodes), "olympics", self.progress, "episodes") as bar:
+            results = _played(self.jobs, episodes, bar)
+        performance = results.pop(0) if "performance" in self.parts else None
+        records, runs = results[: len(results) - len(drawn)], results[len(results) - len(drawn) :]
         p = model.params
         return Olympics(
             model={"name": self.model, "entry": named(self.scored)},
@@ -323,14 +327,31 @@ class OlympicsRun:
         )
 
 
-def _played(pool: WorkerPool | None, play: Any, calls: list[tuple], bar: Steps, part: str) -> list:
-    """``play(*call)`` of each of ``calls``, in order, on ``pool`` (None: here), ``bar`` told
-    of each ``part`` episode as it ends."""
-    done = []
-    for result in (play(*c) for c in calls) if pool is None else pool.map(play, calls):
-        done.append(result)
-        bar.done(part)
-    return done
+def _played(jobs: int | Ray, episodes: list[tuple], bar: Steps) -> list:
+    """Each ``(part, play, args)`` of ``episodes``, ``play(*args)``: here, one after the other
+    (``jobs`` 1, or a single episode), else on a pool of ``jobs`` processes or on a Ray
+    cluster; ``bar`` told of each ``part`` as it ends. The results in the order of
+    ``episodes``."""
+    if not isinstance(jobs, Ray) and (jobs == 1 or len(episodes) < 2):
+        done = []
+        for part, play, args in episodes:
+            done.append(play(*args))
+            bar.done(part)
+        return done
+    results: list[Any] = [None] * len(episodes)
+    calls = [(play, *args) for _, play, args in episodes]
+    with RayPool(jobs) if isinstance(jobs, Ray) else WorkerPool(jobs) as pool:
+        for index, ok, value in pool.finished(_play, calls):
+            if not ok:
+                raise value
+            results[index] = value
+            bar.done(episodes[index][0])
+    return results
+
+
+def _play(play: Any, *args: Any) -> Any:
+    """``play(*args)``: one call, whatever the episode's function, for a pool."""
+    return play(*args)
 
 
 def score(
@@ -339,14 +360,15 @@ def score(
     model: str = "ai_olympics",
     scores: tuple[str, ...] = PARTS,
     seed: int = 0,
-    jobs: int = 1,
+    jobs: int | Ray = 1,
     global_seeds: int = 1,
 ) -> dict[str, Any]:
     """The protocol's ``scores`` (some of :data:`PARTS`) of ``controller`` on ``model``: a
     :class:`~acrobot_mj.control.controller.Controller`, an object in ``double_pendulum``'s
     convention, a :class:`~acrobot_mj.olympics.sources.Source` or its name. The record
     :func:`~acrobot_mj.olympics.report.olympics_record` makes (every score, every episode),
-    nothing written; ``global_seeds``: the global score's mean over that many seeds from
+    nothing written; ``jobs``: processes, or a :class:`~acrobot_mj.pool.Ray` cluster to run the
+    episodes as tasks on; ``global_seeds``: the global score's mean over that many seeds from
     ``seed``, with its 95 % interval."""
     from acrobot_mj.olympics.foreign import DoublePendulumController, TheirConvention
     from acrobot_mj.olympics.report import olympics_record
