@@ -1,5 +1,6 @@
 """A process pool whose workers stop with the driver: :class:`WorkerPool`, the package's one pool
-(seeds, sweeps, the swing-up search).
+(seeds, sweeps, the swing-up search, the AI Olympics' episodes); and :class:`RayPool`, the same
+calls as tasks on a :class:`Ray` cluster (sweeps and the AI Olympics with ``--backend ray``).
 
 Each worker has a pipe of its own and takes one call at a time, so a worker that dies (a kill,
 a crash) holds no lock another process waits on. Workers ignore SIGINT (a Ctrl-C reaches the
@@ -15,15 +16,22 @@ import ctypes
 import multiprocessing
 import os
 import signal
+import socket
 import threading
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
+from acrobot_mj.checks import check_int
 from acrobot_mj.stops import STOP_SIGNALS, check_stop, raise_stop
+
+#: Where a command's calls run: this machine's processes (``--jobs``), or a Ray cluster.
+BACKENDS = ("local", "ray")
 
 #: In a worker: the driver's stop flag and pid, whether its calls save on a stop (else it
 #: leaves at once), and whether a call is running.
@@ -137,7 +145,42 @@ class _Worker:
             self.process.join()
 
 
-class WorkerPool:
+class Calls:
+    """What both pools offer: :meth:`run` and :meth:`map`, from the ``(index, ok, result or
+    exception)`` of each call as it finishes (:meth:`finished`)."""
+
+    def finished(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[tuple]:
+        """``(index, ok, result or exception)`` of each ``function(*args)`` of ``calls`` as it
+        finishes."""
+        raise NotImplementedError
+
+    def run(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Future]:
+        """Run ``function(*args)`` for each of ``calls``; yield the futures, done, as they
+        finish (a call the stop reached before it began returns None)."""
+        for _, ok, value in self.finished(function, calls):
+            future: Future = Future()
+            if ok:
+                future.set_result(value)
+            else:
+                future.set_exception(value)
+            yield future
+
+    def map(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Any]:
+        """``function(*args)`` for each of ``calls``, yielded in the order of ``calls`` (a
+        call's exception is raised in its place)."""
+        done: dict[int, tuple[bool, Any]] = {}
+        following = 0
+        for index, ok, value in self.finished(function, calls):
+            done[index] = (ok, value)
+            while following in done:
+                ok, value = done.pop(following)
+                following += 1
+                if not ok:
+                    raise value
+                yield value
+
+
+class WorkerPool(Calls):
     """A process pool of ``jobs`` workers (None: one per CPU) that stop with the driver (see
     the module docstring); ``terminate``: a stop kills the workers instead of interrupting their
     calls."""
@@ -163,8 +206,7 @@ class WorkerPool:
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         self._idle: list[_Worker] = list(self._workers)
 
-    def _finished(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[tuple]:
-        """``(index, ok, result or exception)`` of each of ``calls`` as it finishes."""
+    def finished(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[tuple]:
         todo = list(enumerate(calls))[::-1]
         while todo or self._busy:
             while todo and self._idle and not self._stop.value:
@@ -201,31 +243,6 @@ class WorkerPool:
             return index, False, BrokenProcessPool(f"a worker died (exit code {code}) in a call")
         self._idle.append(worker)
         return index, ok, value
-
-    def run(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Future]:
-        """Run ``function(*args)`` for each of ``calls``; yield the futures, done, as they
-        finish (a call the stop reached before it began returns None)."""
-        for _, ok, value in self._finished(function, calls):
-            future: Future = Future()
-            if ok:
-                future.set_result(value)
-            else:
-                future.set_exception(value)
-            yield future
-
-    def map(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[Any]:
-        """``function(*args)`` for each of ``calls``, yielded in the order of ``calls`` (a
-        call's exception is raised in its place)."""
-        done: dict[int, tuple[bool, Any]] = {}
-        following = 0
-        for index, ok, value in self._finished(function, calls):
-            done[index] = (ok, value)
-            while following in done:
-                ok, value = done.pop(following)
-                following += 1
-                if not ok:
-                    raise value
-                yield value
 
     def stop(self) -> None:
         """Cancel what has not started and interrupt what runs, waiting for it to save; or,
@@ -267,3 +284,122 @@ class WorkerPool:
             self._end(LEAVE_SECONDS)
         else:
             self.stop()
+
+
+@dataclass(frozen=True)
+class Ray:
+    """A Ray cluster to run calls on as tasks: the one at ``address`` (``auto``, ``HOST:PORT``
+    or ``ray://HOST:10001``), or, without one, a local Ray instance of ``num_cpus`` CPUs (None:
+    every core) that listens on 127.0.0.1 only."""
+
+    address: str | None = None
+    num_cpus: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.num_cpus is not None:
+            check_int("num_cpus", self.num_cpus, 1)
+            if self.address is not None:
+                raise ValueError("--num-cpus sizes a local Ray instance: give no --address")
+        if self.address is not None and not (isinstance(self.address, str) and self.address):
+            raise ValueError(f"a Ray address must be a non-empty string, got {self.address!r}")
+
+    def check(self) -> None:
+        """Refuse an address where nothing listens, at once (Ray itself retries for minutes)."""
+        if self.address is None:
+            return
+        host, _, port = self.address.split("://", 1)[-1].rpartition(":")
+        if self.address == "auto" or not port.isdigit():
+            return  # Ray's own resolution and errors
+        try:
+            socket.create_connection((host or "127.0.0.1", int(port)), timeout=5).close()
+        except OSError as error:
+            raise ConnectionError(f"no Ray cluster answers at {self.address}: {error}") from None
+
+
+def backend_of(
+    backend: str, jobs: int | None, address: str | None, num_cpus: int | None
+) -> int | Ray | None:
+    """What runs a command's calls, from its options: ``jobs`` processes (``backend``
+    "local"), or a :class:`Ray` cluster ("ray": ``address``, or a local instance of
+    ``num_cpus``); an unknown backend, or an option of the other one, refused in one line."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    given = {"--address": address, "--num-cpus": num_cpus, "--jobs": jobs}
+    for option in ("--jobs",) if backend == "ray" else ("--address", "--num-cpus"):
+        if given[option] is not None:
+            other = "local" if backend == "ray" else "ray"
+            raise ValueError(f"{option} is for --backend {other}, not {backend}")
+    return Ray(address, num_cpus) if backend == "ray" else jobs
+
+
+class RayPool(Calls):
+    """Calls as tasks on a :class:`Ray` cluster (``pip install acrobot-mj[ray]``), with
+    :class:`WorkerPool`'s :meth:`run` and :meth:`map`. Ray is started here unless this process
+    is already connected, and shut down with the pool. An argument several calls share goes to
+    Ray's object store once. A task's exception, or its worker's death, is its call's exception;
+    on leaving early (an error, Ctrl-C) the tasks not finished are cancelled."""
+
+    def __init__(self, cluster: Ray) -> None:
+        cluster.check()
+        if cluster.address is None:
+            # A local instance listens on 127.0.0.1 only (Ray's single-machine mode; on Linux
+            # its servers listen on every interface otherwise). Read when Ray is imported.
+            os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+        try:
+            import ray
+        except ImportError as error:
+            raise ImportError("the ray backend needs Ray: pip install acrobot-mj[ray]") from error
+        self._ray, self._started = ray, not ray.is_initialized()
+        if self._started:
+            ray.init(
+                cluster.address,
+                num_cpus=cluster.num_cpus,
+                include_dashboard=False,
+                log_to_driver=False,
+            )
+
+    def finished(self, function: Callable[..., Any], calls: Iterable[tuple]) -> Iterator[tuple]:
+        ray, calls = self._ray, [tuple(c) for c in calls]
+        uses = Counter(id(a) for call in calls for a in call)
+        stored = {}  # id -> the object store's reference of an argument several calls share
+        for call in calls:
+            for argument in call:
+                if uses[id(argument)] > 1 and id(argument) not in stored and _storable(argument):
+                    stored[id(argument)] = ray.put(argument)
+        task = ray.remote(function)
+        index_of = {
+            task.remote(*(stored.get(id(a), a) for a in call)): i for i, call in enumerate(calls)
+        }
+        pending = list(index_of)
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                try:
+                    yield index_of[done[0]], True, ray.get(done[0])
+                except ray.exceptions.RayTaskError as error:  # the task raised: its exception
+                    yield index_of[done[0]], False, error.cause or error
+                except Exception as error:  # its worker died (a crash, out of memory)
+                    yield index_of[done[0]], False, error
+        finally:  # an error or Ctrl-C: the tasks not finished are given up, and the failures
+            # of those finished are read (Ray would print each as an unhandled error)
+            ended, pending = (
+                ray.wait(pending, num_returns=len(pending), timeout=0) if pending else ([], [])
+            )
+            for ref in ended:
+                with contextlib.suppress(Exception):
+                    ray.get(ref)
+            for ref in pending:
+                ray.cancel(ref)
+
+    def __enter__(self) -> RayPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._started:
+            self._ray.shutdown()
+
+
+def _storable(argument: Any) -> bool:
+    """Whether an argument is worth a place in Ray's object store: not a number, a string or
+    None (cheaper sent with each call)."""
+    return not isinstance(argument, (str, bytes, int, float, bool, type(None)))

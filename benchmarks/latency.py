@@ -4,7 +4,7 @@ controller in one global-test episode, the measuring thread on one core.
 An entry wins in real time when every call takes at most one step of the protocol (0.002 s on
 ``ai_olympics``). :func:`episode_latency` wraps the entry's controller in
 :class:`~acrobot_mj.control.controller.Timed` inside the protocol's testing controller
-(:func:`~acrobot_mj.olympics.run.global_run`, the one episode loop), so the reset's PID is not
+(:func:`~acrobot_mj.olympics.episodes.global_run`, the one episode loop), so the reset's PID is not
 timed; :func:`entry_latency` reports an entry that is not real-time by design as such, without
 timing it.
 """
@@ -20,8 +20,8 @@ from typing import Any
 from acrobot_mj.control.controller import Timed
 from acrobot_mj.olympics import sources
 from acrobot_mj.olympics.entries import ENTRIES
+from acrobot_mj.olympics.episodes import Scored, global_run
 from acrobot_mj.olympics.protocol import GlobalPolicy
-from acrobot_mj.olympics.run import Scored, global_run
 from acrobot_mj.olympics.scaling import protocol_for
 
 #: The entries the bench times when none are named.

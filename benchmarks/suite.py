@@ -185,7 +185,7 @@ def olympics_episode(seconds: float) -> Rate:
     """Steps per second of one AI Olympics robustness episode of ``funnel`` (controller,
     estimator, sensor and motor wrappers, MuJoCo), velocity noise 0.2 rad/s: what bounds
     ``acrobot-mj olympics``'s robustness score."""
-    from acrobot_mj.olympics.run import Conditions, episode
+    from acrobot_mj.olympics.episodes import Conditions, episode
 
     conditions = Conditions(sensor={"sigma": (0.0, 0.0, 0.2, 0.2)})
     episode("funnel", "ai_olympics", 0.1, conditions, 0)  # built once, before any round

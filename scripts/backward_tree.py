@@ -19,8 +19,8 @@ from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics.entries import backward
+from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.plants import equations
-from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.olympics.scores import uptime
 

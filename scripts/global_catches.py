@@ -18,8 +18,8 @@ from collections import Counter
 
 import numpy as np
 
+from acrobot_mj.olympics.episodes import global_episode
 from acrobot_mj.olympics.protocol import to_protocol
-from acrobot_mj.olympics.run import global_episode
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.olympics.scores import is_up
 from acrobot_mj.olympics.sources import Source

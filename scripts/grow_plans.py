@@ -56,8 +56,8 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = PLANS) -> P
     ``first`` to ``first + count - 1``, at most ``minutes`` of CPU in all, saving it after each
     episode; prints each episode's uptime score and the counts."""
     from acrobot_mj.control.replan import Planner  # CasADi: the control extra
+    from acrobot_mj.olympics.episodes import global_run
     from acrobot_mj.olympics.protocol import GLOBAL
-    from acrobot_mj.olympics.run import global_run
     from acrobot_mj.olympics.scores import uptime
     from acrobot_mj.physics.models import resolve
 

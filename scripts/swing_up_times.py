@@ -25,8 +25,8 @@ from acrobot_mj.control.controller import Controller
 from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.replan import upright_targets
 from acrobot_mj.control.trajopt import Optimiser
+from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.protocol import from_protocol
-from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import UPRIGHT

@@ -14,8 +14,8 @@ import time
 
 from acrobot_mj.control.controller import Timed
 from acrobot_mj.olympics import sources
+from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.protocol import GLOBAL
-from acrobot_mj.olympics.run import global_run
 from acrobot_mj.olympics.scores import uptime
 from acrobot_mj.physics.models import resolve
 

@@ -1,5 +1,5 @@
 """Shared fixtures: the compiled models, the report's parameters and seeded random states; a
-lockstep run interrupted and resumed."""
+lockstep run interrupted and resumed; the TCP sockets listening (a local Ray's)."""
 
 from __future__ import annotations
 
@@ -48,6 +48,22 @@ def random_states(seed: int, n: int = N_STATES) -> tuple[np.ndarray, np.ndarray]
     dq = rng.uniform(-1, 1, (n, 2)) * [p.max_vel1, p.max_vel2]
     tau = rng.uniform(-p.max_torque, p.max_torque, n)
     return np.concatenate([q, dq], 1), tau
+
+
+def listening() -> set[str]:
+    """Local addresses (hex, as /proc/net gives them) of the TCP sockets listening now."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(table) as f:
+            for line in f.readlines()[1:]:
+                local, state = line.split()[1], line.split()[3]
+                if state == "0A":  # LISTEN
+                    found.add(local)
+    return found
+
+
+#: 127.0.0.1 in /proc/net/tcp, and as an IPv4-mapped or plain loopback in tcp6.
+LOOPBACK = ("0100007F:", "0000000000000000FFFF00000100007F:", "00000000000000000000000001000000:")
 
 
 @pytest.fixture

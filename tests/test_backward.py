@@ -58,7 +58,7 @@ def test_refusals() -> None:
 def test_the_entry_keeps_the_arm_up_half_the_scaled_global_episodes() -> None:
     """The entry as ``acrobot-mj olympics backward --model report --scores global --seed S``
     runs it, on held-out seeds 3-5 (the planner's settings were first run on seeds 11-16)."""
-    from acrobot_mj.olympics.run import global_episode
+    from acrobot_mj.olympics.episodes import global_episode
     from acrobot_mj.olympics.scaling import protocol_for
     from acrobot_mj.olympics.scores import uptime
     from acrobot_mj.olympics.sources import Source

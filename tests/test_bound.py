@@ -11,8 +11,9 @@ import pytest
 
 from acrobot_mj.olympics import protocol
 from acrobot_mj.olympics.bound import Returns, reset_from_upright, uptime_bound
+from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.protocol import GLOBAL
-from acrobot_mj.olympics.run import OlympicsRun, global_run
+from acrobot_mj.olympics.run import OlympicsRun
 from acrobot_mj.olympics.scores import is_up, uptime
 from acrobot_mj.olympics.sources import build
 from acrobot_mj.physics import integrators

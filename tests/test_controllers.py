@@ -23,8 +23,9 @@ from acrobot_mj.control.controller import (
     Timed,
 )
 from acrobot_mj.olympics import entries, sources
+from acrobot_mj.olympics.episodes import Conditions, episode
 from acrobot_mj.olympics.plants import equations
-from acrobot_mj.olympics.run import Conditions, episode, score
+from acrobot_mj.olympics.run import score
 from acrobot_mj.olympics.sources import Source
 from acrobot_mj.physics.models import MODELS
 

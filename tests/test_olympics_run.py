@@ -1,10 +1,14 @@
 """The AI Olympics runner: the state estimator, the global policy's testing controller, the
-planned swing-up, an episode of the protocol and the ``olympics`` command."""
+planned swing-up, an episode of the protocol, the ``olympics`` command, and its episodes on a
+local Ray."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
+import threading
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -16,11 +20,12 @@ from acrobot_mj.control.estimator import Estimated, Observer
 from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.tracker import PlanTracker
 from acrobot_mj.olympics import entries, leaderboard
+from acrobot_mj.olympics.episodes import Conditions, episode, global_episode
 from acrobot_mj.olympics.globaltest import GlobalTester
 from acrobot_mj.olympics.plants import equations
-from acrobot_mj.olympics.protocol import GLOBAL, from_protocol
-from acrobot_mj.olympics.report import olympics_record
-from acrobot_mj.olympics.run import Conditions, OlympicsRun, episode, global_episode, score
+from acrobot_mj.olympics.protocol import GLOBAL, PERFORMANCE, from_protocol
+from acrobot_mj.olympics.report import RECORD_FILE, olympics_record, write_olympics
+from acrobot_mj.olympics.run import OlympicsRun, score
 from acrobot_mj.olympics.scaling import protocol_for
 from acrobot_mj.olympics.scores import final_success, performance, uptime
 from acrobot_mj.olympics.sources import Source
@@ -28,6 +33,9 @@ from acrobot_mj.olympics.swing_ups import performance_swing_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING
 from acrobot_mj.physics.models import MODELS
+from acrobot_mj.pool import Ray
+from tests.conftest import LOOPBACK, listening
+from tests.test_protocol_rules import tiny_rules
 
 OLYMPICS = MODELS["ai_olympics"]
 
@@ -188,6 +196,26 @@ def test_olympics_command_refuses_a_file_as_out(tmp_path, capsys) -> None:
             "is one draw: give no --seeds",
         ),
         (["olympics", "funnel", "--scores", "performance", "--seeds", "2", "--out", "x"], "global"),
+        # Ray's options without Ray, local processes with it, and Ray where it cannot run.
+        (
+            ["olympics", "funnel", "--num-cpus", "2", "--out", "x"],
+            "--num-cpus is for --backend ray",
+        ),
+        (
+            ["olympics", "funnel", "--address", "auto", "--out", "x"],
+            "--address is for --backend ray",
+        ),
+        (["olympics", "funnel", "--backend", "ray", "--jobs", "2", "--out", "x"], "--jobs is for"),
+        (
+            ["olympics", "funnel", "--backend", "ray", "--address", "auto", "--num-cpus", "2"]
+            + ["--out", "x"],
+            "--num-cpus sizes a local Ray instance: give no --address",
+        ),
+        # Nothing listens on port 1: refused at once, before any episode (Ray retries minutes).
+        (
+            ["olympics", "funnel", "--backend", "ray", "--address", "127.0.0.1:1", "--out", "x"],
+            "no Ray cluster answers at 127.0.0.1:1",
+        ),
     ],
 )
 def test_olympics_command_refuses_bad_input(argv, match, capsys) -> None:
@@ -268,3 +296,64 @@ def test_the_global_score_of_several_seeds_is_their_mean_with_a_t_interval() -> 
         score(Constant(), scores=("performance",), global_seeds=2)
     with pytest.raises(ValueError, match=r"global_seeds must be in \[1, 10000\], got 0"):
         OlympicsRun(Constant(), global_seeds=0)
+
+
+def test_a_run_refuses_bad_jobs_and_a_ray_where_nothing_listens() -> None:
+    with pytest.raises(ValueError, match="jobs must be >= 1, got 0"):
+        OlympicsRun(Constant(), jobs=0)
+    with pytest.raises(ValueError, match="num_cpus must be >= 1, got 0"):
+        Ray(num_cpus=0)
+    with pytest.raises(ConnectionError, match=r"no Ray cluster answers at 127\.0\.0\.1:1"):
+        score(Constant(), scores=("performance",), jobs=Ray("127.0.0.1:1"))
+
+
+@pytest.mark.slow  # about 30 s on 2 busy cores: a local Ray starting, then 55 short episodes
+def test_the_episodes_on_a_local_ray_give_the_local_pools_record_to_the_byte(tmp_path) -> None:
+    """Every part (the funnel; the protocol's rules with a swing-up of 2 s, robustness episodes
+    of 10 steps, global episodes of 4 s of two seeds) on two local processes, then on a local
+    Ray of one CPU: olympics.json is the same to the byte (each episode's numbers come from
+    its seed alone, and the records go back in their order). Ray listened on 127.0.0.1 only."""
+    if importlib.util.find_spec("ray") is None:
+        pytest.skip("needs the ray extra")
+    swing_up, short = replace(PERFORMANCE, t_final=2.0), replace(GLOBAL, t_final=4.0, resets=3)
+    rules = replace(tiny_rules(), performance=swing_up, global_policy=short)
+    pooled = OlympicsRun("funnel", jobs=2, protocol=rules, global_seeds=2).run()
+    pool = write_olympics(tmp_path / "pool", pooled).read_bytes()
+    on_ray = OlympicsRun("funnel", jobs=Ray(num_cpus=1), protocol=rules, global_seeds=2)
+    before, seen, finished = listening(), set(), threading.Event()
+
+    def watch() -> None:
+        while not finished.is_set():
+            seen.update(listening() - before)
+            time.sleep(0.05)
+
+    watcher = threading.Thread(target=watch)
+    watcher.start()
+    try:
+        ray = write_olympics(tmp_path / "ray", on_ray.run()).read_bytes()
+    finally:
+        finished.set()
+        watcher.join()
+    assert ray == pool
+    record = json.loads(ray)
+    assert record["performance"]["success"] and len(record["global"]["seeds"]) == 2
+    categories = record["robustness"]["categories"]
+    episodes = [
+        e for c in categories for s in c["sweeps"] for level in s["episodes"] for e in level
+    ]
+    assert len(episodes) == 50  # 30 + 6 + 6 + 3 + 3 + 2, as tiny_rules makes them
+    # Ray's servers (GCS, raylet, workers) listened, on 127.0.0.1 only.
+    assert seen and all(address.startswith(LOOPBACK) for address in seen), seen
+
+
+@pytest.mark.slow  # about 10 s: a local Ray starting, then one performance episode
+def test_the_olympics_command_on_a_local_ray(tmp_path, capsys) -> None:
+    """``--backend ray --num-cpus 1``: the record of the command run here, to the byte."""
+    if importlib.util.find_spec("ray") is None:
+        pytest.skip("needs the ray extra")
+    command = ["olympics", "funnel", "--scores", "performance", "--no-progress"]
+    main([*command, "--out", str(tmp_path / "here")])
+    main([*command, "--backend", "ray", "--num-cpus", "1", "--out", str(tmp_path / "ray")])
+    here, ray = ((tmp_path / d / RECORD_FILE).read_bytes() for d in ("here", "ray"))
+    assert ray == here
+    assert capsys.readouterr().out.count("performance 0.688") == 2

@@ -15,6 +15,7 @@ import pytest
 from acrobot_mj.cli import main
 from acrobot_mj.control.controller import Controller, Held
 from acrobot_mj.olympics import sources
+from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.protocol import (
     GLOBAL,
     PERFORMANCE,
@@ -24,7 +25,7 @@ from acrobot_mj.olympics.protocol import (
     step_count,
 )
 from acrobot_mj.olympics.report import read_olympics
-from acrobot_mj.olympics.run import OlympicsRun, global_run
+from acrobot_mj.olympics.run import OlympicsRun
 from acrobot_mj.olympics.scaling import (
     ORIGINAL,
     Scales,

@@ -19,7 +19,7 @@ from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.identify.library import LibraryModel, library_size
 from acrobot_mj.olympics import entries, plants
-from acrobot_mj.olympics.run import Conditions, episode
+from acrobot_mj.olympics.episodes import Conditions, episode
 from acrobot_mj.olympics.scores import performance
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.models import MODELS

@@ -18,6 +18,7 @@ import pytest
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.olympics import run as olympics_run
 from acrobot_mj.olympics import scores
+from acrobot_mj.olympics.episodes import Conditions
 from acrobot_mj.olympics.protocol import (
     CATEGORY_KEYS,
     DT,
@@ -27,7 +28,7 @@ from acrobot_mj.olympics.protocol import (
     ROBUSTNESS,
     Perturbations,
 )
-from acrobot_mj.olympics.run import Conditions, OlympicsRun
+from acrobot_mj.olympics.run import OlympicsRun
 from acrobot_mj.olympics.scaling import ORIGINAL
 from acrobot_mj.physics.models import MODELS
 

@@ -129,8 +129,8 @@ def test_from_hanging_it_is_the_funnel_entry() -> None:
 def test_a_global_stretch_swings_up_after_a_reset() -> None:
     """One reset of the protocol (at 1.5 s, to the arm folded sideways at rest) in 5 s of the
     global episode: the entry is up before it, plans after it and is up again at the end."""
+    from acrobot_mj.olympics.episodes import global_run
     from acrobot_mj.olympics.protocol import GLOBAL
-    from acrobot_mj.olympics.run import global_run
     from acrobot_mj.olympics.scores import uptime
 
     controller = entries.ENTRIES["replan"].build(equations("ai_olympics"))

@@ -22,6 +22,7 @@ from acrobot_mj.train.records import CHECKPOINT_FILE
 from acrobot_mj.train.run import RunOptions
 from acrobot_mj.train.sweep import run_sweep
 from acrobot_mj.train.sweep_file import load_sweep, parse_sweep
+from tests.conftest import LOOPBACK, listening
 
 TINY = """
 preset = "report"
@@ -167,6 +168,11 @@ MIXED = MIXED.replace("frame_skip = [4]\n", "")
         ),
         # Nothing listens on port 1: refused at once (Ray retried for over 300 s).
         ({"backend": "ray", "address": "127.0.0.1:1"}, "no Ray cluster answers at 127.0.0.1:1"),
+        # A cluster has its own CPUs: once ignored, now refused.
+        (
+            {"backend": "ray", "address": "auto", "ray_num_cpus": 2},
+            "--num-cpus sizes a local Ray instance: give no --address",
+        ),
     ],
 )
 def test_a_sweep_refuses_options_of_the_other_backend(tmp_path, options, says) -> None:
@@ -220,22 +226,6 @@ def test_a_failing_trial_is_recorded_and_the_others_finish(tmp_path, monkeypatch
     assert summary["points"][0]["failed_seeds"] == [1] and summary["points"][0]["runs"] == 2
 
 
-def _listening() -> set[str]:
-    """Local addresses (hex, as /proc/net gives them) of the TCP sockets listening now."""
-    found = set()
-    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-        with open(table) as f:
-            for line in f.readlines()[1:]:
-                local, state = line.split()[1], line.split()[3]
-                if state == "0A":  # LISTEN
-                    found.add(local)
-    return found
-
-
-#: 127.0.0.1 in /proc/net/tcp, and as an IPv4-mapped or plain loopback in tcp6.
-LOOPBACK = ("0100007F:", "0000000000000000FFFF00000100007F:", "00000000000000000000000001000000:")
-
-
 @pytest.mark.slow
 def test_tiny_sweep_on_a_local_ray_instance(tmp_path) -> None:
     if importlib.util.find_spec("ray") is None:
@@ -245,7 +235,7 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path) -> None:
     out = tmp_path / "ray"
     # The command as a user runs it, watched from outside: what listens while Ray runs.
     command = ["sweep", str(sweep), "--backend", "ray", "--num-cpus", "2", "--out", str(out)]
-    before, seen = _listening(), set()
+    before, seen = listening(), set()
     child = subprocess.Popen(
         [sys.executable, "-m", "acrobot_mj_main", *command],
         cwd=tmp_path,
@@ -255,7 +245,7 @@ def test_tiny_sweep_on_a_local_ray_instance(tmp_path) -> None:
         text=True,
     )
     while child.poll() is None:
-        seen |= _listening() - before
+        seen |= listening() - before
         time.sleep(0.1)
     stdout, stderr = child.communicate()
     assert child.returncode == 0, stderr[-2000:]

@@ -72,8 +72,8 @@ def test_it_enters_a_plan_at_its_start_and_swings_up_on_the_analytic_model() -> 
 def test_a_whole_global_episode_keeps_the_arm_up_half_the_time() -> None:
     """The entry as ``acrobot-mj olympics tree --scores global --seed 3`` runs it: resets,
     the estimator and the library together."""
+    from acrobot_mj.olympics.episodes import global_episode
     from acrobot_mj.olympics.protocol import GLOBAL
-    from acrobot_mj.olympics.run import global_episode
     from acrobot_mj.olympics.scores import uptime
     from acrobot_mj.olympics.sources import Source
 

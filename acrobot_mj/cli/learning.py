@@ -233,20 +233,9 @@ def add_sweep(commands: tools.Commands) -> None:
         "--address).",
     )
     p.add_argument("sweep_file", help="the sweep's TOML file")
-    p.add_argument(
-        "--backend",
-        choices=("local", "ray"),
-        default="local",
-        help="where trials run: local processes, or Ray (the ray extra)",
-    )
-    p.add_argument(
-        "--address",
-        type=tools.path_text,
-        help="Ray cluster address (e.g. auto or ray://host:10001)",
-    )
+    tools.add_backend(p, "trials")
     p.add_argument("--out", type=tools.path_text, help="sweep directory (default runs/sweep__NAME)")
     p.add_argument("--jobs", type=positive_int, help="local processes (default: all cores)")
-    p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
     p.add_argument(
         "--lockstep",
         action=argparse.BooleanOptionalAction,

@@ -13,6 +13,7 @@ from acrobot_mj.olympics.protocol import GLOBAL_VERSIONS, ICRA2025_DRAWS, Global
 from acrobot_mj.olympics.report import RECORD_FILE, read_olympics, write_olympics
 from acrobot_mj.olympics.run import PARTS, OlympicsRun
 from acrobot_mj.olympics.scaling import protocol_for
+from acrobot_mj.pool import backend_of
 
 
 def parts(text: str) -> tuple[str, ...]:
@@ -45,7 +46,9 @@ def add_olympics(commands: tools.Commands) -> None:
         "robustness, global policy) run on this project's MuJoCo model of the acrobot, with the "
         "protocol's definitions, levels and criteria; not official leaderboard entries. On "
         "another acrobot than ai_olympics, its constants are scaled to that acrobot's length, "
-        "mass, torque limit and swing-up time.",
+        "mass, torque limit and swing-up time. Episodes run in this process, on --jobs "
+        "processes, or as Ray tasks (--backend ray: on --address, or a local Ray instance of "
+        "--num-cpus); the record is the same to the byte.",
     )
     p.add_argument(
         "controller",
@@ -69,6 +72,17 @@ def add_olympics(commands: tools.Commands) -> None:
     )
     p.add_argument("--out", type=tools.path_text, required=True, help="folder for olympics.json")
     p.add_argument("--seed", type=tools.seed, default=0, help="seed of every draw")
+    _add_global(p)
+    p.add_argument(
+        "--jobs", type=tools.positive_int, help="local processes for episodes (default: 1)"
+    )
+    tools.add_backend(p, "episodes")
+    p.add_argument("--force", action="store_true", help="replace a record already in --out")
+    tools.add_progress(p)
+
+
+def _add_global(p: argparse.ArgumentParser) -> None:
+    """The global test's options: its seeds, its draws' version and its bound."""
     p.add_argument(
         "--seeds",
         type=tools.positive_int,
@@ -92,9 +106,6 @@ def add_olympics(commands: tools.Commands) -> None:
         help="each global episode's bound beside its score: the uptime after the fastest "
         "returns to up the trajectory optimiser finds (the control extra; about a minute a seed)",
     )
-    p.add_argument("--jobs", type=tools.positive_int, default=1, help="processes for episodes")
-    p.add_argument("--force", action="store_true", help="replace a record already in --out")
-    tools.add_progress(p)
 
 
 def check_out(folder: Path, force: bool) -> None:
@@ -106,6 +117,7 @@ def check_out(folder: Path, force: bool) -> None:
 
 
 def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
+    jobs = backend_of(args.backend, args.jobs, args.address, args.num_cpus)
     check_out(Path(args.out), args.force)
     source, model = source_of(args, args.controller)
     version, replay = args.global_test
@@ -118,7 +130,7 @@ def olympics_command(args: argparse.Namespace) -> dict[str, Any]:
         model,
         args.scores,
         args.seed,
-        args.jobs,
+        1 if jobs is None else jobs,
         tools.show_progress(args),
         replace(rules, global_policy=drawn),
         global_seeds=args.seeds,

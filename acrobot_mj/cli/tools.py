@@ -19,6 +19,7 @@ from acrobot_mj.envs.tasks import HeightGoal
 from acrobot_mj.files import check_regular, versions, write_json
 from acrobot_mj.physics.models import MODELS, resolve
 from acrobot_mj.physics.params import describe
+from acrobot_mj.pool import BACKENDS
 from acrobot_mj.train.records import History, output_into
 
 
@@ -93,6 +94,24 @@ def seed(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"a seed must be an integer >= 0, got {value}")
     return value
+
+
+def add_backend(p: argparse.ArgumentParser, what: str) -> None:
+    """``--backend``, ``--address`` and ``--num-cpus``: where ``what`` run (local processes, by
+    ``--jobs``, or Ray), the same three options for every command that offers Ray."""
+    p.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="local",
+        help=f"where {what} run: local processes, or Ray (the ray extra)",
+    )
+    p.add_argument(
+        "--address",
+        type=path_text,
+        help="Ray cluster address (e.g. auto or ray://host:10001); without it, a local Ray "
+        "instance on 127.0.0.1",
+    )
+    p.add_argument("--num-cpus", type=positive_int, help="CPUs of a local Ray instance")
 
 
 def add_progress(p: argparse.ArgumentParser) -> None:

@@ -20,6 +20,7 @@ import numpy as np
 
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.olympics import protocol
+from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.protocol import GLOBAL, GlobalPolicy, from_protocol, to_protocol
 from acrobot_mj.olympics.scores import is_up, tip_heights
 from acrobot_mj.physics import integrators
@@ -139,8 +140,6 @@ def reset_from_upright(
     """For each upright winding (:data:`WINDINGS`): which of the rows of a reset to ``target``
     (protocol convention) that begins upright at rest have the tip up, from its first row on,
     and the state (ours) where the controller takes over."""
-    from acrobot_mj.olympics.run import global_run
-
     lasts = dataclasses.replace(policy, t_final=policy.reset_length + 20 * policy.dt)
     times = protocol.episode_times(lasts.t_final, lasts.dt)
     found = []

@@ -4,8 +4,6 @@ writing ``error.json``, and a summary (``summary.json``, ``.md``, ``.png``) at t
 
 from __future__ import annotations
 
-import os
-import socket
 import sys
 import tempfile
 import traceback
@@ -16,7 +14,7 @@ from typing import Any
 from acrobot_mj.bars import Steps
 from acrobot_mj.envs.tasks import get_task
 from acrobot_mj.files import is_sealed, read_json, sealed, write_json, write_text
-from acrobot_mj.pool import WorkerPool
+from acrobot_mj.pool import Ray, RayPool, WorkerPool, backend_of
 from acrobot_mj.report.plots import Labels, Series, line_plot
 from acrobot_mj.train.config import TrainConfig
 from acrobot_mj.train.evaluate import distinct_outcomes, evaluate_run
@@ -35,7 +33,7 @@ from acrobot_mj.train.run import PLAIN, RunOptions
 from acrobot_mj.train.sweep_file import SweepSpec, Trial
 from acrobot_mj.train.trainer import train
 
-SWEEP_BACKENDS, ERROR_FILE = ("local", "ray"), "error.json"
+ERROR_FILE = "error.json"
 
 
 def trial_dir(out: Path, trial: Trial) -> Path:
@@ -266,18 +264,12 @@ def run_sweep(
     pays (None); ``jobs``: local processes. Ray: ``address``, or a local instance of
     ``ray_num_cpus``."""
     options.only("a sweep", "progress", "jobs", "lockstep")
-    jobs, lockstep = options.jobs, options.lockstep
-    if backend not in SWEEP_BACKENDS:
-        raise ValueError(f"backend must be one of {SWEEP_BACKENDS}, got {backend!r}")
-    if lockstep and backend != "local":
+    lockstep = options.lockstep
+    where = backend_of(backend, options.jobs, address, ray_num_cpus)
+    if lockstep and isinstance(where, Ray):
         raise ValueError("lockstep sweeps run on the local backend (Ray runs one task a trial)")
-    given = {"--address": address, "--num-cpus": ray_num_cpus, "--jobs": jobs}
-    for option in ("--jobs",) if backend == "ray" else ("--address", "--num-cpus"):
-        if given[option] is not None:
-            other = "local" if backend == "ray" else "ray"
-            raise ValueError(f"{option} is for --backend {other}, not {backend}")
-    if address is not None:
-        _check_reachable(address)
+    if isinstance(where, Ray):
+        where.check()
     for trial in spec.trials() if lockstep else ():
         try:
             check_lockstep(trial.config)
@@ -291,15 +283,14 @@ def run_sweep(
             todo += [trial] if record is None else []
             if record is None and why != "not run yet":
                 sys.stderr.write(f"sweep: running {trial.name} again: {why}\n")
-        where = {"address": address} if address else {"num_cpus": ray_num_cpus}
         try:
             with Steps(
                 len(todo), f"sweep {out.name}", bool(options.progress), unit="trials"
             ) as bar:
-                if backend == "local":
-                    _run_local(todo, out, jobs, bar, lockstep)
-                else:
+                if isinstance(where, Ray):
                     _run_ray(todo, out, where, bar)
+                else:
+                    _run_local(todo, out, where, bar, lockstep)
         except KeyboardInterrupt as interrupt:
             stop = interrupt
         summary = summarize_sweep(spec, out)
@@ -349,50 +340,17 @@ def _run_local(todo: list[Trial], out: Path, jobs: int | None, bar: Steps, locks
             bar.done()
 
 
-def _check_reachable(address: str) -> None:
-    """Refuse a Ray address where nothing listens, at once (Ray itself retries for minutes)."""
-    host, _, port = address.split("://", 1)[-1].rpartition(":")
-    if address == "auto" or not port.isdigit():
-        return  # Ray's own resolution and errors
-    try:
-        socket.create_connection((host or "127.0.0.1", int(port)), timeout=5).close()
-    except OSError as error:
-        raise ConnectionError(f"no Ray cluster answers at {address}: {error}") from None
-
-
-def _run_ray(todo: list[Trial], out: Path, where: dict[str, Any], bar: Steps) -> None:
+def _run_ray(todo: list[Trial], out: Path, cluster: Ray, bar: Steps) -> None:
     """Each trial a Ray task; this process writes its record and evaluation."""
-    if "address" not in where:
-        # A local instance listens on 127.0.0.1 only (Ray's single-machine mode; on Linux its
-        # servers listen on every interface otherwise). Read when Ray is imported.
-        os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
-    try:
-        import ray
-    except ImportError as error:
-        raise ImportError("the ray backend needs Ray: pip install acrobot-mj[ray]") from error
-    started_here = not ray.is_initialized()
-    if started_here:
-        ray.init(include_dashboard=False, log_to_driver=False, **where)
-    task = ray.remote(train_elsewhere)
-    trial_of = {task.remote(t.config.to_dict(), t.seed): t for t in todo}
-    pending = list(trial_of)
-    try:
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            trial = trial_of[done[0]]
-            try:
-                record, evaluation = ray.get(done[0])
-            except Exception as error:  # the worker itself died (crash, out of memory)
-                record = {
-                    "error": f"{type(error).__name__}: {error}",
-                    "seed": trial.seed,
-                    "config": trial.config.to_dict(),
-                }
+    calls = [(t.config.to_dict(), t.seed) for t in todo]
+    with RayPool(cluster) as pool:
+        for index, ok, value in pool.finished(train_elsewhere, calls):
+            trial = todo[index]
+            if ok:
+                record, evaluation = value
+            else:  # the worker itself died (crash, out of memory)
+                error = f"{type(value).__name__}: {value}"
+                record = {"error": error, "seed": trial.seed, "config": trial.config.to_dict()}
                 evaluation = None
             write_trial(trial_dir(out, trial), record, evaluation)
             bar.done()
-    finally:
-        for ref in pending:  # Ctrl-C: the queued and running tasks are given up
-            ray.cancel(ref)
-        if started_here:
-            ray.shutdown()
