@@ -218,10 +218,17 @@ def many_seeds() -> str:
     above = [f"{e}'s {figure(s)}" for e, s in ranked if s > mean]
     below = [f"{e}'s {figure(s)}" for e, s in ranked if s <= mean]
     seeds = [s["seed"] for s in global_seeds(summary)]
+    bound = summary["global"].get("bound")
+    within = (
+        f" The bound on these draws averages {figure(bound['score'])}: `tree` is up "
+        f"{figure(summary['global']['of_bound'])} of it."
+        if bound
+        else ""
+    )
     return (
         f"Mean **{figure(mean)}**, 95 % interval {figure(low)} to {figure(high)} "
         f"({seeds_text(seeds)}): below {_and(above)}, above {_and(below)} on the ICRA 2025 "
-        f"simulation leaderboard. {sources('global')}"
+        f"simulation leaderboard.{within} {sources('global')}"
     )
 
 
@@ -237,8 +244,17 @@ def icra_table() -> str:
         e: [recorded(f"{c}-icra2025-{e}")["global"]["score"] for c in ("tree", "funnel")]
         for e in drawn
     }
-    rows = [[f"{e}'s", figure(GLOBAL.scores[e]), *(figure(s) for s in ours[e])] for e in drawn]
-    text = _table(("draw", "leaderboard", "`tree`", "`funnel`"), rows)
+    bounds = {e: recorded(f"tree-icra2025-{e}")["global"].get("bound") for e in drawn}
+    rows = [
+        [
+            f"{e}'s",
+            figure(bounds[e]["score"]) if bounds[e] else "",
+            figure(GLOBAL.scores[e]),
+            *(figure(s) for s in ours[e]),
+        ]
+        for e in drawn
+    ]
+    text = _table(("draw", "bound", "leaderboard", "`tree`", "`funnel`"), rows)
     beat = {e: GLOBAL.scores[e] - ours[e][0] for e in drawn}
     better = [e for e in drawn if beat[e] > 0]
     worse = [e for e in drawn if beat[e] <= 0]
