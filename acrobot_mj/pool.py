@@ -334,10 +334,11 @@ def backend_of(
 
 class RayPool(Calls):
     """Calls as tasks on a :class:`Ray` cluster (``pip install acrobot-mj[ray]``), with
-    :class:`WorkerPool`'s :meth:`run` and :meth:`map`. Ray is started here unless this process
-    is already connected, and shut down with the pool. An argument several calls share goes to
-    Ray's object store once. A task's exception, or its worker's death, is its call's exception;
-    on leaving early (an error, Ctrl-C) the tasks not finished are cancelled."""
+    :class:`WorkerPool`'s :meth:`~Calls.run` and :meth:`~Calls.map`. Ray is started here
+    unless this process is already connected, and shut down with the pool. An argument several
+    calls share goes to Ray's object store once. A task's exception, or its worker's death, is
+    its call's exception; on leaving early (an error, Ctrl-C) the tasks not finished are
+    cancelled."""
 
     def __init__(self, cluster: Ray) -> None:
         cluster.check()
