@@ -1,12 +1,11 @@
-"""The global test's bound: how much of a drawn episode any controller within the torque limit
-could have the tip up. A controller can be up only after the fastest return to "up" from where
-each reset leaves the arm. So the bound takes the arm upright at rest as each reset begins (the
-better of ``theta1 = pi`` and ``-pi`` for the reset's PID), runs the reset as the protocol does,
-and counts the arm up from the fastest return the trajectory optimiser finds to the end of the
-interval; from hanging at rest before the first reset. The returns are local optima (several
-warm starts, each checked on the env's own steps), so the true minimum may be shorter and the
-true bound higher; the arm is taken up after each reset's start wherever its PID leaves it,
-and is never asked to stay balanced, which only makes the bound larger."""
+"""The global test's bound: an estimate of the most uptime any controller within the torque
+limit could reach in a drawn episode. It takes the arm upright at rest as each reset begins
+(the better of ``theta1 = pi`` and ``-pi`` for the reset's PID), runs the reset as the protocol
+does, and counts the arm up from the fastest return to "up" (the tip's height, not a balance)
+the trajectory optimiser finds, to the next reset; before the first reset, from hanging at
+rest. It is an estimate, not a proof, in two ways: the returns are local optima (several warm
+starts, each checked on the env's own steps), so the true minimum may be shorter; and an arm
+not upright as a reset begins could in principle be left better placed by it."""
 
 from __future__ import annotations
 
