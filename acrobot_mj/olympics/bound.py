@@ -76,8 +76,11 @@ class Returns:
         tip = p.l1 * casadi.sin(q1) + p.l2 * casadi.sin(q1 + q2)
         opti.subject_to(tip >= g.height * (p.l1 + p.l2) + MARGIN)
         opti.minimize(seconds)
-        options = {"print_time": False, "ipopt.sb": "yes", "expand": True, "error_on_fail": False}
-        opti.solver("ipopt", options, {**IPOPT, "max_iter": 300})
+        opti.solver(
+            "ipopt",
+            {"print_time": False, "ipopt.sb": "yes", "expand": True, "error_on_fail": False},
+            {**IPOPT, "max_iter": 300},
+        )
         return opti.to_function("fastest", [start, xs, us, seconds], [seconds, us])
 
     @property

@@ -175,7 +175,9 @@ def olympics_record(results: Olympics) -> dict[str, Any]:
         record["robustness"] = robustness
     if results.global_episode is not None:
         g = used.global_policy
-        ups = [scores.uptime(run, l1, l2, g.t_final, g.height) for run in results.global_episodes]
+        ups: list[dict[str, Any]] = [
+            scores.uptime(run, l1, l2, g.t_final, g.height) for run in results.global_episodes
+        ]
         episode = EpisodeRecord.of(results.global_episode, True, results.global_draws)
         for up, bound in zip(ups, results.global_bounds, strict=False):
             up |= {"bound": bound.to_dict(), "of_bound": up["uptime"] / bound.uptime}
