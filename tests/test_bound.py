@@ -86,5 +86,9 @@ def test_the_bound_is_above_real_controllers_and_below_the_episode() -> None:
 def test_the_bound_needs_the_global_score_and_an_acrobot() -> None:
     with pytest.raises(ValueError, match="needs the global score"):
         OlympicsRun("funnel", parts=("performance",), bound=True)
-    with pytest.raises(ValueError, match="for an acrobot, not model 'ai_olympics_pendubot'"):
-        uptime_bound("ai_olympics_pendubot", 0, SHORT)
+    # Its returns are planned and checked on ai_olympics only: elsewhere it is refused.
+    for model in ("ai_olympics_pendubot", "report"):
+        with pytest.raises(ValueError, match=f"measured on ai_olympics, not '{model}'"):
+            uptime_bound(model, 0, SHORT)
+    with pytest.raises(ValueError, match="measured on ai_olympics, not 'report'"):
+        OlympicsRun("funnel", "report", parts=("global",), bound=True)

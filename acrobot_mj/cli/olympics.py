@@ -104,7 +104,8 @@ def _add_global(p: argparse.ArgumentParser) -> None:
         "--bound",
         action="store_true",
         help="each global episode's bound beside its score: the uptime after the fastest "
-        "returns to up the trajectory optimiser finds (the control extra; about a minute a seed)",
+        "returns to up the trajectory optimiser finds (ai_olympics only; the control extra; about "
+        "a minute a seed)",
     )
 
 

@@ -27,6 +27,8 @@ from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
 from acrobot_mj.physics.models import AcrobotModel, resolve
 
+#: The acrobot the bound is measured on (:func:`check_model`).
+MEASURED = "ai_olympics"
 #: The knots of the minimum-time problem (its step is the free time over them).
 KNOTS = 30
 #: Above the protocol's height [m] the problem's end must reach: the check on the env's own
@@ -157,10 +159,21 @@ def reset_from_upright(
     return found
 
 
+def check_model(model: str) -> None:
+    """Refuse, in one line, an acrobot the bound is not measured on: its returns are planned on
+    :data:`KNOTS` knots and checked on :data:`MEASURED`'s steps only."""
+    if model != MEASURED:
+        raise ValueError(
+            f"the global test's bound is measured on {MEASURED}, not {model!r}: its returns "
+            f"are planned on {KNOTS} knots, checked on {MEASURED}'s steps only"
+        )
+
+
 @dataclass(frozen=True)
 class Bound:
     """The bound on one drawn episode: ``uptime`` [s], ``score`` (uptime over the episode's
-    length) and the ``returns`` [s] found, from hanging and after each reset (None: none)."""
+    length) and the ``returns`` [s] found, from hanging and after each reset (None: none found,
+    and the arm counted up at once, so that the bound stays one)."""
 
     uptime: float
     score: float
@@ -172,9 +185,8 @@ class Bound:
 
 def uptime_bound(model: str, seed: int, policy: GlobalPolicy = GLOBAL) -> Bound:
     """The bound on the uptime of ``policy``'s episode of ``seed`` on ``model``."""
+    check_model(model)
     acrobot = resolve(model)
-    if acrobot.actuated != "elbow":
-        raise ValueError(f"the global test's bound is for an acrobot, not model {model!r}")
     targets, reset_times = policy.draw(seed)
     times = protocol.episode_times(policy.t_final, policy.dt)
     rows = len(times) - 1  # the rows the score counts (the last state is not one)
@@ -182,8 +194,7 @@ def uptime_bound(model: str, seed: int, policy: GlobalPolicy = GLOBAL) -> Bound:
     returns = Returns(acrobot, policy)
     up = np.zeros(rows, dtype=bool)
     first = returns.steps(HANGING)
-    if first is not None:
-        up[first : begins[0]] = True
+    up[first or 0 : begins[0]] = True  # none found: up at once, so the bound stays one
     found: list[float | None] = [None if first is None else first * policy.dt]
     for k, begin in enumerate(begins[:-1]):
         best, best_rows, best_steps = -1, None, None
@@ -192,8 +203,7 @@ def uptime_bound(model: str, seed: int, policy: GlobalPolicy = GLOBAL) -> Bound:
             steps = returns.steps(end)
             candidate = np.zeros(rows, dtype=bool)
             candidate[begin:back] = during[: max(0, rows - begin)]
-            if steps is not None:
-                candidate[back + steps : begins[k + 1]] = True
+            candidate[back + (steps or 0) : begins[k + 1]] = True
             if candidate.sum() > best:
                 best, best_rows, best_steps = int(candidate.sum()), candidate, steps
         up |= best_rows

@@ -15,7 +15,7 @@ from acrobot_mj.bars import Steps
 from acrobot_mj.checks import check_int
 from acrobot_mj.control.controller import Controller
 from acrobot_mj.olympics import protocol, sources
-from acrobot_mj.olympics.bound import uptime_bound
+from acrobot_mj.olympics.bound import check_model, uptime_bound
 from acrobot_mj.olympics.episodes import Conditions, Scored, episode, global_episode
 from acrobot_mj.olympics.protocol import ROBUSTNESS, Category, Robustness
 from acrobot_mj.olympics.report import EpisodeRecord, Olympics
@@ -140,6 +140,7 @@ class OlympicsRun:
         if self.bound and "global" not in self.parts:
             raise ValueError("the bound is the global score's: it needs the global score")
         if self.bound:
+            check_model(self.model)
             symbolic()  # the control extra, refused at once where missing
         if isinstance(self.jobs, Ray):
             self.jobs.check()
