@@ -21,7 +21,7 @@ from acrobot_mj.control.controller import Controller
 from acrobot_mj.olympics import protocol
 from acrobot_mj.olympics.episodes import global_run
 from acrobot_mj.olympics.protocol import GLOBAL, GlobalPolicy, from_protocol, to_protocol
-from acrobot_mj.olympics.scores import is_up, tip_heights
+from acrobot_mj.olympics.scores import is_up
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
 from acrobot_mj.physics.integrators import ENV_INTEGRATORS
@@ -146,15 +146,14 @@ def reset_from_upright(
     and the state (ours) where the controller takes over."""
     lasts = dataclasses.replace(policy, t_final=policy.reset_length + 20 * policy.dt)
     times = protocol.episode_times(lasts.t_final, lasts.dt)
-    found = []
+    p, found = resolve(model).params, []
     for upright in WINDINGS:
         still = _Still()
         run = global_run(
             still, model, np.asarray(target)[None], times[1:2], lasts, start=from_protocol(upright)
         )
         back = times.tolist().index(still.times[1])  # the row the controller acts again
-        p = resolve(model).params
-        up = tip_heights(to_protocol(run.X[1:back]), p.l1, p.l2) > (policy.height * (p.l1 + p.l2))
+        up = is_up(to_protocol(run.X[1:back]), p.l1, p.l2, policy.height)
         found.append((up, run.X[back]))
     return found
 
