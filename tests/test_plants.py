@@ -119,3 +119,87 @@ def test_only_a_black_box_run_is_a_plant(tmp_path: Path, capsys) -> None:
     with pytest.raises(SystemExit):
         main(["olympics", "tree", "--model", str(run), "--out", str(tmp_path / "o")])
     assert "the tree entry is built on the equations" in capsys.readouterr().err
+
+
+def _variant(tmp_path: Path, base: str = "ai_olympics", **changes: float) -> str:
+    """A model file: the shipped ``base`` with ``changes``."""
+    data = {**MODELS[base].to_dict(), **changes}
+    path = tmp_path / f"{base}_variant.json"
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+def test_a_model_file_takes_its_kin_s_settings_and_the_entries_set_for_one_acrobot_refuse_it(
+    tmp_path: Path,
+) -> None:
+    from acrobot_mj.control.planned import kindred
+    from acrobot_mj.olympics.swing_ups import check_plannable
+
+    heavy = _variant(tmp_path, m2=0.6)
+    assert kindred("ai_olympics") == "ai_olympics" and kindred(heavy) == "ai_olympics"
+    # The pendubot shares the step and integrator but drives the shoulder: not kin.
+    assert kindred(_variant(tmp_path, "ai_olympics_pendubot", m2=0.6)) == "ai_olympics_pendubot"
+    assert check_plannable(heavy) == "ai_olympics"
+    entries.ENTRIES["funnel"].check(heavy)
+    for name in ("tree", "replan"):  # their plan sets and waits are ai_olympics' own
+        with pytest.raises(ValueError, match=f"the {name} entry is for ai_olympics, not '"):
+            entries.ENTRIES[name].check(heavy)
+    report_like = _variant(tmp_path, "report", m2=1.1)
+    assert kindred(report_like) == "report"
+    with pytest.raises(ValueError, match="planned on first use only for an acrobot stepped as"):
+        entries.ENTRIES["funnel"].check(report_like)
+
+
+def test_a_swing_up_planned_on_first_use_is_kept_and_planned_again_only_when_unusable(
+    tmp_path: Path, monkeypatch
+) -> None:
+    from acrobot_mj.olympics import swing_ups
+
+    heavy = _variant(tmp_path, m2=0.6)
+    acrobot = plants.resolve(heavy)
+    made: list[int] = []
+
+    def plan(model):  # a stand-in for minutes of IPOPT: the shipped torques on this acrobot
+        made.append(1)
+        torques = planned_swing_up("ai_olympics").torques
+        p = model.analytic
+        states = integrators.simulate(plants.HANGING.copy(), torques, "rk4", p)
+        states[-1] = (np.pi / 2, 0.0, 0.0, 0.0)  # the check wants upright at its end
+        return Trajectory(states, torques, p.dt, "rk4", p.max_torque, p)
+
+    monkeypatch.setattr(swing_ups, "performance_swing_up", plan)
+    monkeypatch.setattr(Trajectory, "residual", lambda self: 0.0)
+    monkeypatch.setenv("ACROBOT_MJ_CACHE", str(tmp_path / "cache"))
+    first = swing_ups.swing_up_for(heavy)
+    assert made == [1] and first.params == acrobot.analytic
+    again = swing_ups.swing_up_for(heavy)
+    assert made == [1] and np.array_equal(again.torques, first.torques)  # read, not planned
+    kept = next((tmp_path / "cache" / "swing_ups").glob("*.json"))
+    kept.write_text("{not json")
+    swing_ups.swing_up_for(heavy)
+    assert made == [1, 1]  # a corrupt plan is planned again, and kept again
+    assert swing_ups.swing_up_for(heavy).params == acrobot.analytic and made == [1, 1]
+    plant = plants.equations(heavy)
+    assert (plant.name, plant.model) == ("ai_olympics", heavy)
+    assert plant.levels == plants.levels("ai_olympics")
+    assert plants.equations("ai_olympics").model == ""  # a shipped acrobot is its own
+
+
+@pytest.mark.slow
+def test_funnel_scores_an_acrobot_read_from_a_file_on_a_swing_up_planned_for_it(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """``ai_olympics`` with its second link 10 % heavier: the swing-up planned on its
+    parameters (about 2 minutes of one core), checked on them, and followed in the performance
+    episode. Measured (the CLI, the same file): it swings up and scores 0.67506 (0.688 on
+    ai_olympics)."""
+    from acrobot_mj.olympics import sources
+    from acrobot_mj.olympics.swing_ups import FIRST_USE, swing_up_for
+
+    monkeypatch.setenv("ACROBOT_MJ_CACHE", str(tmp_path / "cache"))
+    heavy = _variant(tmp_path, m2=MODELS["ai_olympics"].params.m2 * 1.1)
+    plan = swing_up_for(heavy)
+    assert plan.params == plants.resolve(heavy).analytic and plan.residual() < FIRST_USE
+    recording = episode(sources.build("funnel", heavy), heavy, 10.0, Conditions(), 0)
+    run = performance(recording, P.l1, P.l2)
+    assert run["success"] and abs(run["score"] - 0.67506) < 5e-3  # IPOPT's rounding across BLAS

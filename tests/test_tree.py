@@ -136,3 +136,28 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path) -> None:
         tree.act(np.array([0.0, np.nan, 0.0, 0.0]), 0.0)
     with pytest.raises(ValueError, match="model parameters"):
         PlanTracker([SHIPPED, planned_swing_up("report")])
+
+
+def test_the_compiled_rollout_answers_as_the_rollout_in_python() -> None:
+    """``reaches`` on the model's own step is one compiled kernel; on any other step function
+    (a learnt model's) the same rollout runs in Python, numpy's products included. Both must
+    give the same answer at every start: 400 starts near the swing-up's points, at errors
+    of every cost between entry and far beyond track, so that both answers occur."""
+    plan = planned_swing_up("ai_olympics")
+    p, levels = plan.params, equations("ai_olympics").levels
+    compiled_one = PlanTracker([plan], levels)
+
+    def python_step(x: np.ndarray, u: float) -> np.ndarray:  # not a partial: the Python loop
+        return integrators.step_states(x, u, p=p, method=plan.method)
+
+    python_one = PlanTracker([plan], levels, step=python_step)
+    assert compiled_one._constants() is not None and python_one._constants() is None
+    rng = np.random.default_rng(5)
+    answers = []
+    for _ in range(400):
+        k = int(rng.integers(0, plan.steps - 1))
+        x = plan.states[k] + rng.normal(0.0, 10.0 ** rng.uniform(-3, 0), 4)
+        answer = compiled_one.reaches(x, 0, k)
+        assert answer == python_one.reaches(x, 0, k), (k, x.tolist())
+        answers.append(answer)
+    assert 50 < sum(answers) < 350, sum(answers)  # both answers, many times

@@ -5,6 +5,9 @@ named or read from a file with the same parameters."""
 
 from __future__ import annotations
 
+import math
+from dataclasses import astuple
+
 from acrobot_mj.control.tracker import FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.physics.models import MODELS, ModelSpec, resolve
@@ -24,6 +27,31 @@ def shipped_name(model: ModelSpec) -> str | None:
     name, or a file of the same parameters), or None."""
     acrobot = resolve(model)
     return next((name for name, known in MODELS.items() if known == acrobot), None)
+
+
+def kindred(model: ModelSpec) -> str | None:
+    """The shipped acrobot whose entries' settings ``model`` takes: itself where it is one,
+    else the one stepped alike (the same physics step, integrator and driven joint) nearest in
+    its other parameters (the sum of ``|log(a / b)|`` over the finite ones); None where none is
+    stepped alike."""
+    acrobot = resolve(model)
+    name = shipped_name(acrobot)
+    if name is not None:
+        return name
+
+    def alike(known: object) -> bool:
+        k = resolve(known)  # type: ignore[arg-type]
+        return (k.params.dt, k.integrator, k.actuated) == (
+            acrobot.params.dt, acrobot.integrator, acrobot.actuated
+        )  # fmt: skip
+
+    def distance(known: str) -> float:
+        pairs = zip(astuple(MODELS[known].params), astuple(acrobot.params), strict=True)
+        finite = [(a, b) for a, b in pairs if a > 0 and b > 0 and math.isfinite(a * b)]
+        return sum(abs(math.log(a / b)) for a, b in finite)
+
+    found = [known for known in MODELS if alike(known)]
+    return min(found, key=distance) if found else None
 
 
 def planned_swing_up(model: ModelSpec) -> Trajectory:

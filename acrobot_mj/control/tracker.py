@@ -16,12 +16,13 @@ from typing import Any
 import numpy as np
 
 from acrobot_mj.checks import check_state
-from acrobot_mj.compiled import compiled
+from acrobot_mj.compiled import compiled, jitable
 from acrobot_mj.control.controller import Controller, EnergyRemoval
 from acrobot_mj.control.lqr import LQR, MPC, Jacobians, tvlqr, tvlqr_torque
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.physics import dynamics, integrators
-from acrobot_mj.physics.dynamics import UPRIGHT, float_error, state_error
+from acrobot_mj.physics.dynamics import UPRIGHT, state_error
+from acrobot_mj.physics.integrators import step_one
 from acrobot_mj.physics.xp import clip, wrap
 from acrobot_mj.settings import Settings, setting
 
@@ -220,36 +221,29 @@ class PlanTracker(Controller):
         if self.step is None:
             return False
         plan, (costs, gains) = self.plans[i], self.tracking[i]
-        # On floats but for numpy's products: state_error, tvlqr_torque and self.step's
-        # numbers (the compiled step itself where self.step is step_states), a rollout of up
-        # to a plan's length at every call outside the funnel.
-        states, torques = self._rows(i)
-        track, limit, one = self.levels.track, plan.params.max_torque, self._one_step()
-        state = tuple(np.asarray(x, dtype=float).tolist())
+        limit, constants = plan.params.max_torque, self._constants()
+        levels = (self.levels.track, self.levels.upright, limit)
+        if constants is not None:  # the model's own step: the whole rollout compiled
+            arrays, lqr = (
+                (plan.states, plan.torques, gains, costs),
+                (self.lqr.target, self.lqr.cost),
+            )
+            return bool(compiled(plan_reaches)(x, k, arrays, levels, lqr, constants))
+        state = np.asarray(x, dtype=float)
         for j in range(k, plan.steps):
-            e = np.array(float_error(state, states[j]))
-            if e @ costs[j] @ e > track:
+            e = state_error(state, plan.states[j])
+            if e @ costs[j] @ e > self.levels.track:
                 return False
-            u = clip(torques[j] - float(gains[j] @ e), -limit, limit)
-            if one is None:
-                state = tuple(np.asarray(self.step(np.array(state), u), dtype=float).tolist())
-            else:
-                state = one(*state, u)
-        error = state_error(np.array(state), self.lqr.target)
+            u = clip(float(plan.torques[j]) - float(gains[j] @ e), -limit, limit)
+            state = np.asarray(self.step(state, u), dtype=float)
+        error = state_error(state, self.lqr.target)
         return bool(error @ self.lqr.cost @ error < self.levels.upright)
 
-    def _rows(self, i: int) -> tuple[list[list[float]], list[float]]:
-        """Plan ``i``'s states and torques as floats, kept while it is the same plan."""
-        kept = self.__dict__.setdefault("_kept_rows", {})
-        plan = self.plans[i]
-        if i not in kept or kept[i][0] is not plan:
-            kept[i] = (plan, plan.states.tolist(), plan.torques.tolist())
-        return kept[i][1], kept[i][2]
-
-    def _one_step(self) -> integrators.OneStep | None:
-        """The compiled step of one state where ``step`` is
-        :func:`~acrobot_mj.physics.integrators.step_states` on a model (the same numbers),
-        kept while it is the same step; else None."""
+    def _constants(self) -> tuple | None:
+        """The compiled step's constants after the state and torque (lumped parameters, step,
+        velocity limits, substeps, method) where ``step`` is
+        :func:`~acrobot_mj.physics.integrators.step_states` on a model; else None (a learnt
+        model's step)."""
         step = self.step
         if not (
             isinstance(step, partial)
@@ -258,13 +252,9 @@ class PlanTracker(Controller):
             and set(step.keywords) == {"p", "method"}
         ):
             return None
-        kept = self.__dict__.get("_kept_step")
-        if kept is None or kept[0] is not step:
-            kept = self._kept_step = (step, integrators.OneStep(**step.keywords))
-        return kept[1]
-
-    def __getstate__(self) -> dict[str, Any]:  # copies and pickles convert the rows again
-        return {k: v for k, v in self.__dict__.items() if k != "_kept_rows"}
+        p = step.keywords["p"]
+        floats = tuple(float(v) for v in (*p.lumped, p.dt, *p.max_vel))
+        return (*floats, 1, integrators.method_code(step.keywords["method"]))
 
     def _planned(self, x: np.ndarray, near: int) -> bool:
         """Plan from ``x`` (within the energy window, unless blocked) and follow the plan."""
@@ -352,6 +342,44 @@ def least_cost(x, points, costs):  # kernel
         if total < level:
             best, level = k, total
     return best, level
+
+
+def plan_reaches(x, k, arrays, levels, lqr, constants):  # kernel
+    """:meth:`PlanTracker.reaches` of a plan (``arrays``: its states (T + 1, 4), torques (T,),
+    TVLQR gains (T, 4) and costs (T, 4, 4)) from its point ``k`` in state ``x`` (4,):
+    ``levels`` the track and upright levels and the torque limit, ``lqr`` the balancer's target
+    (4,) and cost (4, 4), ``constants``
+    :func:`~acrobot_mj.physics.integrators.step_one`'s after the state and torque. Compiled: in
+    Python a rollout of up to a plan's length at every call outside the funnel took 0.5 to 4 ms."""
+    states, torques, gains, costs = arrays
+    track, upright, limit = levels
+    target, cost = lqr
+    q1, q2, dq1, dq2 = x[0], x[1], x[2], x[3]
+    e = np.empty(4)
+    for j in range(k, torques.shape[0]):
+        e[0], e[1] = wrap(q1 - states[j, 0]), wrap(q2 - states[j, 1])
+        e[2], e[3] = dq1 - states[j, 2], dq2 - states[j, 3]
+        if quadratic(e, costs[j]) > track:
+            return False
+        u = torques[j]
+        for i in range(4):
+            u -= gains[j, i] * e[i]
+        q1, q2, dq1, dq2 = step_one(q1, q2, dq1, dq2, clip(u, -limit, limit), *constants)
+    e[0], e[1] = wrap(q1 - target[0]), wrap(q2 - target[1])
+    e[2], e[3] = dq1 - target[2], dq2 - target[3]
+    return quadratic(e, cost) < upright
+
+
+@jitable
+def quadratic(e, cost):
+    """``e' S e`` of a vector ``e`` (4,) and a matrix ``cost`` (4, 4)."""
+    total = 0.0
+    for i in range(4):
+        row = 0.0
+        for j in range(4):
+            row += cost[i, j] * e[j]
+        total += e[i] * row
+    return total
 
 
 def tracker_stats(tracker: Any) -> dict[str, int]:

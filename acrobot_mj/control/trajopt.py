@@ -99,13 +99,13 @@ class Trajectory:
             "torques": self.torques.tolist(),
         }
 
-    def save(self, path: str | Path) -> Path:
-        """Write the trajectory, checked, as JSON."""
-        return write_json(path, self.check().to_dict())
+    def save(self, path: str | Path, tolerance: float = TOLERANCE) -> Path:
+        """Write the trajectory, checked to ``tolerance``, as JSON."""
+        return write_json(path, self.check(tolerance).to_dict())
 
     @classmethod
-    def load(cls, path: str | Path) -> Trajectory:
-        """A stored trajectory; ValueError if it fails any check."""
+    def load(cls, path: str | Path, tolerance: float = TOLERANCE) -> Trajectory:
+        """A stored trajectory; ValueError if it fails any check (to ``tolerance``)."""
         path = Path(path)
         try:
             data = json.loads(path.read_text())
@@ -120,7 +120,7 @@ class Trajectory:
                 if stored is not None
                 else REPORT
             )
-            return cls(states, torques, dt, method, u_max, params).check()
+            return cls(states, torques, dt, method, u_max, params).check(tolerance)
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
             raise ValueError(f"{path} is not a usable trajectory: {error}") from None
 

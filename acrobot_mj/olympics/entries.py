@@ -18,12 +18,13 @@ from pathlib import Path
 from typing import Any
 
 from acrobot_mj.control.controller import Controller, EnergyRemoval, Fallbacks
-from acrobot_mj.control.planned import PLANNED, planned_swing_up, shipped_name
+from acrobot_mj.control.planned import PLANNED, shipped_name
 from acrobot_mj.control.plans import PlanSet
 from acrobot_mj.control.policies import EnergyPumping
 from acrobot_mj.control.tracker import FunnelSettings, PlanningHook, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.olympics.plants import Plant
+from acrobot_mj.olympics.swing_ups import check_plannable
 from acrobot_mj.settings import Settings, setting
 
 #: The constrained LQR's horizon [steps] on ``ai_olympics``: 0.5 s, 2.3 time constants of the
@@ -87,15 +88,15 @@ class Entry:
         equations or (``learnt``) from a learnt model of it."""
         if learnt and not self.learnt:
             raise ValueError(f"the {self.name} entry is built on the equations, not a learnt model")
-        if not learnt:
-            planned_swing_up(model)
         name = shipped_name(model)
         if self.only is not None and name != self.only:
             raise ValueError(f"the {self.name} entry is for {self.only}, not {model!r}: {self.why}")
+        if not learnt:
+            check_plannable(model)
 
     def build(self, plant: Plant, options: Mapping[str, Any] | None = None) -> Controller:
         """The entry's controller on ``plant`` with ``options`` (by name)."""
-        self.check(plant.name, plant.learnt)
+        self.check(plant.model or plant.name, plant.learnt)
         return self.factory(plant, self.options.from_dict(dict(options or {})))
 
 

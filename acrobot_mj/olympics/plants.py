@@ -16,7 +16,7 @@ import numpy as np
 from acrobot_mj.control.controller import Controller, Held
 from acrobot_mj.control.estimator import Estimated, Observer
 from acrobot_mj.control.lqr import Jacobians
-from acrobot_mj.control.planned import LEVELS, planned_swing_up, shipped_name
+from acrobot_mj.control.planned import LEVELS, shipped_name
 from acrobot_mj.control.tracker import FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory
 from acrobot_mj.files import read_json, write_json
@@ -29,10 +29,11 @@ from acrobot_mj.train.records import MODEL_FILE
 
 @dataclass(frozen=True)
 class Plant:
-    """The shipped acrobot ``name`` an entry acts on (the entries' settings are its), the
-    ``swing_up`` its tracker follows, the funnel's ``levels``, and for a learnt model its
-    ``linear`` Jacobians and ``step`` (each of one decision) and the physics steps a decision
-    spans (``every``)."""
+    """The shipped acrobot ``name`` whose entries' settings an entry takes (the acrobot itself
+    or its kin, :func:`~acrobot_mj.control.planned.kindred`), the ``swing_up`` its tracker
+    follows, the funnel's ``levels``, for a learnt model its ``linear`` Jacobians and ``step``
+    (each of one decision) and the physics steps a decision spans (``every``), and the
+    ``model`` it is built for where that is not ``name`` (an acrobot read from a file)."""
 
     name: str
     swing_up: Trajectory
@@ -40,6 +41,7 @@ class Plant:
     linear: Jacobians | None = None
     step: Callable[[np.ndarray, float], np.ndarray] | None = None
     every: int = 1
+    model: str = ""
 
     @property
     def learnt(self) -> bool:
@@ -64,12 +66,14 @@ def levels(name: str) -> FunnelSettings:
 
 
 def equations(model: str) -> Plant:
-    """The plant of ``model``'s equations (a name, or a file of a shipped acrobot's
-    parameters); refused in one line where it has no planned swing-up."""
-    swing_up = planned_swing_up(model)
-    name = shipped_name(model)
-    assert name is not None  # only shipped acrobots have a planned swing-up
-    return Plant(name, swing_up, levels(name))
+    """The plant of ``model``'s equations (a name or a file): its swing-up, shipped or planned
+    on first use (:func:`~acrobot_mj.olympics.swing_ups.swing_up_for`), with the settings of
+    its kin; refused in one line where it has none."""
+    from acrobot_mj.olympics.swing_ups import check_plannable, swing_up_for
+
+    name = check_plannable(model)
+    own = "" if shipped_name(model) is not None else str(model)
+    return Plant(name, swing_up_for(model), levels(name), model=own)
 
 
 def learnt(run_dir: str | Path) -> Plant:

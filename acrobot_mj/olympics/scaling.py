@@ -23,7 +23,7 @@ import math
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
-from acrobot_mj.control.planned import planned_swing_up, shipped_name
+from acrobot_mj.control.planned import planned_swing_up
 from acrobot_mj.olympics.protocol import (
     GLOBAL,
     PERFORMANCE,
@@ -220,12 +220,16 @@ def gravity_torque(p: AcrobotParams) -> float:
 
 
 def protocol_for(model: str) -> Rules:
-    """The protocol a run on ``model`` (a name with a shipped swing-up) uses: the original on
-    ``ai_olympics``, else the original scaled (:func:`scales_between` with the shipped plans'
-    lengths), stepping at the model's own physics step."""
+    """The protocol a run on ``model`` (a name or a file with a swing-up,
+    :func:`~acrobot_mj.olympics.swing_ups.check_plannable`) uses: the original on
+    ``ai_olympics`` and its kin (the protocol's units are that robot's), else the original
+    scaled (:func:`scales_between` with the plans' lengths), stepping at the model's own
+    physics step."""
+    from acrobot_mj.olympics.swing_ups import check_plannable, swing_up_for
+
     target = resolve(model)
-    if shipped_name(model) == SOURCE:
+    if check_plannable(model) == SOURCE:
         return ORIGINAL
-    plan = planned_swing_up(model)
+    plan = swing_up_for(model)
     scales = scales_between(MODELS[SOURCE], target, planned_swing_up(SOURCE).seconds, plan.seconds)
     return Scaling(scales, target.params.dt).protocol()

@@ -5,19 +5,34 @@ as :data:`~acrobot_mj.control.planned.PLANNED`'s); the entries built on it are
 
 from __future__ import annotations
 
+import hashlib
+import json
+import logging
 import math
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from acrobot_mj.control.planned import PLANNED, kindred, planned_swing_up, shipped_name
 from acrobot_mj.control.trajopt import IPOPT, Trajectory, solve_or_none
 from acrobot_mj.identify.library import LibraryModel
 from acrobot_mj.physics import integrators
 from acrobot_mj.physics.dynamics import HANGING, UPRIGHT
-from acrobot_mj.physics.models import AcrobotModel
+from acrobot_mj.physics.models import AcrobotModel, ModelSpec, resolve
 from acrobot_mj.physics.params import AcrobotParams
 from acrobot_mj.physics.xp import symbolic
 
+LOG = logging.getLogger(__name__)
+#: The shipped acrobots whose kin (:func:`~acrobot_mj.control.planned.kindred`) have their
+#: swing-up planned on first use (:func:`swing_up_for`): :func:`performance_swing_up`'s 200
+#: decisions of 0.01 s are ``ai_olympics``' plan; the report's 1 N m swing-up takes about 24 s.
+ON_DEMAND = ("ai_olympics",)
+#: How far [rad, rad/s] a plan made on first use may end off upright at rest once rolled out
+#: on the model (and miss its step): IPOPT's answer for ``ai_olympics`` with a 0.6 kg second
+#: link ended 2.6e-9 off on numpy's steps, past the shipped plans' 1e-9; TVLQR absorbs far more.
+FIRST_USE = 1e-6
 #: The performance criteria's normalisers (the protocol's v2: J, N^2 m^2 s, N m, rad^2/s).
 NORMS = {"energy": 60.0, "torque_cost": 20.0, "smoothness": 0.1, "velocity_cost": 400.0}
 #: The length [s] of the swing-up planned on a learnt model: ``ai_olympics``' plan's, 200
@@ -118,3 +133,57 @@ def learnt_swing_up(
     for torque in torques:
         states.append(np.asarray(model.step(states[-1], float(torque)), dtype=float))
     return Trajectory(np.array(states), torques, limits.dt, "learned", limits.max_torque, limits)
+
+
+def cache_dir() -> Path:
+    """Where plans made on first use are kept: ``$ACROBOT_MJ_CACHE``, else
+    ``$XDG_CACHE_HOME/acrobot-mj`` (``~/.cache/acrobot-mj``)."""
+    if os.environ.get("ACROBOT_MJ_CACHE"):
+        return Path(os.environ["ACROBOT_MJ_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "acrobot-mj"
+
+
+def check_plannable(model: ModelSpec) -> str:
+    """The shipped acrobot whose settings ``model`` takes where it has a swing-up, shipped or
+    planned on first use; one line where it has none."""
+    name, kin = shipped_name(model), kindred(model)
+    if name is not None:
+        planned_swing_up(model)  # its one-line refusal, for a shipped acrobot without one
+        return name
+    if kin in ON_DEMAND:
+        return kin
+    raise ValueError(
+        f"no swing-up for the model {str(model)!r}: one is planned on first use only for an "
+        f"acrobot stepped as {' or '.join(ON_DEMAND)} (0.002 s, RK4, the elbow driven); "
+        f"shipped: {sorted(PLANNED)}"
+    )
+
+
+def swing_up_for(model: ModelSpec) -> Trajectory:
+    """``model``'s swing-up: the shipped one (:data:`~acrobot_mj.control.planned.PLANNED`),
+    else :func:`performance_swing_up` on its parameters, planned once (minutes of one core;
+    CasADi, the ``control`` extra) and kept in :func:`cache_dir` by its parameters' digest; a
+    kept plan that cannot be read, or is of other parameters, is planned again."""
+    check_plannable(model)
+    if shipped_name(model) is not None:
+        return planned_swing_up(model)
+    acrobot = resolve(model)
+    digest = hashlib.sha256(json.dumps(acrobot.to_dict(), sort_keys=True).encode()).hexdigest()
+    path = cache_dir() / "swing_ups" / f"{digest[:32]}.json"
+    if path.exists():
+        try:
+            kept = Trajectory.load(path, FIRST_USE)
+            if kept.params == acrobot.analytic:
+                return kept
+            LOG.warning("%s holds another acrobot's swing-up: planning again", path)
+        except ValueError as error:
+            LOG.warning("%s: planning again", error)
+    LOG.warning("planning a swing-up for %s (minutes, once; kept in %s)", model, path)
+    plan = performance_swing_up(acrobot)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        plan.save(path, FIRST_USE)
+    except ValueError as error:
+        raise ValueError(f"the swing-up planned for {model} is unusable: {error}") from None
+    return plan

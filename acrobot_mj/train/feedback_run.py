@@ -15,7 +15,7 @@ import gymnasium as gym
 
 from acrobot_mj.control.adaptive import Adaptive
 from acrobot_mj.control.controller import Controller
-from acrobot_mj.control.planned import LEVELS, PLANNED, planned_swing_up, shipped_name
+from acrobot_mj.control.planned import LEVELS, PLANNED, kindred, shipped_name
 from acrobot_mj.control.tracker import FunnelSettings, PlanTracker, TrackerSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
 from acrobot_mj.envs.control_loop import (
@@ -82,11 +82,14 @@ class FeedbackConfig(Settings):
 
 def feedback_swing_up(config: FeedbackConfig) -> Trajectory:
     """The swing-up a new run follows: the report's shipped plan of ``config.reserve``, or
-    another acrobot's planned swing-up; refused in one line where there is none, or where an
-    option is the report's alone."""
+    another acrobot's swing-up, shipped or planned on first use
+    (:func:`~acrobot_mj.olympics.swing_ups.swing_up_for`); refused in one line where there is
+    none, or where an option is the report's alone."""
+    from acrobot_mj.olympics.swing_ups import swing_up_for
+
     if config.model is None or shipped_name(config.model) == "report":
         return shipped(SWING_UPS[config.reserve])
-    plan = planned_swing_up(config.model)
+    plan = swing_up_for(config.model)
     flags = {"discrete": config.discrete, "adaptive": config.adaptive}
     given = [f"--{name}" for name, value in flags.items() if value]
     if config.reserve != FeedbackConfig.reserve:
@@ -116,7 +119,7 @@ class FeedbackLearner(ControllerLearner):
         #: The acrobot, as the run's plan carries it.
         self.acrobot = AcrobotModel(self.trajectory.params, integrator=integrator)
         self.name = shipped_name(self.acrobot)
-        levels = config.funnel or LEVELS.get(self.name or "", FunnelSettings())
+        levels = config.funnel or LEVELS.get(kindred(self.acrobot) or "", FunnelSettings())
         self.tracker = PlanTracker([self.trajectory], levels, settings)
         self.build_seconds = time.perf_counter() - start
 
@@ -130,7 +133,7 @@ class FeedbackLearner(ControllerLearner):
                 "task": Balance.name,
                 "swing_up": SWING_UPS[self.config.reserve]
                 if self.name == "report"
-                else PLANNED[self.name or ""],
+                else PLANNED.get(self.name or "", "first-use"),
                 "greedy_from_rest": rest,
                 "build_seconds": self.build_seconds,
             },
