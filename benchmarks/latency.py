@@ -23,6 +23,8 @@ from acrobot_mj.olympics.entries import ENTRIES
 from acrobot_mj.olympics.episodes import Scored, global_run
 from acrobot_mj.olympics.protocol import GlobalPolicy
 from acrobot_mj.olympics.scaling import protocol_for
+from acrobot_mj.olympics.sources import Source
+from acrobot_mj.settings import declared, parse
 
 #: The entries the bench times when none are named.
 DEFAULT_ENTRIES = ("tree", "funnel")
@@ -74,25 +76,44 @@ def episode_latency(
     }
 
 
+def entry_source(spec: str) -> Source:
+    """An entry with its options, ``NAME[:OPTION=VALUE]...`` (``tree:candidates=32``), each
+    option parsed as the entry declares it; refused in one line where it has no such one."""
+    name, *pairs = spec.split(":")
+    if name not in ENTRIES:
+        raise ValueError(f"entries must be some of {','.join(ENTRIES)}, got {spec!r}")
+    entry, options = ENTRIES[name], {}
+    for pair in pairs:
+        key, _, text = pair.partition("=")
+        if key not in declared(entry.options) or not text:
+            raise ValueError(f"{spec!r}: the {name} entry has no option {key!r} (OPTION=VALUE)")
+        options[key] = parse(entry.options, key, text)
+    return Source(name, options)
+
+
 def entry_latency(name: str, seed: int = 0, seconds: float | None = None) -> dict[str, Any]:
-    """:func:`episode_latency` of the entry ``name`` on its acrobot (``ai_olympics`` unless it
-    is set for another) in that acrobot's global test (``seconds`` long; None: the protocol's
-    length); an entry that is not real-time by design is not timed."""
-    entry = ENTRIES[name]
+    """:func:`episode_latency` of the entry ``name`` (:func:`entry_source`: with its options)
+    on its acrobot (``ai_olympics`` unless it is set for another) in that acrobot's global test
+    (``seconds`` long; None: the protocol's length); an entry that is not real-time by design
+    is not timed."""
+    source = entry_source(name)
+    entry = ENTRIES[source.name]
     model = entry.only or "ai_olympics"
     if not entry.realtime:
         return {"model": model, "realtime": False}
     policy = protocol_for(model).global_policy
     if seconds is not None:
         policy = replace(policy, t_final=seconds)
-    return {"model": model, "realtime": True, **episode_latency(name, model, policy, seed)}
+    return {"model": model, "realtime": True, **episode_latency(source, model, policy, seed)}
 
 
 def checked(entries: Sequence[str]) -> tuple[str, ...]:
-    """``entries`` as a tuple, refused in one line unless each is an entry's name."""
-    unknown = [name for name in entries if name not in ENTRIES]
-    if unknown or not entries:
-        raise ValueError(f"entries must be some of {','.join(ENTRIES)}, got {','.join(entries)}")
+    """``entries`` as a tuple, refused in one line unless each is an entry's name, with its
+    options (:func:`entry_source`)."""
+    if not entries:
+        raise ValueError(f"entries must be some of {','.join(ENTRIES)}, got none")
+    for spec in entries:
+        entry_source(spec)
     return tuple(entries)
 
 

@@ -132,6 +132,7 @@ def test_the_readme_states_the_recorded_scores() -> None:
     recorded one, rounded as it prints it, and each leaderboard figure the board's best."""
     best = {p: f"{b.best()[1]:.3f}" for p, b in BOARDS.items()}
     tree = recorded("tree-30-seeds")["global"]
+    rollout = recorded("tree-rollout-30-seeds")["global"]  # the same seeds: the same bound
     low, high = tree["interval"]
     scaled = [recorded(f"report-{c}") for c in ("backward", "funnel", "feedback", "black-box")]
     perf = [r["performance"]["score"] for r in scaled]
@@ -153,6 +154,10 @@ def test_the_readme_states_the_recorded_scores() -> None:
         f"{best['global']}; [{tree['of_bound']:.3f} of the bound]"
         "(docs/guide/olympics-global.md#the-bound)), robustness "
         f"{_figure('tree-robustness', 'robustness')}",
+        f"entering by rollout ([an option](docs/guide/olympics-global.md#entering-by-rollout)), "
+        f"global {rollout['score']:.3f} (interval {rollout['interval'][0]:.3f} to "
+        f"{rollout['interval'][1]:.3f}, {rollout['score'] / tree['bound']['score']:.3f} of the "
+        f"bound), robustness {_figure('tree-rollout', 'robustness')}",
         f"global {_figure('replan-held-out', digits=2)} on held-out seeds 3 to 10 (the "
         f"leaderboard's best: {best['global']})",
     ]

@@ -158,6 +158,12 @@ def test_olympics_command_writes_the_record(tmp_path, capsys) -> None:
     record = json.loads((out / "olympics.json").read_text())
     assert record["performance"]["success"] is True
     assert abs(record["performance"]["score"] - 0.68817) < 1e-4
+    assert record["model"] == {"name": "ai_olympics", "entry": "funnel"}  # no options given
+    given = tmp_path / "given"
+    argv = ["olympics", "funnel", "--option", "mpc=false", "--scores", "performance"]
+    main([*argv, "--out", str(given), "--no-progress"])
+    options = json.loads((given / "olympics.json").read_text())["model"]["options"]
+    assert options == {"mpc": False}  # the record says which variant of the entry ran
     assert (out / "performance.png").is_file()
     assert "performance 0.688" in capsys.readouterr().out
     again = ["olympics", "funnel", "--scores", "global", "--out", str(out), "--no-progress"]

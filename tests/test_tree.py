@@ -161,3 +161,61 @@ def test_the_compiled_rollout_answers_as_the_rollout_in_python() -> None:
         assert answer == python_one.reaches(x, 0, k), (k, x.tolist())
         answers.append(answer)
     assert 50 < sum(answers) < 350, sum(answers)  # both answers, many times
+
+
+def test_an_entry_is_the_first_of_the_candidates_whose_rollout_reaches_upright() -> None:
+    """With one candidate the rule is the funnel's: the point of least cost, entered below
+    ``entry``, or below ``track`` where its rollout reaches upright. With 32, the first point
+    in order of cost whose rollout reaches; else the least, where below ``entry``. Checked
+    at 300 states near the library's points against the rule written out here."""
+    plant = equations("ai_olympics")
+    one = entries.tree(plant, PlanSet.load(entries.PLANS), None, entries.TreeOptions(1))
+    many = entries.tree(plant, PlanSet.load(entries.PLANS), None, entries.TreeOptions(32))
+    assert one.settings.rollout and (one.settings.candidates, many.settings.candidates) == (1, 32)
+    levels, rng, moved = plant.levels, np.random.default_rng(8), 0
+    for _ in range(300):
+        i = int(rng.integers(len(one.plans)))
+        plan = one.plans[i]
+        x = plan.states[int(rng.integers(plan.steps))] + rng.normal(0.0, 0.05, 4)
+        costs = one._levels(x)
+        ranked = np.argsort(costs, kind="stable")
+        best = one.which[ranked[0]]
+        reached = [
+            b for b in ranked[:32] if costs[b] < levels.track and one.reaches(x, *one.which[b])
+        ]
+        first = one.entry(x)
+        old = costs[ranked[0]] < levels.entry or (
+            costs[ranked[0]] < levels.track and one.reaches(x, *best)
+        )
+        assert first == (*best, bool(old))
+        want = (
+            (*one.which[reached[0]], True) if reached else (*best, costs[ranked[0]] < levels.entry)
+        )
+        assert many.entry(x) == tuple(int(v) if not isinstance(v, bool) else v for v in want)
+        moved += bool(reached) and reached[0] != ranked[0]
+    assert moved > 10  # the candidates changed the entry at many states
+
+
+def test_after_a_search_that_finds_no_entry_it_pauses_the_calls_asked() -> None:
+    """``pause=3``: of 8 calls where nothing can be entered (hanging, the shoulder at 25
+    rad/s: no rollout of 32 reaches upright, the least cost is past ``entry``), the 1st and
+    5th search; a reset ends the pause."""
+    plant = equations("ai_olympics")
+    tracker = entries.tree(plant, PlanSet.load(entries.PLANS), None, entries.TreeOptions(32, 3))
+    searched: list[int] = []
+    search = tracker.entry
+
+    def counted(x: np.ndarray) -> tuple[int, int, bool]:
+        searched.append(call)
+        return search(x)
+
+    tracker.entry = counted  # type: ignore[method-assign]
+    x = np.array([-np.pi / 2, 0.0, 25.0, 0.0])
+    assert not search(x)[2]  # nothing to enter here
+    for call in range(8):
+        tracker.act(x, call * 0.002)
+        assert tracker.mode == "fallback"
+    assert searched == [0, 4]
+    call = 8
+    tracker.act(x + np.array([1.0, 0.0, 0.0, 0.0]), 0.016)  # an angle jump: a reset
+    assert searched == [0, 4, 8]

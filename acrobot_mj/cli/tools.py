@@ -227,7 +227,8 @@ def add_bench(commands: Commands) -> None:
         "--entries",
         type=names,
         metavar="LIST",
-        help="the entries whose latency is timed, comma-separated (default: tree,funnel)",
+        help="the entries whose latency is timed, comma-separated, each with its options as "
+        "NAME:OPTION=VALUE (tree:candidates=32) (default: tree,funnel)",
     )
     p.add_argument(
         "--json", metavar="FILE", type=output_file, help="also write the results as JSON"

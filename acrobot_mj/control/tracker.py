@@ -82,6 +82,13 @@ class TrackerSettings(Settings):
     rollout: bool = setting(
         True, "enter below the track level where a rollout of the plan on the model reaches upright"
     )
+    candidates: int = setting(
+        1,
+        "the entry points of least cost tried by rollout, in order of cost: the first that "
+        "reaches upright is entered (else the least, below the entry level)",
+        "points",
+        low=1,
+    )
     jump: float | None = setting(
         None,
         "an angle jump between calls past which the plan followed is dropped (a reset); none: "
@@ -92,6 +99,12 @@ class TrackerSettings(Settings):
     )
     clock: bool = setting(
         False, "follow the first plan by the clock from t = 0, with no entry test, then balance"
+    )
+    pause: int = setting(
+        0,
+        "calls without a search for an entry after one found none (the fallback acts)",
+        "calls",
+        low=0,
     )
     window: float = setting(8.0, "the planner plans within this of upright's energy", "J", low=0.0)
     wait: int = setting(250, "calls without planning after a failed plan", "calls", low=0)
@@ -171,7 +184,7 @@ class PlanTracker(Controller):
     def reset(self, seed: int | None = None) -> None:
         """A new episode: no plan followed, no planning blocked, the fallback reset."""
         self.following: tuple[Trajectory, np.ndarray, np.ndarray] | None = None
-        self.k, self.blocked = 0, 0
+        self.k, self.blocked, self.paused = 0, 0, 0
         self.last: np.ndarray | None = None
         #: Who gave the last torque: ``"plan"``, ``"balancer"`` or ``"fallback"``.
         self.mode = ""
@@ -180,9 +193,39 @@ class PlanTracker(Controller):
     def nearest(self, x: np.ndarray) -> tuple[int, int, float]:
         """The plan, its step and the TVLQR cost ``e' S e`` of the entry point of least cost
         for state ``x`` (4,)."""
-        best, level = compiled(least_cost)(x, self.points, self.costs)
-        i, k = self.which[best]
-        return int(i), int(k), float(level)
+        levels = self._levels(x)
+        i, k = self.which[int(np.argmin(levels))]
+        return int(i), int(k), float(levels.min())
+
+    def _levels(self, x: np.ndarray) -> np.ndarray:
+        """The TVLQR cost ``e' S e`` of every entry point for state ``x`` (4,)."""
+        levels = np.empty(len(self.points))
+        compiled(point_costs)(np.asarray(x, dtype=float), self.points, self.costs, levels)
+        return levels
+
+    def entry(self, x: np.ndarray) -> tuple[int, int, bool]:
+        """The plan and step to enter from state ``x`` (4,), and whether to: the first of the
+        ``candidates`` entry points of least cost, in order of cost and below ``track``, whose
+        rollout reaches upright (:meth:`reaches`); else the point of least cost, where below
+        ``entry``."""
+        levels, count = self._levels(x), self.settings.candidates
+        if count == 1:
+            order = [int(np.argmin(levels))]
+        else:  # the count least, in order of cost
+            some = np.argpartition(levels, count)[:count] if count < len(levels) else None
+            ranked = np.argsort(levels) if some is None else some[np.argsort(levels[some])]
+            order = ranked.tolist()
+        best = order[0]
+        for b in order:
+            if levels[b] >= self.levels.track:
+                break
+            i, k = (int(v) for v in self.which[b])
+            if count == 1 and levels[b] < self.levels.entry:  # entered with or without a rollout
+                return i, k, True
+            if self.reaches(x, i, k):
+                return i, k, True
+        i, k = (int(v) for v in self.which[best])
+        return i, k, bool(levels[best] < self.levels.entry)
 
     def follow(self, i: int, k: int) -> None:
         """Follow plan ``i`` from its step ``k``."""
@@ -292,7 +335,7 @@ class PlanTracker(Controller):
         if self.settings.clock:
             return self._clocked(x, t)
         if self._jumped(x):
-            self.following, self.blocked = None, 0
+            self.following, self.blocked, self.paused = None, 0, 0
         if self.following is not None:
             torque = self._tracked(x)
             if torque is not None:
@@ -304,15 +347,18 @@ class PlanTracker(Controller):
             if self.balancer is self.lqr:  # the saturated LQR, on the error just computed
                 return self.lqr.torque(error)
             return self.balancer.act(x, t)
-        i, k, level = self.nearest(x)
-        entered = level < self.levels.entry or (level < self.levels.track and self.reaches(x, i, k))
-        if entered:
-            self.follow(i, k)
-        if entered or (self.planner is not None and self._planned(x, i)):
-            torque = self._tracked(x)
-            if torque is not None:
-                self.mode = "plan"
-                return torque
+        if self.paused > 0:  # no search for a while after one found no entry
+            self.paused -= 1
+        else:
+            i, k, entered = self.entry(x)
+            if entered:
+                self.follow(i, k)
+            if entered or (self.planner is not None and self._planned(x, i)):
+                torque = self._tracked(x)
+                if torque is not None:
+                    self.mode = "plan"
+                    return torque
+            self.paused = self.settings.pause
         self.mode = "fallback"
         return self.fallback.act(x, t)
 
@@ -323,10 +369,9 @@ def clocked(plan: Trajectory) -> PlanTracker:
     return PlanTracker([plan], settings=TrackerSettings(clock=True))
 
 
-def least_cost(x, points, costs):  # kernel
-    """The index of the point of ``points`` (P, 4) of least ``e' S e`` for ``e = x - point``
-    (angles wrapped), ``S`` the point's cost (P, 4, 4), and that cost: one pass, compiled."""
-    best, level = 0, np.inf
+def point_costs(x, points, costs, out):  # kernel
+    """Into ``out`` (P,): ``e' S e`` for ``e = x - point`` (angles wrapped) of every point of
+    ``points`` (P, 4), ``S`` the point's cost (P, 4, 4); one pass, compiled."""
     e = np.empty(4)
     for k in range(points.shape[0]):
         for i in range(4):
@@ -339,9 +384,7 @@ def least_cost(x, points, costs):  # kernel
             for j in range(4):
                 row += costs[k, i, j] * e[j]
             total += e[i] * row
-        if total < level:
-            best, level = k, total
-    return best, level
+        out[k] = total
 
 
 def plan_reaches(x, k, arrays, levels, lqr, constants):  # kernel

@@ -60,6 +60,29 @@ class FunnelOptions(Settings):
 
 
 @dataclass(frozen=True)
+class TreeOptions(Settings):
+    """The ``tree`` entry's options."""
+
+    candidates: int = setting(
+        0,
+        "enter the first of the N plan points of least cost whose rollout on the model reaches "
+        "upright (0: no rollout, the point of least cost below the entry level)",
+        "points",
+        low=0,
+        metavar="N",
+    )
+    pause: int = setting(
+        0,
+        "calls without a search for an entry after one found none (the fallback acts), so "
+        "that few calls search",
+        "calls",
+        low=0,
+    )
+
+    what = "tree entry"
+
+
+@dataclass(frozen=True)
 class NoOptions(Settings):
     """An entry without options."""
 
@@ -131,12 +154,24 @@ def _replan(plant: Plant, options: NoOptions) -> Controller:
     return plant.estimated(tracker)
 
 
-def tree(plant: Plant, plans: PlanSet, planner: PlanningHook | None = None) -> PlanTracker:
+def tree(
+    plant: Plant,
+    plans: PlanSet,
+    planner: PlanningHook | None = None,
+    options: TreeOptions = TreeOptions(),
+) -> PlanTracker:
     """The ``tree`` entry's tracker on ``plant`` over its swing-up and ``plans``, unestimated;
-    ``planner`` (offline) adds plans to it."""
+    ``planner`` (offline) adds plans to it; ``options.candidates`` points tried by rollout."""
     swing_up = plant.swing_up
     every = [swing_up, *plans.plans(swing_up.params, swing_up.method)]
-    settings = TrackerSettings(stride=5, rollout=False, jump=JUMPS[plant.name])
+    tried = options.candidates
+    settings = TrackerSettings(
+        stride=5,
+        rollout=tried > 0,
+        candidates=max(tried, 1),
+        pause=options.pause,
+        jump=JUMPS[plant.name],
+    )
     return PlanTracker(
         every, plant.levels, settings, fallback=fallback(plant), planner=planner, keep=True
     )
@@ -182,7 +217,8 @@ ENTRIES = {
         Entry(
             "tree",
             "funnel with a set of swing-ups planned offline, entered by state (real-time)",
-            lambda plant, options: plant.estimated(tree(plant, PlanSet.load(PLANS))),
+            lambda plant, options: plant.estimated(tree(plant, PlanSet.load(PLANS), None, options)),
+            TreeOptions,
             only="ai_olympics",
             why="its plan set and settings are that robot's",
         ),

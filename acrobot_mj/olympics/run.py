@@ -109,6 +109,13 @@ def named(scored: Scored) -> str:
     return scored.name if isinstance(scored, Source) else type(scored).__name__
 
 
+def described(model: str, scored: Scored) -> dict[str, Any]:
+    """The record's ``model``: the acrobot's name, the controller's (:func:`named`) and an
+    entry's options where it was given any."""
+    given = scored.options if isinstance(scored, Source) else {}
+    return {"name": model, "entry": named(scored)} | ({"options": dict(given)} if given else {})
+
+
 @dataclass(frozen=True)
 class OlympicsRun:
     """One run of the protocol: the controller ``scored`` (a
@@ -193,7 +200,7 @@ class OlympicsRun:
         records, runs = results[: len(results) - len(drawn)], results[len(results) - len(drawn) :]
         p = model.params
         return Olympics(
-            model={"name": self.model, "entry": named(self.scored)},
+            model=described(self.model, self.scored),
             lengths=(p.l1, p.l2),
             seeds={"seed": self.seed},
             performance=performance,
