@@ -121,10 +121,13 @@ def test_a_stop_at_any_moment_leaves_the_state_of_its_last_episode(tmp_path) -> 
     # A stop raised between a weight update and its record left weights that no uninterrupted
     # run has (5 of 13 stops, up to 2.6e-5 apart), or run.json one episode ahead of the
     # checkpoint. Stops now land between episodes: the checkpoint is the uninterrupted run's.
+    # Each stop lands a while after the run's first checkpoint (training under way, however
+    # slow the machine is to start it: fixed delays from the launch once landed before it).
     checked = 0
-    for i, delay in enumerate((1.3, 1.5, 1.7, 1.9, 2.1, 2.3)):
+    for i, delay in enumerate((0.0, 0.2, 0.4, 0.6, 0.8, 1.0)):
         out = tmp_path / f"run{i}"
         child = start([*LONG, "--episodes", "3000", "--seed", "5", "--out", str(out)], tmp_path)
+        wait_for(out / CHECKPOINT_FILE)
         time.sleep(delay)
         child.send_signal(signal.SIGINT if i % 2 else signal.SIGTERM)
         child.communicate(timeout=60)
