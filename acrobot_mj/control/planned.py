@@ -10,7 +10,7 @@ from dataclasses import astuple
 
 from acrobot_mj.control.tracker import FunnelSettings
 from acrobot_mj.control.trajopt import Trajectory, shipped
-from acrobot_mj.physics.models import MODELS, ModelSpec, resolve
+from acrobot_mj.physics.models import MODELS, AcrobotModel, ModelSpec, resolve
 
 #: The planned swing-up of each shipped acrobot that has one: the report's ``reserve`` plan
 #: (476 steps of 0.05 s within 0.8 N m), ``ai_olympics``'s plan for the AI Olympics'
@@ -39,18 +39,15 @@ def kindred(model: ModelSpec) -> str | None:
     if name is not None:
         return name
 
-    def alike(known: object) -> bool:
-        k = resolve(known)  # type: ignore[arg-type]
-        return (k.params.dt, k.integrator, k.actuated) == (
-            acrobot.params.dt, acrobot.integrator, acrobot.actuated
-        )  # fmt: skip
+    def stepping(known: AcrobotModel) -> tuple:  # the step, integrator and driven joint
+        return known.params.dt, known.integrator, known.actuated
 
     def distance(known: str) -> float:
         pairs = zip(astuple(MODELS[known].params), astuple(acrobot.params), strict=True)
         finite = [(a, b) for a, b in pairs if a > 0 and b > 0 and math.isfinite(a * b)]
         return sum(abs(math.log(a / b)) for a, b in finite)
 
-    found = [known for known in MODELS if alike(known)]
+    found = [known for known in MODELS if stepping(MODELS[known]) == stepping(acrobot)]
     return min(found, key=distance) if found else None
 
 

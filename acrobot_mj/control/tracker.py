@@ -378,13 +378,7 @@ def point_costs(x, points, costs, out):  # kernel
             e[i] = x[i] - points[k, i]
         for i in range(2):
             e[i] = (e[i] + np.pi) % (2.0 * np.pi) - np.pi
-        total = 0.0
-        for i in range(4):
-            row = 0.0
-            for j in range(4):
-                row += costs[k, i, j] * e[j]
-            total += e[i] * row
-        out[k] = total
+        out[k] = quadratic(e, costs[k])
 
 
 def plan_reaches(x, k, arrays, levels, lqr, constants):  # kernel

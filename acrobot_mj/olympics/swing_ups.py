@@ -155,8 +155,8 @@ def check_plannable(model: ModelSpec) -> str:
         return kin
     raise ValueError(
         f"no swing-up for the model {str(model)!r}: one is planned on first use only for an "
-        f"acrobot stepped as {' or '.join(ON_DEMAND)} (0.002 s, RK4, the elbow driven); "
-        f"shipped: {sorted(PLANNED)}"
+        f"acrobot stepped as {' or '.join(ON_DEMAND)} (the same step, integrator and driven "
+        f"joint); shipped: {sorted(PLANNED)}"
     )
 
 
