@@ -303,9 +303,12 @@ def cli_names(cls: type) -> tuple[str, ...]:
 
 def parse(cls: type, name: str, text: str) -> Any:
     """``text`` as setting ``name``'s type: floats may be fractions (``0.2/48``), bools ``true``
-    or ``false``, tuples ``START:STOP:STEP`` or ``1,4`` (by the setting's ``sep``)."""
+    or ``false``, tuples ``START:STOP:STEP`` or ``1,4`` (by the setting's ``sep``), ``none``
+    None where the setting may be None."""
     meta = _field(cls, name).metadata
-    kind, _ = _parts(_hints(cls)[name])
+    kind, optional = _parts(_hints(cls)[name])
+    if optional and text.lower() == "none":
+        return None
     if typing.get_origin(kind) is tuple:
         try:
             return tuple(int(v) for v in text.split(meta.get("sep", ",")))

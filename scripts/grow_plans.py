@@ -20,7 +20,7 @@ import numpy as np
 from acrobot_mj.control.plans import PlanSet, warm_torques
 from acrobot_mj.control.tracker import tracker_stats
 from acrobot_mj.control.trajopt import Trajectory
-from acrobot_mj.olympics.entries import PLANS, tree
+from acrobot_mj.olympics.entries import PLANS, TreeOptions, tree
 from acrobot_mj.olympics.plants import equations
 from acrobot_mj.physics.xp import wrap_angle
 
@@ -65,7 +65,9 @@ def grow(first: int, count: int, minutes: float = 60.0, path: Path = PLANS) -> P
     plant = equations("ai_olympics")
     swing_up = plant.swing_up
     planner = Planner(swing_up.params, swing_up.method, hold=library.hold)
-    tracker = tree(plant, library, planner_for(swing_up, planner))
+    # Entered as when the set was grown: below the entry level, no rollout.
+    grown = TreeOptions(candidates=0, pause=0, below=None)
+    tracker = tree(plant, library, planner_for(swing_up, planner), grown)
     controller = plant.estimated(tracker)
     started = time.process_time()
     for seed in range(first, first + count):

@@ -14,7 +14,7 @@ from acrobot_mj import settings
 from acrobot_mj.agents.features import GridConfig, TilesConfig
 from acrobot_mj.agents.sarsa import SarsaConfig
 from acrobot_mj.agents.sarsa_lambda import SarsaLambdaConfig
-from acrobot_mj.control.tracker import FunnelSettings
+from acrobot_mj.control.tracker import FunnelSettings, TrackerSettings
 from acrobot_mj.settings import SettingError, declared, parse, table
 from acrobot_mj.train.balance_preset import PlanConfig
 from acrobot_mj.train.black_box import BlackBoxConfig
@@ -109,6 +109,11 @@ def test_text_is_parsed_as_the_declared_type() -> None:
         parse(TrainConfig, "frame_skip", "x")
     with pytest.raises(ValueError, match="--targets needs int values, got '1,y'"):
         parse(PlanConfig, "targets", "1,y")
+    # "none" is None where the setting may be None (a tracker's jump), else refused.
+    assert parse(TrackerSettings, "jump", "none") is None
+    assert parse(TrackerSettings, "jump", "None") is None
+    with pytest.raises(ValueError, match="config stride needs an int, got 'none'"):
+        parse(TrackerSettings, "stride", "none")
 
 
 def _help_texts() -> list[tuple[str, str]]:

@@ -15,7 +15,7 @@ from acrobot_mj.control.replan import END_TOLERANCE
 from acrobot_mj.control.tracker import PlanTracker, TrackerSettings
 from acrobot_mj.olympics import entries
 from acrobot_mj.olympics.plants import equations
-from acrobot_mj.physics import integrators
+from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.dynamics import state_error
 from acrobot_mj.physics.models import MODELS
 
@@ -29,11 +29,13 @@ def _library() -> PlanSet:
 
 
 def _tree(count: int) -> PlanTracker:
-    """The entry's tracker (no estimator) on the shipped set's first ``count`` plans."""
+    """The entry's tracker (no estimator) on the grown set's first ``count`` plans, entered by
+    state alone (no rollout)."""
     library = _library()
     return entries.tree(
         equations("ai_olympics"),
         PlanSet(library.starts[:count], library.held[:count], library.hold),
+        options=entries.TreeOptions(candidates=0, pause=0, below=None, plans="grown"),
     )
 
 
@@ -85,6 +87,25 @@ def test_a_whole_global_episode_keeps_the_arm_up_half_the_time() -> None:
     # machines (the throws amplify it), so the leaderboard's best (leaderboard.GLOBAL) is no
     # bound for one seed here.
     assert score > 0.5
+
+
+def test_the_shortened_set_starts_alike_and_is_low_no_longer_than_the_grown() -> None:
+    """Each plan of the shortened set (``scripts/shorten_plans.py``) starts where the grown
+    one's does, ends upright and spends no more steps with the tip at or below 0.9 of the
+    reach than the grown plan; most spend fewer."""
+    grown, shortened = (PlanSet.load(entries.PLAN_SETS[n]) for n in ("grown", "shortened"))
+    np.testing.assert_array_equal(shortened.starts, grown.starts)
+    assert entries.PLAN_SETS["shortened"].stat().st_size < 1_000_000
+    low = 0.9 * (P.l1 + P.l2)
+    fewer = 0
+    for old, new in zip(grown.plans(P, "rk4"), shortened.plans(P, "rk4"), strict=True):
+        # END_TOLERANCE, as the grown set's: the planner keeps only plans that end this close.
+        assert np.abs(state_error(new.states[-1])).max() <= END_TOLERANCE
+        before = (dynamics.tip_height(old.states, P) <= low).sum()
+        after = (dynamics.tip_height(new.states, P) <= low).sum()
+        assert after <= before
+        fewer += after < before
+    assert fewer > 0.8 * len(grown)  # measured: 59 of 68
 
 
 def test_the_search_finds_the_point_itself() -> None:
@@ -139,38 +160,49 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path) -> None:
 
 
 def test_the_compiled_rollout_answers_as_the_rollout_in_python() -> None:
-    """``reaches`` on the model's own step is one compiled kernel; on any other step function
+    """``rollout`` on the model's own step is one compiled kernel; on any other step function
     (a learnt model's) the same rollout runs in Python, numpy's products included. Both must
-    give the same answer at every start: 400 starts near the swing-up's points, at errors
-    of every cost between entry and far beyond track, so that both answers occur."""
+    give the same answer at every start, the steps low counted (below 0.9 of the reach) and
+    cut at a most: 400 starts near the swing-up's points, at errors of every cost between
+    entry and far beyond track, so that both outcomes occur."""
     plan = planned_swing_up("ai_olympics")
     p, levels = plan.params, equations("ai_olympics").levels
-    compiled_one = PlanTracker([plan], levels)
+    settings = TrackerSettings(below=0.9)
+    compiled_one = PlanTracker([plan], levels, settings)
 
     def python_step(x: np.ndarray, u: float) -> np.ndarray:  # not a partial: the Python loop
         return integrators.step_states(x, u, p=p, method=plan.method)
 
-    python_one = PlanTracker([plan], levels, step=python_step)
+    python_one = PlanTracker([plan], levels, settings, step=python_step)
     assert compiled_one._constants() is not None and python_one._constants() is None
     rng = np.random.default_rng(5)
-    answers = []
+    answers, lows = [], []
     for _ in range(400):
         k = int(rng.integers(0, plan.steps - 1))
         x = plan.states[k] + rng.normal(0.0, 10.0 ** rng.uniform(-3, 0), 4)
-        answer = compiled_one.reaches(x, 0, k)
-        assert answer == python_one.reaches(x, 0, k), (k, x.tolist())
-        answers.append(answer)
+        low = compiled_one.rollout(x, 0, k)
+        assert low == python_one.rollout(x, 0, k), (k, x.tolist())
+        answers.append(low >= 0)
+        assert compiled_one.reaches(x, 0, k) == (low >= 0)
+        if low > 0:  # one step fewer allowed: refused, by both
+            assert compiled_one.rollout(x, 0, k, low - 1) == python_one.rollout(x, 0, k, low - 1)
+            assert compiled_one.rollout(x, 0, k, low - 1) == -1
+            lows.append(low)
     assert 50 < sum(answers) < 350, sum(answers)  # both answers, many times
+    # Counted, and not all alike: the swing-up is low for its first 1.4 s (about 700 steps).
+    assert len(set(lows)) > 20 and max(lows) > 300
 
 
 def test_an_entry_is_the_first_of_the_candidates_whose_rollout_reaches_upright() -> None:
     """With one candidate the rule is the funnel's: the point of least cost, entered below
-    ``entry``, or below ``track`` where its rollout reaches upright. With 32, the first point
-    in order of cost whose rollout reaches; else the least, where below ``entry``. Checked
-    at 300 states near the library's points against the rule written out here."""
+    ``entry``, or below ``track`` where its rollout reaches upright. With 32 and no ``below``,
+    the first point in order of cost whose rollout reaches; else the least, where below
+    ``entry``. Checked at 300 states near the library's points against the rule written out
+    here."""
     plant = equations("ai_olympics")
-    one = entries.tree(plant, PlanSet.load(entries.PLANS), None, entries.TreeOptions(1))
-    many = entries.tree(plant, PlanSet.load(entries.PLANS), None, entries.TreeOptions(32))
+    first = entries.TreeOptions(pause=0, below=None, plans="grown")
+    one = entries.tree(plant, PlanSet.load(entries.PLANS), None, first.replace(candidates=1))
+    many = entries.tree(plant, PlanSet.load(entries.PLANS), None, first.replace(candidates=32))
     assert one.settings.rollout and (one.settings.candidates, many.settings.candidates) == (1, 32)
     levels, rng, moved = plant.levels, np.random.default_rng(8), 0
     for _ in range(300):
@@ -196,12 +228,43 @@ def test_an_entry_is_the_first_of_the_candidates_whose_rollout_reaches_upright()
     assert moved > 10  # the candidates changed the entry at many states
 
 
+def test_by_default_it_enters_the_candidate_whose_rollout_is_low_the_fewest_steps() -> None:
+    """The entry's default (16 candidates, ``below`` 0.9): on a plan (cost below
+    :data:`~acrobot_mj.olympics.entries.ON_PLAN`), the point of least cost; else of the
+    candidates whose rollout reaches upright, the one whose rollout has the tip at or below
+    0.9 of the reach the fewest steps, the cheaper of equals; checked at 200 states near the
+    shortened set's points against the rule written out here."""
+    plant = equations("ai_olympics")
+    options = entries.TreeOptions()
+    assert (options.candidates, options.pause, options.below, options.plans) == (
+        16, 1, 0.9, "shortened",
+    )  # fmt: skip
+    tracker = entries.tree(plant, PlanSet.load(entries.PLAN_SETS["shortened"]), None, options)
+    rng, chosen_later = np.random.default_rng(9), 0
+    for _ in range(200):
+        plan = tracker.plans[int(rng.integers(len(tracker.plans)))]
+        x = plan.states[int(rng.integers(plan.steps))] + rng.normal(0.0, 0.05, 4)
+        costs = tracker._levels(x)
+        ranked = [b for b in np.argsort(costs, kind="stable")[:16] if costs[b] < plant.levels.track]
+        lows = [tracker.rollout(x, *tracker.which[b]) for b in ranked]
+        reached = [(low, n) for n, low in enumerate(lows) if low >= 0]
+        i, k, entered = tracker.entry(x)
+        if costs[ranked[0]] < entries.ON_PLAN:  # on a plan: followed as it is
+            assert entered and (i, k) == tuple(tracker.which[ranked[0]])
+        elif reached:
+            fewest = min(reached)  # the fewest steps low, then the earlier in order of cost
+            assert entered and (i, k) == tuple(tracker.which[ranked[fewest[1]]])
+            chosen_later += fewest[1] > 0
+    assert chosen_later > 10  # not the first that reaches at many states
+
+
 def test_after_a_search_that_finds_no_entry_it_pauses_the_calls_asked() -> None:
     """``pause=3``: of 8 calls where nothing can be entered (hanging, the shoulder at 25
     rad/s: no rollout of 32 reaches upright, the least cost is past ``entry``), the 1st and
     5th search; a reset ends the pause."""
     plant = equations("ai_olympics")
-    tracker = entries.tree(plant, PlanSet.load(entries.PLANS), None, entries.TreeOptions(32, 3))
+    options = entries.TreeOptions(candidates=32, pause=3)
+    tracker = entries.tree(plant, PlanSet.load(entries.PLAN_SETS["shortened"]), None, options)
     searched: list[int] = []
     search = tracker.entry
 

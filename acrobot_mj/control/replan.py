@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,9 +24,10 @@ LOG = logging.getLogger(__name__)
 #: IPOPT's options for a plan from any state: a loose tolerance (TVLQR absorbs the rest; the
 #: plan is rolled out on the model before it is used) and few iterations (a plan late is a plan
 #: lost).
+ONLINE_ITERATIONS = 60
 ONLINE_IPOPT = {
     "print_level": 0,
-    "max_iter": 60,
+    "max_iter": ONLINE_ITERATIONS,
     "tol": 1e-6,
     "constr_viol_tol": 1e-8,
     "acceptable_tol": 1e-4,
@@ -55,14 +57,27 @@ def upright_targets(x: np.ndarray, count: int = 3) -> list[np.ndarray]:
     return found[:count]
 
 
+@dataclass(frozen=True)
+class TimeBelow:
+    """A plan's objective that counts the time its tip spends below ``height`` times the arm's
+    reach (the AI Olympics' up: 0.9): a logistic of ``width`` [m] centred ``margin`` [m] above
+    that height, so that the plan clears it, plus ``weight`` times the mean squared distance
+    below the highest point, which leads IPOPT up."""
+
+    height: float = 0.9
+    width: float = 0.02
+    margin: float = 0.05
+    weight: float = 0.1
+
+
 class Planner:
     """Swing-ups of ``decisions`` torques, each held ``hold`` physics steps of ``params`` by
     ``method`` (the env's steps, as
     :func:`~acrobot_mj.olympics.swing_ups.performance_swing_up`), from a state to upright at
-    rest: ``|u| <= params.max_torque``, the end at the target, minimising the tip's distance
-    below its highest point summed over the plan (the time spent low) plus ``effort`` times the
-    torques squared. One NLP (its start and target parameters) is built on first use and
-    reused. A copy shares it: the planner holds no episode state."""
+    rest: ``|u| <= params.max_torque``, the end at the target, minimising the tip's mean
+    squared distance below its highest point (the time spent low) or ``below``'s time below a
+    height, plus ``effort`` times the torques squared. One NLP (its start and target parameters)
+    is built on first use and reused. A copy shares it: the planner holds no episode state."""
 
     def __init__(
         self,
@@ -72,6 +87,8 @@ class Planner:
         decisions: int = 150,
         hold: int = 5,
         effort: float = 1e-3,
+        below: TimeBelow | None = None,
+        iterations: int = ONLINE_ITERATIONS,
     ) -> None:
         check_int("decisions", decisions, 2)
         check_int("hold", hold, 1)
@@ -79,6 +96,7 @@ class Planner:
         integrators.method_code(method)  # a known method
         self.params, self.method = params, method
         self.decisions, self.hold, self.effort = decisions, hold, effort
+        self.below, self.iterations = below, check_int("iterations", iterations, 1)
         self._nlp: tuple[Any, ...] | None = None
 
     def __deepcopy__(self, memo: dict[int, Any]) -> Planner:
@@ -108,9 +126,17 @@ class Planner:
         opti.subject_to(opti.bounded(-p.max_torque, us, p.max_torque))
         opti.subject_to(xs[:, n] == target)
         tip = p.l1 * casadi.sin(xs[0, 1:]) + p.l2 * casadi.sin(xs[0, 1:] + xs[1, 1:])
-        low = casadi.sumsqr(p.l1 + p.l2 - tip) / n
+        reach, below = p.l1 + p.l2, self.below
+        low = casadi.sumsqr(reach - tip) / n
+        if below is not None:
+            line = below.height * reach + below.margin
+            low = (
+                below.weight * low
+                + casadi.sum2(1 / (1 + casadi.exp((tip - line) / below.width))) / n
+            )
         opti.minimize(low + self.effort * casadi.sumsqr(us) / n)
-        opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, ONLINE_IPOPT)
+        options = dict(ONLINE_IPOPT, max_iter=self.iterations)
+        opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes", "expand": True}, options)
         return opti, xs, us, start, target
 
     def solve(

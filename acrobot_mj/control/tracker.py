@@ -28,6 +28,8 @@ from acrobot_mj.settings import Settings, setting
 
 #: The TVLQR and LQR weights on the state error and the torque.
 Q, R = (10.0, 10.0, 1.0, 1.0), 1.0
+#: No limit on the steps a rollout spends low.
+NO_LIMIT = 2**62
 #: A planner: a state (4,) and the plan whose entry point is nearest it to a new plan from that
 #: state, or None.
 PlanningHook = Callable[[np.ndarray, Trajectory], "Trajectory | None"]
@@ -85,9 +87,24 @@ class TrackerSettings(Settings):
     candidates: int = setting(
         1,
         "the entry points of least cost tried by rollout, in order of cost: the first that "
-        "reaches upright is entered (else the least, below the entry level)",
+        "reaches upright is entered, or the one ``below`` chooses (else the least, below the "
+        "entry level)",
         "points",
         low=1,
+    )
+    on: float = setting(
+        0.0,
+        "TVLQR cost below which the point of least cost is entered without a rollout: the "
+        "state is on a plan, as at hanging at rest on the swing-up (0: never)",
+        low=0.0,
+    )
+    below: float | None = setting(
+        None,
+        "of the candidates whose rollout reaches upright, enter the one whose tip spends the "
+        "fewest steps at or below this fraction of the arm's reach above the shoulder (the "
+        "AI Olympics' up is above 0.9); none: the first in order of cost",
+        low=-1.0,
+        high=1.0,
     )
     jump: float | None = setting(
         None,
@@ -204,10 +221,12 @@ class PlanTracker(Controller):
         return levels
 
     def entry(self, x: np.ndarray) -> tuple[int, int, bool]:
-        """The plan and step to enter from state ``x`` (4,), and whether to: the first of the
-        ``candidates`` entry points of least cost, in order of cost and below ``track``, whose
-        rollout reaches upright (:meth:`reaches`); else the point of least cost, where below
-        ``entry``."""
+        """The plan and step to enter from state ``x`` (4,), and whether to: the point of
+        least cost where its cost is below ``on``; else of the ``candidates`` entry points of
+        least cost below ``track`` whose rollout reaches upright (:meth:`rollout`), the first
+        in order of cost, or where the settings give ``below`` the one whose rollout spends
+        the fewest steps with the tip that low (ties: the cheaper); else the point of least
+        cost, where below ``entry``."""
         levels, count = self._levels(x), self.settings.candidates
         if count == 1:
             order = [int(np.argmin(levels))]
@@ -215,15 +234,24 @@ class PlanTracker(Controller):
             some = np.argpartition(levels, count)[:count] if count < len(levels) else None
             ranked = np.argsort(levels) if some is None else some[np.argsort(levels[some])]
             order = ranked.tolist()
-        best = order[0]
+        best, choosing = order[0], self.settings.below is not None
+        if levels[best] < self.settings.on:  # on a plan: followed as it is
+            i, k = (int(v) for v in self.which[best])
+            return i, k, True
+        chosen, fewest = None, NO_LIMIT
         for b in order:
             if levels[b] >= self.levels.track:
                 break
             i, k = (int(v) for v in self.which[b])
             if count == 1 and levels[b] < self.levels.entry:  # entered with or without a rollout
                 return i, k, True
-            if self.reaches(x, i, k):
+            low = self.rollout(x, i, k, fewest - 1)  # only a rollout lower than the best yet
+            if low >= 0 and not choosing:
                 return i, k, True
+            if low >= 0:
+                chosen, fewest = (i, k), low
+        if chosen is not None:
+            return (*chosen, True)
         i, k = (int(v) for v in self.which[best])
         return i, k, bool(levels[best] < self.levels.entry)
 
@@ -261,26 +289,37 @@ class PlanTracker(Controller):
         """Does plan ``i``, followed from its point ``k`` in state ``x`` on the tracker's own
         model, stay within ``track`` and end inside the balancer's level set? (False where it
         enters by no rollout.)"""
+        return self.rollout(x, i, k) >= 0
+
+    def rollout(self, x: np.ndarray, i: int, k: int, most: int = NO_LIMIT) -> int:
+        """Plan ``i`` followed from its point ``k`` in state ``x`` on the tracker's own model:
+        the steps it spends with the tip at or below the settings' ``below`` (0 without one),
+        or -1 where it leaves ``track``, does not end inside the balancer's level set, or
+        spends more than ``most`` steps low (or where the tracker enters by no rollout)."""
         if self.step is None:
-            return False
+            return -1
         plan, (costs, gains) = self.plans[i], self.tracking[i]
-        limit, constants = plan.params.max_torque, self._constants()
+        limit, p, fraction = plan.params.max_torque, plan.params, self.settings.below
         levels = (self.levels.track, self.levels.upright, limit)
+        reach = p.l1 + p.l2
+        low = (p.l1, p.l2, -np.inf if fraction is None else fraction * reach, most)
+        constants = self._constants()
         if constants is not None:  # the model's own step: the whole rollout compiled
             arrays, lqr = (
                 (plan.states, plan.torques, gains, costs),
                 (self.lqr.target, self.lqr.cost),
             )
-            return bool(compiled(plan_reaches)(x, k, arrays, levels, lqr, constants))
-        state = np.asarray(x, dtype=float)
+            return int(compiled(plan_rollout)(x, k, arrays, levels, lqr, constants, low))
+        state, steps = np.asarray(x, dtype=float), 0
         for j in range(k, plan.steps):
+            steps += int(dynamics.tip_height(state, p) <= low[2])
             e = state_error(state, plan.states[j])
-            if e @ costs[j] @ e > self.levels.track:
-                return False
+            if steps > most or e @ costs[j] @ e > self.levels.track:
+                return -1
             u = clip(float(plan.torques[j]) - float(gains[j] @ e), -limit, limit)
             state = np.asarray(self.step(state, u), dtype=float)
         error = state_error(state, self.lqr.target)
-        return bool(error @ self.lqr.cost @ error < self.levels.upright)
+        return steps if error @ self.lqr.cost @ error < self.levels.upright else -1
 
     def _constants(self) -> tuple | None:
         """The compiled step's constants after the state and torque (lumped parameters, step,
@@ -381,30 +420,35 @@ def point_costs(x, points, costs, out):  # kernel
         out[k] = quadratic(e, costs[k])
 
 
-def plan_reaches(x, k, arrays, levels, lqr, constants):  # kernel
-    """:meth:`PlanTracker.reaches` of a plan (``arrays``: its states (T + 1, 4), torques (T,),
+def plan_rollout(x, k, arrays, levels, lqr, constants, low):  # kernel
+    """:meth:`PlanTracker.rollout` of a plan (``arrays``: its states (T + 1, 4), torques (T,),
     TVLQR gains (T, 4) and costs (T, 4, 4)) from its point ``k`` in state ``x`` (4,):
     ``levels`` the track and upright levels and the torque limit, ``lqr`` the balancer's target
     (4,) and cost (4, 4), ``constants``
-    :func:`~acrobot_mj.physics.integrators.step_one`'s after the state and torque. Compiled: in
+    :func:`~acrobot_mj.physics.integrators.step_one`'s after the state and torque, ``low`` the
+    link lengths [m], the tip height counted as low [m] and the most steps low. Compiled: in
     Python a rollout of up to a plan's length at every call outside the funnel took 0.5 to 4 ms."""
     states, torques, gains, costs = arrays
     track, upright, limit = levels
     target, cost = lqr
+    l1, l2, height, most = low
     q1, q2, dq1, dq2 = x[0], x[1], x[2], x[3]
     e = np.empty(4)
+    steps = 0
     for j in range(k, torques.shape[0]):
+        if l1 * np.sin(q1) + l2 * np.sin(q1 + q2) <= height:
+            steps += 1
         e[0], e[1] = wrap(q1 - states[j, 0]), wrap(q2 - states[j, 1])
         e[2], e[3] = dq1 - states[j, 2], dq2 - states[j, 3]
-        if quadratic(e, costs[j]) > track:
-            return False
+        if steps > most or quadratic(e, costs[j]) > track:
+            return -1
         u = torques[j]
         for i in range(4):
             u -= gains[j, i] * e[i]
         q1, q2, dq1, dq2 = step_one(q1, q2, dq1, dq2, clip(u, -limit, limit), *constants)
     e[0], e[1] = wrap(q1 - target[0]), wrap(q2 - target[1])
     e[2], e[3] = dq1 - target[2], dq2 - target[3]
-    return quadratic(e, cost) < upright
+    return steps if quadratic(e, cost) < upright else -1
 
 
 @jitable

@@ -196,15 +196,22 @@ def uptime_bound(model: str, seed: int, policy: GlobalPolicy = GLOBAL) -> Bound:
     up[first or 0 : begins[0]] = True  # none found: up at once, so the bound stays one
     found: list[float | None] = [None if first is None else first * policy.dt]
     for k, begin in enumerate(begins[:-1]):
-        best, best_rows, best_steps = -1, None, None
+        best: tuple[bool, int] = (False, -1)
+        best_rows, best_steps = None, None
         for during, end in reset_from_upright(model, targets[k], policy):
             back = begin + len(during)  # the row where the controller acts again
             steps = returns.steps(end)
             candidate = np.zeros(rows, dtype=bool)
             candidate[begin:back] = during[: max(0, rows - begin)]
             candidate[back + (steps or 0) : begins[k + 1]] = True
-            if candidate.sum() > best:
-                best, best_rows, best_steps = int(candidate.sum()), candidate, steps
+            # A winding with a return found beats one without (up at once only where neither
+            # finds one), then the more rows up.
+            if (steps is not None, int(candidate.sum())) > best:
+                best, best_rows, best_steps = (
+                    (steps is not None, int(candidate.sum())),
+                    candidate,
+                    steps,
+                )
         up |= best_rows
         found.append(None if best_steps is None else best_steps * policy.dt)
     up[0] = False  # row 0 counts no time

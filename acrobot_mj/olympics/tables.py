@@ -184,8 +184,8 @@ def seeds_table() -> str:
         (" (the levels were chosen here)", ("tree-global", "funnel", "replan-global")),
         (" (held out)", ("tree-held-out", "funnel-held-out", "replan-held-out")),
         (
-            ", a second machine (AMD EPYC)",
-            ("tree-held-out-second-machine", "funnel-held-out-second-machine", ""),
+            ", a second machine (AMD EPYC; `tree`'s first version)",
+            ("tree-first-held-out-second-machine", "funnel-held-out-second-machine", ""),
         ),
     )
     lines = []
@@ -214,23 +214,16 @@ def many_seeds() -> str:
     return _seeds_line("tree-30-seeds", "`tree`")
 
 
-def rollout_seeds() -> str:
-    """The same for ``tree`` entering by rollout (options ``candidates`` and ``pause``), and
-    its performance and robustness."""
-    run = recorded("tree-rollout")
-    scores = (
-        f"Performance {figure(run['performance']['score'])}, robustness "
-        f"{figure(run['robustness']['overall'])} (`tree`: "
-        f"{figure(recorded('tree-performance')['performance']['score'])}, "
-        f"{figure(recorded('tree-robustness')['robustness']['overall'])}).\n"
-    )
-    return _seeds_line("tree-rollout-30-seeds", "`tree` entering by rollout") + "\n\n" + scores
+def first_seeds() -> str:
+    """The same for ``tree``'s first version (entered by state alone, the grown plans)."""
+    return _seeds_line("tree-first-30-seeds", "its first version")
 
 
 def _seeds_line(name: str, label: str) -> str:
     """The recorded run ``name``'s mean over many seeds, its interval, the leaderboard's
     entries above and below it, and its fraction of the bound (where the run has none, the
-    bound of ``tree-30-seeds`` where its seeds are the same: the bound is the draw's)."""
+    bound of ``tree-first-30-seeds`` where its seeds are the same: the bound is the
+    draw's)."""
     summary = recorded(name)
     low, high = summary["global"]["interval"]
     mean = summary["global"]["score"]
@@ -240,7 +233,7 @@ def _seeds_line(name: str, label: str) -> str:
     seeds = [s["seed"] for s in global_seeds(summary)]
     bounded = summary
     if "bound" not in summary["global"]:
-        bounded = recorded("tree-30-seeds")
+        bounded = recorded("tree-first-30-seeds")
         if [s["seed"] for s in global_seeds(bounded)] != seeds:
             bounded = summary
     bound = bounded["global"].get("bound")
@@ -270,14 +263,10 @@ def _and(words: Sequence[str]) -> str:
 
 def icra_table() -> str:
     """Each leaderboard entry's own draw (the ICRA 2025 test replayed): its score there and
-    ours, ``tree``, ``funnel`` and ``tree`` entering by rollout; then who beats ``tree`` on
-    whose draw."""
+    ours, ``tree`` and ``funnel``; then who beats ``tree`` on whose draw."""
     drawn = [e for e in GLOBAL.scores if f"tree-icra2025-{e}" in names()]
     ours = {
-        e: [
-            recorded(f"{c}-icra2025-{e}")["global"]["score"]
-            for c in ("tree", "funnel", "tree-rollout")
-        ]
+        e: [recorded(f"{c}-icra2025-{e}")["global"]["score"] for c in ("tree", "funnel")]
         for e in drawn
     }
     bounds = {e: recorded(f"tree-icra2025-{e}")["global"].get("bound") for e in drawn}
@@ -290,17 +279,14 @@ def icra_table() -> str:
         ]
         for e in drawn
     ]
-    text = _table(("draw", "bound", "leaderboard", "`tree`", "`funnel`", "by rollout"), rows)
-    beat = {e: GLOBAL.scores[e] - ours[e][0] for e in drawn}
-    better = [e for e in drawn if beat[e] > 0]
-    worse = [e for e in drawn if beat[e] <= 0]
-    margins = sorted(beat[e] for e in better)
-    said = f"On their own draws {_and(better)} each beat `tree`, by {figure(margins[0], 2)} to "
-    said += f"{figure(margins[-1], 2)}; `tree` beats {_and(worse)} on "
-    said += "its draw." if len(worse) == 1 else "theirs."
-    ahead = [e for e in drawn if ours[e][2] > GLOBAL.scores[e]]
-    said += f" Entering by rollout, `tree` beats {_and(ahead)} on their own draws." if ahead else ""
-    return text + f"\n{said} {sources('global')}"
+    text = _table(("draw", "bound", "leaderboard", "`tree`", "`funnel`"), rows)
+    ahead = [e for e in drawn if ours[e][0] > GLOBAL.scores[e]]
+    behind = [e for e in drawn if e not in ahead]
+    said = f"On their own draws `tree` beats {_and(ahead)}" if ahead else "`tree` beats none"
+    if behind:
+        one = len(behind) == 1
+        said += f"; {_and(behind)} beat{'s' if one else ''} `tree` on {'its' if one else 'theirs'}"
+    return text + f"\n{said}. {sources('global')}"
 
 
 def swing_up() -> str:
