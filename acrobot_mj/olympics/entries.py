@@ -249,7 +249,7 @@ ENTRIES = {
         ),
         Entry(
             "tree",
-            "funnel with a set of swing-ups planned offline, entered by state (real-time)",
+            "funnel with a set of swing-ups planned offline, entered by rollout (real-time)",
             lambda plant, options: plant.estimated(
                 tree(plant, PlanSet.load(PLAN_SETS[options.plans]), None, options)
             ),
