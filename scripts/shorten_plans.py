@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from acrobot_mj.control.plans import PlanSet
-from acrobot_mj.control.replan import Planner, TimeBelow
+from acrobot_mj.control.replan import Planner, TimeBelow, upright_targets
 from acrobot_mj.olympics.entries import PLAN_SETS
 from acrobot_mj.physics import dynamics, integrators
 from acrobot_mj.physics.models import resolve
@@ -42,11 +42,7 @@ def shorten(start: np.ndarray, held: np.ndarray, hold: int) -> tuple[np.ndarray,
     where the new plan is not found or not lower), its time below before and after [s]."""
     below = TimeBelow()
     old = integrators.simulate(start, np.repeat(held, hold), "rk4", PARAMS)
-    end = old[-1]
-    target = np.array([
-        np.pi / 2 + 2 * np.pi * round((end[0] - np.pi / 2) / (2 * np.pi)),
-        2 * np.pi * round(end[1] / (2 * np.pi)), 0.0, 0.0,
-    ])  # fmt: skip
+    target = upright_targets(old[-1], 1)[0]  # its own end, upright at rest
     planner = Planner(
         PARAMS, "rk4", decisions=len(held), hold=hold, below=below, iterations=ITERATIONS
     )

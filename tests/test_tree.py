@@ -236,9 +236,8 @@ def test_by_default_it_enters_the_candidate_whose_rollout_is_low_the_fewest_step
     shortened set's points against the rule written out here."""
     plant = equations("ai_olympics")
     options = entries.TreeOptions()
-    assert (options.candidates, options.pause, options.below, options.plans) == (
-        16, 1, 0.9, "shortened",
-    )  # fmt: skip
+    defaults = (options.candidates, options.pause, options.below, options.plans)
+    assert defaults == (16, 1, 0.9, "shortened")
     tracker = entries.tree(plant, PlanSet.load(entries.PLAN_SETS["shortened"]), None, options)
     rng, chosen_later = np.random.default_rng(9), 0
     for _ in range(200):
